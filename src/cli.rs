@@ -1,0 +1,252 @@
+//! Command line: `slamlab run|report|validate|plan|export-tum`. Flags change how things run
+//! (threads, cache, directories), never what is computed: the spec is the complete record.
+//! Exit status: 0 success, 2 invalid input (spec or map), 1 any other failure.
+
+use crate::plan::{self, ExperimentPlan};
+use crate::run::{self, Provenance, Reason, RunOptions};
+use crate::spec::{self, InputErrors};
+use crate::store::{self, tum};
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "slamlab", version, about = "Reproducible parameter studies of 2-D SLAM: TOML specs → seeded runs → Parquet → HTML/LaTeX reports")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run studies (cached runs are reused) and write data/results/<study>/.
+    Run {
+        /// Study spec files (e.g. experiments/*.toml).
+        #[arg(required = true)]
+        specs: Vec<PathBuf>,
+        #[command(flatten)]
+        dirs: Dirs,
+        /// Worker threads (default: all cores). Results do not depend on it.
+        #[arg(long, short = 'j')]
+        threads: Option<usize>,
+        /// Recompute every run, ignoring the cache.
+        #[arg(long)]
+        force: bool,
+        /// No progress output.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Render every study found in the results directory into reports/.
+    Report {
+        /// Results directory holding <study>/ folders.
+        #[arg(long, default_value = "data/results")]
+        results: PathBuf,
+        /// Output directory (replaced as a whole).
+        #[arg(long, default_value = "reports")]
+        out: PathBuf,
+    },
+    /// Check specs (and the maps they name) without running anything.
+    Validate {
+        #[arg(required = true)]
+        specs: Vec<PathBuf>,
+        #[arg(long, default_value = "data/maps")]
+        maps: PathBuf,
+    },
+    /// List the runs a spec expands to and whether each will run (new / parameters changed /
+    /// code version changed / cached). Never runs anything.
+    Plan {
+        spec: PathBuf,
+        /// Only list (always the case; accepted for clarity in scripts).
+        #[arg(long)]
+        dry_run: bool,
+        #[command(flatten)]
+        dirs: Dirs,
+        /// Show what `run --force` would do.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Write <run-id>.gt.tum and <run-id>.est.tum for every run of a study (or of every study
+    /// under a results root), for evaluation with evo.
+    ExportTum {
+        /// A study's results directory (data/results/<study>) or the results root.
+        results_dir: PathBuf,
+        out_dir: PathBuf,
+        /// Only these run ids (repeatable).
+        #[arg(long = "run")]
+        runs: Vec<String>,
+    },
+}
+
+#[derive(Args, Clone)]
+struct Dirs {
+    /// Directory of map files (<name>.toml).
+    #[arg(long, default_value = "data/maps")]
+    maps: PathBuf,
+    /// Results directory.
+    #[arg(long, default_value = "data/results")]
+    results: PathBuf,
+    /// Run cache directory.
+    #[arg(long, default_value = "data/cache")]
+    cache: PathBuf,
+}
+
+/// Invalid specs or maps: exit status 2, and nothing was written.
+#[derive(Debug)]
+struct InvalidInput(InputErrors);
+
+impl std::fmt::Display for InvalidInput {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+impl std::error::Error for InvalidInput {}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match dispatch(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            if let Some(invalid) = e.downcast_ref::<InvalidInput>() {
+                eprintln!("error: invalid input, nothing was written:\n{invalid}");
+                ExitCode::from(2)
+            } else {
+                eprintln!("error: {e:#}");
+                ExitCode::FAILURE
+            }
+        }
+    }
+}
+
+fn dispatch(command: Command) -> Result<()> {
+    match command {
+        Command::Run { specs, dirs, threads, force, quiet } => cmd_run(&specs, &dirs, threads, force, quiet),
+        Command::Report { results, out } => {
+            let summary = crate::report::render_all(&results, &out).context("rendering reports")?;
+            eprintln!("rendered {} studies into {}", summary.studies.len(), out.display());
+            Ok(())
+        }
+        Command::Validate { specs, maps } => {
+            for plan in load_plans(&specs, &maps)? {
+                println!("ok: {} ({}: {} points, {} runs)", plan.spec.path.display(), plan.id(), plan.points.len(), plan.runs.len());
+            }
+            Ok(())
+        }
+        Command::Plan { spec, dry_run: _, dirs, force } => cmd_plan(&spec, &dirs, force),
+        Command::ExportTum { results_dir, out_dir, runs } => cmd_export_tum(&results_dir, &out_dir, &runs),
+    }
+}
+
+/// Loads and plans every spec; all errors of all files are reported together.
+fn load_plans(specs: &[PathBuf], maps: &Path) -> Result<Vec<ExperimentPlan>> {
+    let mut plans = Vec::new();
+    let mut errors = Vec::new();
+    for path in specs {
+        match spec::load(path).map_err(InputErrors::from).and_then(|s| plan::build(s, maps)) {
+            Ok(p) => plans.push(p),
+            Err(e) => errors.extend(e.0),
+        }
+    }
+    for (i, p) in plans.iter().enumerate() {
+        if let Some(other) = plans[..i].iter().find(|o| o.id() == p.id()) {
+            errors.push(spec::SpecError::new(&p.spec.path, vec![p.spec.error_at("id", format!("study id `{}` is also used by {}", p.id(), other.spec.path.display()))]));
+        }
+    }
+    if !errors.is_empty() {
+        return Err(InvalidInput(InputErrors(errors)).into());
+    }
+    Ok(plans)
+}
+
+fn options(dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool) -> Result<RunOptions> {
+    let threads = match threads {
+        Some(0) => bail!("--threads must be at least 1"),
+        Some(n) => n,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    Ok(RunOptions { threads, force, results_dir: dirs.results.clone(), cache_dir: dirs.cache.clone(), progress: !quiet })
+}
+
+fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool) -> Result<()> {
+    let plans = load_plans(specs, &dirs.maps)?;
+    let opts = options(dirs, threads, force, quiet)?;
+    let provenance = Provenance::collect(Path::new("."));
+    if provenance.git_dirty && !quiet {
+        eprintln!("note: inputs have uncommitted changes; results are marked dirty (commit first for clean provenance)");
+    }
+    let mut problems = 0;
+    for plan in &plans {
+        let s = run::run_study(plan, &opts, &provenance).with_context(|| format!("running study {}", plan.id()))?;
+        let bad = s.failed + s.diverged;
+        problems += bad;
+        eprintln!(
+            "{}: {} runs ({} computed, {} cached), {} failed, {} diverged → {}",
+            s.study,
+            s.runs,
+            s.computed,
+            s.runs - s.computed,
+            s.failed,
+            s.diverged,
+            s.dir.display()
+        );
+    }
+    if problems > 0 {
+        eprintln!("warning: {problems} runs failed or diverged; they are recorded with their status and shown in the reports");
+    }
+    Ok(())
+}
+
+fn cmd_plan(spec_path: &Path, dirs: &Dirs, force: bool) -> Result<()> {
+    let plans = load_plans(std::slice::from_ref(&spec_path.to_path_buf()), &dirs.maps)?;
+    let plan = &plans[0];
+    let opts = options(dirs, Some(1), force, true)?;
+    let reasons = run::reasons(plan, &opts);
+    println!("study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs", plan.id(), plan.points.len(), plan.maps.len(), plan.spec.spec.algorithms.len(), plan.spec.spec.replicates, plan.runs.len());
+    for (r, reason) in plan.runs.iter().zip(&reasons) {
+        println!("{:<22} {}", reason.as_str(), r.run_id);
+    }
+    let count = |x: Reason| reasons.iter().filter(|r| **r == x).count();
+    println!(
+        "to run: {} (new {}, parameters changed {}, code version changed {}, forced {}); cached: {}",
+        reasons.iter().filter(|r| **r != Reason::Cached).count(),
+        count(Reason::New),
+        count(Reason::ParametersChanged),
+        count(Reason::CodeVersionChanged),
+        count(Reason::Forced),
+        count(Reason::Cached)
+    );
+    Ok(())
+}
+
+fn cmd_export_tum(results_dir: &Path, out_dir: &Path, only: &[String]) -> Result<()> {
+    let studies: Vec<PathBuf> = if results_dir.join("traces.parquet").is_file() {
+        vec![results_dir.to_path_buf()]
+    } else {
+        let all = store::list_studies(results_dir)?;
+        if all.is_empty() {
+            bail!("{}: no traces.parquet here and no study directories below", results_dir.display());
+        }
+        all
+    };
+    let nested = studies.len() > 1 || !results_dir.join("traces.parquet").is_file();
+    let mut written = 0;
+    for dir in &studies {
+        let traces = store::read_traces(dir, &|id| only.is_empty() || only.iter().any(|o| o == id))?;
+        let target = if nested { out_dir.join(dir.file_name().unwrap_or_default()) } else { out_dir.to_path_buf() };
+        std::fs::create_dir_all(&target).with_context(|| format!("creating {}", target.display()))?;
+        for t in traces.iter().filter(|t| !t.truth.is_empty()) {
+            for (suffix, poses) in [("gt", &t.truth), ("est", &t.estimate)] {
+                let path = target.join(format!("{}.{suffix}.tum", t.run_id));
+                let tmp = target.join(format!(".{}.{suffix}.tum.tmp", t.run_id));
+                std::fs::write(&tmp, tum::tum_text(t.dt_s, poses)).with_context(|| format!("writing {}", tmp.display()))?;
+                std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
+                written += 1;
+            }
+        }
+    }
+    if !only.is_empty() && written == 0 {
+        bail!("none of the requested runs ({}) was found", only.join(", "));
+    }
+    eprintln!("wrote {written} TUM files into {}", out_dir.display());
+    Ok(())
+}

@@ -1,0 +1,20 @@
+//! slamlab: a reproducible-experiment pipeline and report generator for 2-D SLAM.
+//!
+//! Data flows one way (see `CONVENTIONS.md`):
+//! `spec` (TOML as written) → `plan` (validated, expanded, hashed) → `run` (rayon; per run:
+//! `world::generate` → algorithm in `slam` → `metrics::compute`) → `store` (Parquet) →
+//! `report` (HTML, LaTeX, SVG, CSV). `geom`, `world`, `slam` and `metrics` are pure: no IO, no
+//! printing, no threads, no global RNG.
+
+pub mod cli;
+pub mod config;
+pub mod geom;
+pub mod metrics;
+pub mod plan;
+pub mod report;
+pub mod run;
+pub mod slam;
+pub mod source;
+pub mod spec;
+pub mod store;
+pub mod world;

@@ -1,0 +1,443 @@
+//! [`LoadedSpec`] → [`ExperimentPlan`]: the sweep points (deduplicated, with the plot groups they
+//! belong to), the maps (read and hashed), and one [`RunSpec`] per (map, algorithm, point,
+//! replicate) with its seeds, readable id and content hash.
+//!
+//! Seeds come from (study seed, map, replicate) only — never from the swept value or the
+//! algorithm — so every point and algorithm of a study sees the same worlds (paired comparisons).
+
+use crate::metrics::METRICS_VERSION;
+use crate::slam::AlgorithmKind;
+use crate::spec::{InputErrors, LoadedSpec, Params, SpecError, SweepKind};
+use crate::world::map::Map;
+use crate::world::WORLD_CODE_VERSION;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// Version of the results schema (`runs.parquet`, `traces.parquet`): part of every content hash.
+pub const SCHEMA_VERSION: &str = "results-1";
+
+/// A map a study uses, with the exact bytes that were hashed.
+#[derive(Debug, Clone)]
+pub struct MapEntry {
+    pub name: String,
+    pub path: PathBuf,
+    pub text: String,
+    /// blake3 of the file's bytes.
+    pub hash: String,
+    pub map: Map,
+}
+
+/// A set of points plotted together: x is `params[0]`; further params (grid/zip) split or label
+/// the series.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepGroup {
+    pub kind: SweepKind,
+    pub params: Vec<String>,
+}
+
+/// One parameter set of the study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepPoint {
+    /// `base`, or the assignments, e.g. `odometry.k=0.05`.
+    pub label: String,
+    pub assignments: Vec<(String, toml::Value)>,
+    pub params: Params,
+    /// Indices into [`ExperimentPlan::groups`].
+    pub groups: Vec<usize>,
+}
+
+/// One run: everything needed to compute it, and its identity.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSpec {
+    /// `<map>--<algorithm>--<point label>--r<replicate>`: stable and readable.
+    pub run_id: String,
+    pub map: usize,
+    pub point: usize,
+    pub algorithm: AlgorithmKind,
+    pub replicate: u32,
+    pub world_seed: u64,
+    pub filter_seed: u64,
+    /// Hash of the inputs (parameters read, map bytes, seeds).
+    pub params_hash: String,
+    /// Versions of the code that computes the run.
+    pub code_version: String,
+    /// Content hash of everything the run reads: the cache key.
+    pub hash: String,
+}
+
+#[derive(Debug, Clone)]
+pub struct ExperimentPlan {
+    pub spec: LoadedSpec,
+    pub maps: Vec<MapEntry>,
+    pub groups: Vec<SweepGroup>,
+    pub points: Vec<SweepPoint>,
+    pub runs: Vec<RunSpec>,
+}
+
+impl ExperimentPlan {
+    pub fn id(&self) -> &str {
+        &self.spec.spec.id
+    }
+}
+
+/// Derives a 64-bit seed from (study seed, map, replicate, stream name).
+pub fn derive_seed(study_seed: u64, map: &str, replicate: u32, stream: &str) -> u64 {
+    let mut h = blake3::Hasher::new();
+    h.update(b"slamlab-seed-v1\0");
+    h.update(&study_seed.to_le_bytes());
+    h.update(map.as_bytes());
+    h.update(b"\0");
+    h.update(&replicate.to_le_bytes());
+    h.update(stream.as_bytes());
+    u64::from_le_bytes(h.finalize().as_bytes()[..8].try_into().expect("8 bytes"))
+}
+
+/// Expands a validated spec, reading its maps from `maps_dir`.
+pub fn build(spec: LoadedSpec, maps_dir: &Path) -> Result<ExperimentPlan, InputErrors> {
+    let mut errors = Vec::new();
+    let maps = load_maps(&spec, maps_dir, &mut errors);
+    let (groups, points) = match expand(&spec) {
+        Ok(x) => x,
+        Err(e) => {
+            errors.push(e);
+            (Vec::new(), Vec::new())
+        }
+    };
+    if !errors.is_empty() {
+        return Err(InputErrors(errors));
+    }
+    let runs = runs(&spec, &maps, &points);
+    let mut ids: Vec<&str> = runs.iter().map(|r| r.run_id.as_str()).collect();
+    ids.sort_unstable();
+    if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
+        return Err(SpecError::new(&spec.path, vec![spec.error_at("sweeps", format!("two sweep points give the same run id `{}`", w[0]))]).into());
+    }
+    Ok(ExperimentPlan { spec, maps, groups, points, runs })
+}
+
+fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) -> Vec<MapEntry> {
+    let mut out = Vec::new();
+    for (i, name) in spec.spec.maps.iter().enumerate() {
+        let path = maps_dir.join(format!("{name}.toml"));
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(_) => {
+                let available = available_maps(maps_dir);
+                let msg = format!("no map `{name}`: {} does not exist (available in {}: {})", path.display(), maps_dir.display(), if available.is_empty() { "none".into() } else { available.join(", ") });
+                errors.push(SpecError::new(&spec.path, vec![spec.error_at(&format!("maps[{i}]"), msg)]));
+                continue;
+            }
+        };
+        match Map::from_toml(&text) {
+            Ok(map) if map.name == *name => {
+                let hash = blake3::hash(text.as_bytes()).to_hex().to_string();
+                out.push(MapEntry { name: name.clone(), path, text, hash, map });
+            }
+            Ok(map) => errors.push(SpecError::new(&path, vec![crate::source::SourceError::at_key(&crate::source::Locator::new(&text), "name", format!("is `{}` but the file is {name}.toml", map.name))])),
+            Err(e) => errors.push(SpecError::new(&path, e)),
+        }
+    }
+    out
+}
+
+/// Names of the `*.toml` files in `dir`, sorted.
+pub fn available_maps(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| e.path().file_stem().filter(|_| e.path().extension().is_some_and(|x| x == "toml")).map(|s| s.to_string_lossy().into_owned()))
+        .collect();
+    names.sort();
+    names
+}
+
+/// Sweep blocks → groups and deduplicated points (in first-appearance order).
+fn expand(spec: &LoadedSpec) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecError> {
+    // Each candidate: assignments with, for error placement, the key of each value.
+    type Candidate = Vec<(String, toml::Value, String)>;
+    let mut groups = Vec::new();
+    let mut candidates: Vec<(Candidate, usize)> = Vec::new();
+    if spec.sweeps.is_empty() {
+        groups.push(SweepGroup { kind: SweepKind::OneAtATime, params: Vec::new() });
+        candidates.push((Vec::new(), 0));
+    }
+    for block in &spec.sweeps {
+        let at = |p: &crate::spec::SweptParam, i: usize| (p.path.clone(), p.values[i].clone(), format!("{}[{i}]", p.key));
+        match block.kind {
+            SweepKind::OneAtATime => {
+                for p in &block.params {
+                    groups.push(SweepGroup { kind: block.kind, params: vec![p.path.clone()] });
+                    for i in 0..p.values.len() {
+                        candidates.push((vec![at(p, i)], groups.len() - 1));
+                    }
+                }
+            }
+            SweepKind::Grid => {
+                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect() });
+                let mut combos: Vec<Candidate> = vec![Vec::new()];
+                for p in &block.params {
+                    combos = combos.into_iter().flat_map(|c| (0..p.values.len()).map(move |i| [c.clone(), vec![at(p, i)]].concat())).collect();
+                }
+                candidates.extend(combos.into_iter().map(|c| (c, groups.len() - 1)));
+            }
+            SweepKind::Zip => {
+                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect() });
+                for i in 0..block.params[0].values.len() {
+                    candidates.push((block.params.iter().map(|p| at(p, i)).collect(), groups.len() - 1));
+                }
+            }
+        }
+    }
+
+    let mut points: Vec<SweepPoint> = Vec::new();
+    let mut errors = Vec::new();
+    for (assignments, group) in candidates {
+        let params = match resolve(spec, &assignments) {
+            Ok(p) => p,
+            Err(e) => {
+                errors.extend(e);
+                continue;
+            }
+        };
+        if let Some(existing) = points.iter_mut().find(|p| p.params == params) {
+            if !existing.groups.contains(&group) {
+                existing.groups.push(group);
+            }
+            continue;
+        }
+        let label = if assignments.is_empty() {
+            "base".to_string()
+        } else {
+            assignments.iter().map(|(p, v, _)| format!("{p}={}", format_value(v))).collect::<Vec<_>>().join(",")
+        };
+        points.push(SweepPoint { label, assignments: assignments.into_iter().map(|(p, v, _)| (p, v)).collect(), params, groups: vec![group] });
+    }
+    if !errors.is_empty() {
+        // The same bad value can make several points invalid: report it once.
+        let mut unique: Vec<crate::source::SourceError> = Vec::new();
+        for e in errors {
+            if !unique.contains(&e) {
+                unique.push(e);
+            }
+        }
+        return Err(SpecError::new(&spec.path, unique));
+    }
+    Ok((groups, points))
+}
+
+/// `[base]` with the assignments applied, deserialised and validated; errors point at the
+/// sweep value responsible.
+fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)]) -> Result<Params, Vec<crate::source::SourceError>> {
+    if assignments.is_empty() {
+        return Ok(spec.spec.base.clone());
+    }
+    // Start from the resolved base (every default written out), so `odometry.k` can be swept
+    // when `[base.odometry]` was left to its defaults.
+    let mut table = spec.spec.base.to_table();
+    // Switching a tagged section's `model` starts that section afresh: the other variant's
+    // fields would not apply. Its new fields come from the other assignments.
+    for (path, value, _) in assignments {
+        if let Some(section) = path.strip_suffix(".model")
+            && get_path(&table, path) != Some(value)
+        {
+            let mut fresh = toml::Table::new();
+            fresh.insert("model".into(), value.clone());
+            set_path(&mut table, section, toml::Value::Table(fresh));
+        }
+    }
+    for (path, value, _) in assignments {
+        set_path(&mut table, path, value.clone());
+    }
+    let params: Params = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
+        let (_, _, key) = &assignments[0];
+        let names: Vec<&str> = assignments.iter().map(|(p, ..)| p.as_str()).collect();
+        vec![spec.error_at(key, format!("with {} set here, [base] does not deserialise: {}", names.join(", "), e.message().trim()))]
+    })?;
+    let violations = params.validate();
+    if violations.is_empty() {
+        return Ok(params);
+    }
+    Err(violations
+        .into_iter()
+        .map(|v| {
+            // Place the error at the sweep value that set the key, else at the first assignment.
+            let key = assignments.iter().find(|(p, ..)| *p == v.key).or(assignments.first()).map(|(_, _, k)| k.as_str()).unwrap_or("sweeps");
+            spec.error_at(key, format!("`{}` {}", v.key, v.message))
+        })
+        .collect())
+}
+
+fn get_path<'a>(table: &'a toml::Table, path: &str) -> Option<&'a toml::Value> {
+    let mut parts = path.split('.');
+    let mut value = table.get(parts.next()?)?;
+    for part in parts {
+        value = value.as_table()?.get(part)?;
+    }
+    Some(value)
+}
+
+/// Sets `a.b.c = value`, creating intermediate tables.
+fn set_path(table: &mut toml::Table, path: &str, value: toml::Value) {
+    let mut parts = path.split('.').peekable();
+    let mut current = table;
+    while let Some(part) = parts.next() {
+        if parts.peek().is_none() {
+            current.insert(part.to_string(), value);
+            return;
+        }
+        let entry = current.entry(part.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        if !entry.is_table() {
+            *entry = toml::Value::Table(toml::Table::new());
+        }
+        current = entry.as_table_mut().expect("just made a table");
+    }
+}
+
+/// A sweep value as shown in labels and reports: numbers in shortest round-trip form, strings bare.
+pub fn format_value(v: &toml::Value) -> String {
+    match v {
+        toml::Value::Float(f) => format!("{f}"),
+        toml::Value::Integer(i) => format!("{i}"),
+        toml::Value::String(s) => s.clone(),
+        toml::Value::Boolean(b) => format!("{b}"),
+        other => other.to_string(),
+    }
+}
+
+/// Keeps run ids filename-safe (they name TUM files).
+fn sanitize(label: &str) -> String {
+    label.chars().map(|c| if c.is_ascii_alphanumeric() || "._=,+-".contains(c) { c } else { '_' }).collect()
+}
+
+fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunSpec> {
+    let s = &spec.spec;
+    let width = (s.replicates.saturating_sub(1)).to_string().len().max(2);
+    let mut runs = Vec::new();
+    for (mi, map) in maps.iter().enumerate() {
+        for &algorithm in &s.algorithms {
+            let code_version = format!("{SCHEMA_VERSION}+{WORLD_CODE_VERSION}+{METRICS_VERSION}+{}", algorithm.code_version());
+            for (pi, point) in points.iter().enumerate() {
+                let sections = point.params.sections_read_by(algorithm);
+                for replicate in 0..s.replicates {
+                    let world_seed = derive_seed(s.seed, &map.name, replicate, "world");
+                    let filter_seed = derive_seed(s.seed, &map.name, replicate, "filter");
+                    let inputs = serde_json::json!({
+                        "map_blake3": map.hash,
+                        "world_seed": world_seed,
+                        "filter_seed": filter_seed,
+                        "params": sections,
+                    });
+                    let params_hash = blake3::hash(inputs.to_string().as_bytes()).to_hex().to_string();
+                    let hash = blake3::hash(format!("{code_version}\n{params_hash}").as_bytes()).to_hex().to_string();
+                    runs.push(RunSpec {
+                        run_id: format!("{}--{}--{}--r{:0width$}", map.name, algorithm.name(), sanitize(&point.label), replicate),
+                        map: mi,
+                        point: pi,
+                        algorithm,
+                        replicate,
+                        world_seed,
+                        filter_seed,
+                        params_hash,
+                        code_version: code_version.clone(),
+                        hash,
+                    });
+                }
+            }
+        }
+    }
+    runs
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan_of(text: &str) -> Result<ExperimentPlan, InputErrors> {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("box.toml"),
+            "name = \"box\"\ntitle = \"Box\"\nstart = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }\n[[walls]]\npoints = [[-1, -1], [5, -1], [5, 5], [-1, 5], [-1, -1]]\n[trajectory]\nmax_speed_mps = 0.5\nlaps = 1\nwaypoints = [[4, 0], [0, 0]]\n",
+        )
+        .unwrap();
+        let spec = crate::spec::parse(Path::new("s.toml"), text).map_err(InputErrors::from)?;
+        build(spec, dir.path())
+    }
+
+    const HEAD: &str = "id = \"t\"\ntitle = \"T\"\nseed = 5\nreplicates = 3\nmaps = [\"box\"]\nalgorithms = [\"odometry\"]\n";
+
+    #[test]
+    fn one_at_a_time_shares_the_base_point() {
+        let text = format!("{HEAD}[base.odometry]\nmodel = \"proportional\"\nk = 0.1\nk_is = \"std\"\n[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.k\" = [0.05, 0.1], \"sim.dt_s\" = [0.1, 0.2] }}\n");
+        let plan = plan_of(&text).unwrap();
+        // k=0.1 and dt=0.1 are both the base configuration: one point, in both groups
+        let labels: Vec<_> = plan.points.iter().map(|p| (p.label.as_str(), p.groups.clone())).collect();
+        assert_eq!(labels, vec![("odometry.k=0.05", vec![0]), ("odometry.k=0.1", vec![0, 1]), ("sim.dt_s=0.2", vec![1])]);
+        assert_eq!(plan.runs.len(), 3 * 3);
+        assert_eq!(plan.runs[0].run_id, "box--odometry--odometry.k=0.05--r00");
+    }
+
+    #[test]
+    fn seeds_do_not_depend_on_the_swept_value() {
+        let text = format!("{HEAD}[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.k\" = [0.0, 0.2], \"sim.dt_s\" = [0.1, 0.2] }}\n");
+        let plan = plan_of(&text).unwrap();
+        assert_eq!(plan.points.len(), 4);
+        for r in &plan.runs {
+            assert_eq!(r.world_seed, derive_seed(5, "box", r.replicate, "world"));
+            assert_ne!(r.world_seed, r.filter_seed);
+        }
+        let hashes: std::collections::BTreeSet<_> = plan.runs.iter().map(|r| &r.hash).collect();
+        assert_eq!(hashes.len(), plan.runs.len());
+    }
+
+    #[test]
+    fn zip_pairs_values() {
+        let text = format!("{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.k\" = [0.0, 0.2], \"sim.dt_s\" = [0.1, 0.2] }}\n");
+        let plan = plan_of(&text).unwrap();
+        let labels: Vec<_> = plan.points.iter().map(|p| p.label.as_str()).collect();
+        assert_eq!(labels, vec!["odometry.k=0,sim.dt_s=0.1", "odometry.k=0.2,sim.dt_s=0.2"]);
+    }
+
+    #[test]
+    fn invalid_sweep_value_points_at_the_value() {
+        let text = format!("{HEAD}[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.k\" = [0.1, -0.5] }}\n");
+        let err = plan_of(&text).unwrap_err();
+        let e = &err.0[0].errors[0];
+        assert_eq!(e.key, "sweeps[0].values.\"odometry.k\"[1]");
+        assert_eq!(e.line, 9);
+        assert!(e.message.contains("≥ 0"), "{}", e.message);
+    }
+
+    #[test]
+    fn wrong_type_in_sweep_is_reported_at_the_value() {
+        let text = format!("{HEAD}[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"sim.dt_s\" = [0.1, \"fast\"] }}\n");
+        let err = plan_of(&text).unwrap_err();
+        assert_eq!(err.0[0].errors[0].key, "sweeps[0].values.\"sim.dt_s\"[1]");
+    }
+
+    #[test]
+    fn switching_the_odometry_model_starts_its_section_afresh() {
+        let text = format!("{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.model\" = [\"proportional\", \"pose\"], \"odometry.var_theta_rad2\" = [0.0, 0.001] }}\n");
+        // proportional has no var_theta_rad2: that point is invalid and named
+        let err = plan_of(&text).unwrap_err();
+        assert!(err.0[0].errors[0].message.contains("var_theta_rad2"), "{}", err.0[0].errors[0].message);
+        let text = format!("{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.model\" = [\"pose\"], \"odometry.var_x_m2\" = [0.01], \"odometry.var_y_m2\" = [0.01], \"odometry.var_theta_rad2\" = [0.001] }}\n");
+        let plan = plan_of(&text).unwrap();
+        assert!(matches!(plan.points[0].params.odometry, crate::world::odometry::OdometryNoise::Pose { var_theta_rad2, .. } if var_theta_rad2 == 0.001));
+    }
+
+    #[test]
+    fn missing_map_lists_what_exists() {
+        let err = plan_of(&HEAD.replace("[\"box\"]", "[\"box\", \"nowhere\"]")).unwrap_err();
+        let e = &err.0[0].errors[0];
+        assert_eq!((e.key.as_str(), e.line), ("maps[1]", 5));
+        assert!(e.message.contains("available") && e.message.contains("box"), "{}", e.message);
+    }
+
+    #[test]
+    fn odometry_runs_ignore_laser_settings() {
+        let a = plan_of(HEAD).unwrap();
+        let b = plan_of(&format!("{HEAD}[base.laser]\nmax_range_m = 30.0\n")).unwrap();
+        assert_eq!(a.runs[0].hash, b.runs[0].hash);
+    }
+}

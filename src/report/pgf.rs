@@ -1,0 +1,106 @@
+//! Figure models → pgfplots code for the LaTeX reports (`\input{figures/<name>.tex}`), drawn
+//! natively by LaTeX so fonts match the document and no image conversion is needed.
+
+use super::figure::{decimate, LineFigure, TrajectoryFigure, XAxis, PALETTE};
+use super::latex::escape;
+use std::fmt::Write;
+
+/// Most points a path keeps in a pgfplots figure (TeX memory is limited).
+const PGF_PATH_POINTS: usize = 400;
+
+/// `\definecolor` lines for the series palette (for the document preamble).
+pub fn palette_definitions() -> String {
+    PALETTE.iter().enumerate().map(|(i, hex)| format!("\\definecolor{{slamlab{i}}}{{HTML}}{{{}}}\n", hex.to_uppercase())).collect()
+}
+
+fn num(v: f64) -> String {
+    // pgfplots reads plain and scientific notation; Rust's shortest round-trip form is both exact
+    // and deterministic.
+    format!("{v}")
+}
+
+pub fn line_pgf(fig: &LineFigure) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "\\begin{{tikzpicture}}");
+    let mut opts = vec![
+        "width=0.95\\linewidth".to_string(),
+        "height=0.55\\linewidth".to_string(),
+        format!("xlabel={{{}}}", escape(&fig.x_label)),
+        format!("ylabel={{{}}}", escape(&fig.y_label)),
+        "legend pos=north west".to_string(),
+        "legend cell align=left".to_string(),
+        "legend style={font=\\footnotesize}".to_string(),
+        "tick label style={font=\\footnotesize}".to_string(),
+        "scaled ticks=false".to_string(),
+    ];
+    let all_nonneg = fig.series.iter().flat_map(|s| &s.points).filter(|p| p.mean.is_finite()).all(|p| p.mean >= 0.0 && (!p.lo.is_finite() || p.lo >= 0.0));
+    if all_nonneg {
+        opts.push("ymin=0".into());
+    }
+    match &fig.x_axis {
+        XAxis::Linear => {}
+        XAxis::Log => {
+            opts.push("xmode=log".into());
+            opts.push("log basis x=10".into());
+        }
+        XAxis::Categorical(_) => {}
+    }
+    if !matches!(fig.x_axis, XAxis::Linear) {
+        let ticks: Vec<String> = fig.x_ticks.iter().map(|(x, _)| num(*x)).collect();
+        let labels: Vec<String> = fig.x_ticks.iter().map(|(_, l)| format!("{{{}}}", escape(l))).collect();
+        opts.push(format!("xtick={{{}}}", ticks.join(",")));
+        opts.push(format!("xticklabels={{{}}}", labels.join(",")));
+        opts.push("xticklabel style={rotate=0}".into());
+    }
+    let _ = writeln!(s, "\\begin{{axis}}[\n  {}\n]", opts.join(",\n  "));
+    for (i, series) in fig.series.iter().enumerate() {
+        let color = format!("slamlab{}", series.color % PALETTE.len());
+        let pts: Vec<_> = series.points.iter().filter(|p| p.mean.is_finite() && p.x.is_finite()).collect();
+        let band: Vec<_> = pts.iter().filter(|p| p.lo.is_finite() && p.hi.is_finite()).collect();
+        if band.len() >= 2 {
+            let coords = |f: &dyn Fn(&&&super::figure::SeriesPoint) -> f64| band.iter().map(|p| format!("({},{})", num(p.x), num(f(p)))).collect::<Vec<_>>().join(" ");
+            let _ = writeln!(s, "\\addplot[name path=hi{i}, draw=none, forget plot] coordinates {{{}}};", coords(&|p| p.hi));
+            let _ = writeln!(s, "\\addplot[name path=lo{i}, draw=none, forget plot] coordinates {{{}}};", coords(&|p| p.lo));
+            let _ = writeln!(s, "\\addplot[fill={color}, fill opacity=0.18, draw=none, forget plot] fill between[of=hi{i} and lo{i}];");
+        }
+        let coords: Vec<String> = pts.iter().map(|p| format!("({},{})", num(p.x), num(p.mean))).collect();
+        let _ = writeln!(s, "\\addplot[color={color}, thick, mark=*, mark size=1.5pt] coordinates {{{}}};", coords.join(" "));
+        let _ = writeln!(s, "\\addlegendentry{{{}}}", escape(&series.label));
+    }
+    let _ = writeln!(s, "\\end{{axis}}\n\\end{{tikzpicture}}");
+    s
+}
+
+pub fn trajectory_pgf(fig: &TrajectoryFigure) -> String {
+    let ((x0, x1), (y0, y1)) = fig.bounds();
+    let mut s = String::new();
+    let _ = writeln!(s, "\\begin{{tikzpicture}}");
+    let _ = writeln!(
+        s,
+        "\\begin{{axis}}[\n  axis equal image,\n  width=0.95\\linewidth,\n  xmin={}, xmax={}, ymin={}, ymax={},\n  xlabel={{$x$ [m]}}, ylabel={{$y$ [m]}},\n  legend pos=outer north east,\n  legend cell align=left,\n  legend style={{font=\\footnotesize}},\n  tick label style={{font=\\footnotesize}}\n]",
+        num(x0),
+        num(x1),
+        num(y0),
+        num(y1)
+    );
+    for (a, b) in &fig.walls {
+        let _ = writeln!(s, "\\addplot[black, line width=1.5pt, forget plot] coordinates {{({},{}) ({},{})}};", num(a.0), num(a.1), num(b.0), num(b.1));
+    }
+    for p in &fig.paths {
+        let style = match p.color {
+            Some(c) => format!("color=slamlab{}, thick", c % PALETTE.len()),
+            None => "black, thin".to_string(),
+        };
+        let coords: Vec<String> = decimate(&p.points, PGF_PATH_POINTS).iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
+        let _ = writeln!(s, "\\addplot[{style}] coordinates {{{}}};", coords.join(" "));
+        let _ = writeln!(s, "\\addlegendentry{{{}}}", escape(&p.label));
+    }
+    if !fig.corners.is_empty() {
+        let coords: Vec<String> = fig.corners.iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
+        let _ = writeln!(s, "\\addplot[only marks, mark=*, mark size=1.5pt, red!80!black] coordinates {{{}}};", coords.join(" "));
+        let _ = writeln!(s, "\\addlegendentry{{true corners}}");
+    }
+    let _ = writeln!(s, "\\addplot[only marks, mark=triangle*, mark size=3pt, black, forget plot] coordinates {{({},{})}};", num(fig.start.0), num(fig.start.1));
+    let _ = writeln!(s, "\\end{{axis}}\n\\end{{tikzpicture}}");
+    s
+}

@@ -1,0 +1,132 @@
+//! Per-cell statistics and number formatting for reports. Sums run sequentially in the order
+//! given (run-id order), so results are bit-identical whatever the thread count that produced them.
+
+use statrs::distribution::{ContinuousCDF, StudentsT};
+
+/// Confidence level of every interval in the reports.
+pub const CONFIDENCE: f64 = 0.95;
+
+/// Summary of one cell's replicate values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Summary {
+    pub n: usize,
+    pub mean: f64,
+    /// Sample standard deviation (ddof = 1); NaN for n < 2.
+    pub std: f64,
+    /// Student-t confidence interval of the mean; NaN for n < 2.
+    pub ci_low: f64,
+    pub ci_high: f64,
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+/// Two-sided Student-t quantile t_{(1+CONFIDENCE)/2, df}.
+pub fn t_quantile(df: usize) -> f64 {
+    StudentsT::new(0.0, 1.0, df as f64).map(|t| t.inverse_cdf(0.5 + CONFIDENCE / 2.0)).unwrap_or(f64::NAN)
+}
+
+pub fn summarize(values: &[f64]) -> Summary {
+    let n = values.len();
+    if n == 0 {
+        return Summary { n, mean: f64::NAN, std: f64::NAN, ci_low: f64::NAN, ci_high: f64::NAN, median: f64::NAN, min: f64::NAN, max: f64::NAN };
+    }
+    let mean = values.iter().sum::<f64>() / n as f64;
+    let (std, half) = if n >= 2 && mean.is_finite() {
+        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+        let std = var.sqrt();
+        (std, t_quantile(n - 1) * std / (n as f64).sqrt())
+    } else {
+        (f64::NAN, f64::NAN)
+    };
+    Summary {
+        n,
+        mean,
+        std,
+        ci_low: mean - half,
+        ci_high: mean + half,
+        median: crate::metrics::median(values),
+        min: values.iter().copied().fold(f64::INFINITY, f64::min),
+        max: values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    }
+}
+
+/// `v` with `digits` significant figures: plain notation for 1e-4 ≤ |v| < 1e6, scientific
+/// otherwise; ∞ and NaN spelled out ("∞", "−∞", "—").
+pub fn sig(v: f64, digits: usize) -> String {
+    if v.is_nan() {
+        return "—".into();
+    }
+    if v.is_infinite() {
+        return if v > 0.0 { "∞".into() } else { "−∞".into() };
+    }
+    if v == 0.0 {
+        return "0".into();
+    }
+    let digits = digits.max(1);
+    // Magnitude after rounding to `digits` significant figures (9.996 → 10.0, not 9.996).
+    let rounded: f64 = format!("{:.*e}", digits - 1, v).parse().unwrap_or(v);
+    let mag = rounded.abs().log10().floor() as i32;
+    if !(-4..6).contains(&mag) {
+        return format!("{:.*e}", digits - 1, v);
+    }
+    let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+    let s = format!("{:.*}", decimals, rounded);
+    if s.starts_with('-') { s.replacen('-', "−", 1) } else { s }
+}
+
+/// Plain ASCII variant for CSV (machine-readable: `inf`, `nan`, `-`).
+pub fn sig_ascii(v: f64, digits: usize) -> String {
+    if v.is_nan() {
+        return String::new();
+    }
+    if v.is_infinite() {
+        return if v > 0.0 { "inf".into() } else { "-inf".into() };
+    }
+    sig(v, digits).replace('−', "-")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn t_quantiles_match_tables() {
+        // Standard two-sided 95 % critical values.
+        for (df, t) in [(1, 12.706), (2, 4.303), (4, 2.776), (9, 2.262), (19, 2.093), (29, 2.045)] {
+            assert!((t_quantile(df) - t).abs() < 1e-3, "df {df}: {}", t_quantile(df));
+        }
+    }
+
+    #[test]
+    fn summary_of_known_sample() {
+        // 2, 4, 4, 4, 5, 5, 7, 9: mean 5, sample sd 2.138, CI 5 ± 2.365·2.138/√8
+        let s = summarize(&[2.0, 4.0, 4.0, 4.0, 5.0, 5.0, 7.0, 9.0]);
+        assert_eq!(s.mean, 5.0);
+        assert!((s.std - 2.13809).abs() < 1e-5);
+        let half = 2.364624 * 2.13809 / 8f64.sqrt();
+        assert!((s.ci_high - 5.0 - half).abs() < 1e-4 && (5.0 - s.ci_low - half).abs() < 1e-4);
+        assert_eq!(s.median, 4.5);
+        assert_eq!((s.min, s.max), (2.0, 9.0));
+    }
+
+    #[test]
+    fn single_value_has_no_interval() {
+        let s = summarize(&[3.0]);
+        assert_eq!(s.mean, 3.0);
+        assert!(s.ci_low.is_nan() && s.std.is_nan());
+    }
+
+    #[test]
+    fn significant_figures() {
+        assert_eq!(sig(0.123456, 3), "0.123");
+        assert_eq!(sig(12.3456, 3), "12.3");
+        assert_eq!(sig(9.996, 3), "10.0");
+        assert_eq!(sig(1234.5, 3), "1230");
+        assert_eq!(sig(-0.5, 2), "−0.50");
+        assert_eq!(sig(0.0000123, 3), "1.23e-5");
+        assert_eq!(sig(f64::INFINITY, 3), "∞");
+        assert_eq!(sig(f64::NAN, 3), "—");
+        assert_eq!(sig_ascii(-0.5, 2), "-0.50");
+    }
+}

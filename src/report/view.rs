@@ -1,0 +1,577 @@
+//! Stored results → view-models: every number pre-formatted, every list explicitly sorted.
+//! Templates receive only these structs.
+
+use super::figure::{self, LineFigure, LineSeries, PathSeries, SeriesPoint, TrajectoryFigure, XAxis};
+use super::stats::{self, sig, sig_ascii, Summary};
+use crate::metrics::{metric_def, MetricDef};
+use crate::spec::params::flatten;
+use crate::spec::SweepKind;
+use crate::store::{ParamValue, RunRow, RunStatus, StudyData, TraceRows};
+use crate::world::map::Map;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Significant figures in report tables and in `summary.csv`.
+const TABLE_DIGITS: usize = 3;
+const CSV_DIGITS: usize = 6;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Kv {
+    pub key: String,
+    pub value: String,
+}
+
+fn kv(key: &str, value: impl ToString) -> Kv {
+    Kv { key: key.to_string(), value: value.to_string() }
+}
+
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct TableView {
+    pub columns: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+    /// LaTeX column spec, e.g. `llrr`.
+    pub align: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct FigureView {
+    /// File stem under `figures/` (`.svg` and `.tex`): letters, digits and `-` only.
+    pub file: String,
+    pub caption: String,
+    /// Inline SVG for the HTML page.
+    pub svg: String,
+    /// pgfplots code for the LaTeX document.
+    #[serde(skip)]
+    pub pgf: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct GroupView {
+    pub title: String,
+    pub figures: Vec<FigureView>,
+    pub table: TableView,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct StudyView {
+    pub id: String,
+    pub title: String,
+    pub description: Vec<String>,
+    pub facts: Vec<Kv>,
+    pub maps: TableView,
+    pub sweeps: Vec<String>,
+    pub base_params: TableView,
+    pub choices: Vec<String>,
+    pub notes: Vec<String>,
+    pub groups: Vec<GroupView>,
+    pub trajectories: Vec<FigureView>,
+    pub failures: TableView,
+    pub metrics: TableView,
+    pub provenance: Vec<Kv>,
+}
+
+/// One line of the index page.
+#[derive(Debug, Clone, Serialize)]
+pub struct IndexEntry {
+    pub id: String,
+    pub title: String,
+    pub summary: String,
+    pub runs: String,
+    pub failed: String,
+    pub maps: String,
+    pub algorithms: String,
+}
+
+/// A study rendered into view-models plus the CSV.
+pub struct StudyPages {
+    pub view: StudyView,
+    pub index: IndexEntry,
+    pub csv: String,
+}
+
+/// Maps and runs of a study, in the order the spec lists them.
+struct Study<'a> {
+    data: &'a StudyData,
+    maps: Vec<(String, Option<Map>)>,
+    metrics: Vec<&'static MetricDef>,
+    /// Base parameters, flattened.
+    base: Vec<(String, toml::Value)>,
+}
+
+impl Study<'_> {
+    fn spec(&self) -> &crate::spec::ExperimentSpec {
+        &self.data.resolved.spec
+    }
+    fn runs_of<'b>(&'b self, map: &'b str, algorithm: &'b str, point: &'b str) -> impl Iterator<Item = &'b RunRow> + 'b {
+        self.data.runs.iter().filter(move |r| r.map == map && r.algorithm == algorithm && r.point == point)
+    }
+    /// Summary of a metric over a cell's successful runs (run-id order), and (failed, n).
+    fn cell(&self, map: &str, algorithm: &str, point: &str, metric: &str) -> (Summary, usize, usize) {
+        let runs: Vec<&RunRow> = self.runs_of(map, algorithm, point).collect();
+        let values: Vec<f64> = runs.iter().filter(|r| r.status == RunStatus::Ok).filter_map(|r| r.metric(metric)).collect();
+        let failed = runs.iter().filter(|r| r.status != RunStatus::Ok).count();
+        (stats::summarize(&values), failed, runs.len())
+    }
+    /// The value of parameter `path` at a point: its sweep assignment, else the base value.
+    fn value_at(&self, point: &crate::store::PointRecord, path: &str) -> Option<toml::Value> {
+        point.assignments.get(path).cloned().or_else(|| self.base.iter().find(|(k, _)| k == path).map(|(_, v)| v.clone()))
+    }
+}
+
+pub fn build(data: &StudyData, traces: &dyn Fn(&[String]) -> Vec<TraceRows>) -> StudyPages {
+    let spec = &data.resolved.spec;
+    let maps: Vec<(String, Option<Map>)> =
+        spec.maps.iter().map(|name| (name.clone(), data.maps.iter().find(|(n, _)| n == name).and_then(|(_, text)| Map::from_toml(text).ok()))).collect();
+    let metrics: Vec<&'static MetricDef> = spec.report.metrics.iter().filter_map(|m| metric_def(m)).collect();
+    let mut base = Vec::new();
+    flatten("", &toml::Value::Table(spec.base.to_table()), &mut base);
+    let study = Study { data, maps, metrics, base };
+
+    let groups: Vec<GroupView> = data.resolved.groups.iter().enumerate().map(|(gi, _)| group_view(&study, gi)).collect();
+    let trajectories = trajectory_views(&study, traces);
+    let failed = data.runs.iter().filter(|r| r.status != RunStatus::Ok).count();
+    let view = StudyView {
+        id: spec.id.clone(),
+        title: spec.title.clone(),
+        description: paragraphs(&spec.description),
+        facts: facts(&study, failed),
+        maps: maps_table(&study),
+        sweeps: sweep_lines(&study),
+        base_params: TableView { columns: vec!["Parameter".into(), "Value".into()], rows: study.base.iter().map(|(k, v)| vec![k.clone(), crate::plan::format_value(v)]).collect(), align: "ll".into() },
+        choices: modelling_choices(&study),
+        notes: spec.notes.clone(),
+        groups,
+        trajectories,
+        failures: failures_table(data),
+        metrics: TableView {
+            columns: vec!["Metric".into(), "Unit".into(), "Definition".into()],
+            rows: study.metrics.iter().map(|m| vec![m.name.to_string(), m.unit.to_string(), m.description.to_string()]).collect(),
+            align: "llp{0.55\\linewidth}".into(),
+        },
+        provenance: provenance(data),
+    };
+    let index = IndexEntry {
+        id: spec.id.clone(),
+        title: spec.title.clone(),
+        summary: paragraphs(&spec.description).into_iter().next().unwrap_or_default(),
+        runs: data.runs.len().to_string(),
+        failed: format!("{failed}/{}", data.runs.len()),
+        maps: spec.maps.join(", "),
+        algorithms: spec.algorithms.iter().map(|a| a.name()).collect::<Vec<_>>().join(", "),
+    };
+    let csv = summary_csv(&study);
+    StudyPages { view, index, csv }
+}
+
+fn paragraphs(text: &str) -> Vec<String> {
+    text.split("\n\n").map(|p| p.split_whitespace().collect::<Vec<_>>().join(" ")).filter(|p| !p.is_empty()).collect()
+}
+
+fn facts(study: &Study<'_>, failed: usize) -> Vec<Kv> {
+    let spec = study.spec();
+    let points = study.data.resolved.points.len();
+    let cells = spec.maps.len() * spec.algorithms.len() * points;
+    vec![
+        kv("Study id", &spec.id),
+        kv("Seed", spec.seed),
+        kv("Maps", spec.maps.join(", ")),
+        kv("Algorithms", spec.algorithms.iter().map(|a| a.title()).collect::<Vec<_>>().join(", ")),
+        kv("Sweep points", points),
+        kv("Cells (map × algorithm × point)", cells),
+        kv("Replicates per cell (n)", spec.replicates),
+        kv("Runs", study.data.runs.len()),
+        kv("Failed or diverged runs", format!("{failed}/{}", study.data.runs.len())),
+    ]
+}
+
+fn maps_table(study: &Study<'_>) -> TableView {
+    let rows = study
+        .maps
+        .iter()
+        .map(|(name, map)| {
+            let path_length = study.data.runs.iter().find(|r| &r.map == name && r.status == RunStatus::Ok).and_then(|r| r.metric("path_length_m"));
+            match map {
+                Some(m) => vec![
+                    name.clone(),
+                    m.title.clone(),
+                    m.walls.len().to_string(),
+                    format!("{} + {} = {}", m.lines.len(), m.corners.len(), m.landmark_count()),
+                    m.point_landmarks.len().to_string(),
+                    format!("{} × {} waypoints", m.trajectory.laps, m.trajectory.waypoints.len()),
+                    path_length.map_or("—".into(), |l| format!("{l:.1} m")),
+                    m.source.clone(),
+                ],
+                None => vec![name.clone(), "(map file not stored)".into(), String::new(), String::new(), String::new(), String::new(), String::new(), String::new()],
+            }
+        })
+        .collect();
+    TableView {
+        columns: ["Map", "Title", "Walls", "Lines + corners", "Point landmarks", "Laps", "True path", "Source"].map(String::from).to_vec(),
+        rows,
+        align: "llrrrlrp{0.22\\linewidth}".into(),
+    }
+}
+
+fn sweep_lines(study: &Study<'_>) -> Vec<String> {
+    let spec = study.spec();
+    if spec.sweeps.is_empty() {
+        return vec!["No sweep: every run uses the base parameters.".into()];
+    }
+    spec.sweeps
+        .iter()
+        .map(|s| {
+            let mut leaves = Vec::new();
+            flatten("", &toml::Value::Table(s.values.clone()), &mut leaves);
+            // `flatten` stops at arrays: each leaf is one parameter's list.
+            let lists: Vec<String> = leaves
+                .iter()
+                .map(|(k, v)| {
+                    let vals: Vec<String> = v.as_array().map(|a| a.iter().map(crate::plan::format_value).collect()).unwrap_or_default();
+                    format!("{k} ∈ {{{}}}", vals.join(", "))
+                })
+                .collect();
+            let kind = match s.kind {
+                SweepKind::OneAtATime => "one at a time",
+                SweepKind::Grid => "full grid",
+                SweepKind::Zip => "zipped",
+            };
+            format!("{kind}: {}", lists.join("; "))
+        })
+        .collect()
+}
+
+/// The modelling choices behind these runs, stated from the parameters actually used.
+fn modelling_choices(study: &Study<'_>) -> Vec<String> {
+    let b = &study.spec().base;
+    let mut out = vec![format!(
+        "Ground truth: a unicycle driven through each map's waypoints by a turn-then-drive heading controller, integrated exactly at Δt = {} s ({} Hz odometry).",
+        b.sim.dt_s,
+        sig(1.0 / b.sim.dt_s, 3)
+    )];
+    use crate::world::odometry::{OdometryNoise, Spread};
+    out.push(match &b.odometry {
+        OdometryNoise::None => "Odometry: noise-free.".to_string(),
+        OdometryNoise::Proportional { k, k_is } => format!(
+            "Odometry ([FT] §3.2 \"proportional\" model): v += N(0, s(|v|)), ω += N(0, s(|ω|)) each step, with {} (k = {k} in the base configuration). Odometry is passed to algorithms as body-frame pose increments (the velocity model's arc).",
+            match k_is {
+                Spread::Std => "s = k·|·| read as a standard deviation",
+                Spread::Variance => "s = k·|·| read as a variance",
+            }
+        ),
+        OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => {
+            format!("Odometry: additive per-step pose noise diag(σx², σy², σθ²) = diag({var_x_m2}, {var_y_m2}, {var_theta_rad2}) in the world frame ([FT] Eq. 7.18).")
+        }
+    });
+    let sensors: Vec<_> = study.spec().algorithms.iter().map(|a| a.sensors()).collect();
+    if sensors.iter().any(|s| s.laser) {
+        let l = &b.laser;
+        out.push(format!(
+            "Laser: ray casting from the robot centre against the exact wall segments; {}° field of view at {}° resolution ({} beams), {} m maximum range, {} Hz, range noise {} σ = {} m.",
+            l.fov_deg,
+            l.resolution_deg,
+            l.geometry().beams,
+            l.max_range_m,
+            l.rate_hz,
+            match l.range_noise {
+                crate::world::RangeNoise::Constant => "constant",
+                crate::world::RangeNoise::Proportional => "proportional to range, at 1 m",
+            },
+            l.range_sigma_m
+        ));
+    }
+    if sensors.iter().any(|s| s.landmarks) {
+        let p = &b.landmark_sensor;
+        out.push(format!(
+            "Landmark sensor: range-bearing to point landmarks within {} m and a {}° field of view at {} Hz, σr = {} m, σb = {} rad.",
+            p.max_range_m, p.fov_deg, p.rate_hz, p.range_sigma_m, p.bearing_sigma_rad
+        ));
+    }
+    out.push("Seeds derive from (study seed, map, replicate), never from the swept value: replicate k of every sweep point and algorithm sees the same world noise (paired comparisons).".into());
+    out.push("Trajectory error is evo's APE (translation part, every step, no alignment: estimate and truth start at the same pose).".into());
+    for (name, map) in &study.maps {
+        if let Some(m) = map {
+            for note in &m.notes {
+                out.push(format!("Map {name}: {note}"));
+            }
+        }
+    }
+    out
+}
+
+/// How the x axis of a group is laid out, from the values its points take.
+fn x_axis(values: &[toml::Value], force_log: bool) -> (XAxis, Vec<f64>, Vec<(f64, String)>) {
+    let numeric: Option<Vec<f64>> = values.iter().map(|v| ParamValue::from_toml(v).as_f64()).collect();
+    match numeric {
+        Some(xs) => {
+            let positive = xs.iter().all(|&x| x > 0.0);
+            let (lo, hi) = xs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+            // Log axis when asked, or automatically when all values are positive and span ≥ 2 decades.
+            let log = positive && (force_log || hi / lo >= 100.0);
+            let ticks = xs.iter().zip(values).map(|(&x, v)| (x, crate::plan::format_value(v))).collect();
+            (if log { XAxis::Log } else { XAxis::Linear }, xs, ticks)
+        }
+        None => {
+            let names: Vec<String> = values.iter().map(crate::plan::format_value).collect();
+            let xs = (0..names.len()).map(|i| i as f64).collect();
+            let ticks = names.iter().enumerate().map(|(i, n)| (i as f64, n.clone())).collect();
+            (XAxis::Categorical(names), xs, ticks)
+        }
+    }
+}
+
+fn slug(s: &str) -> String {
+    let mut out = String::new();
+    for c in s.chars() {
+        if c.is_ascii_alphanumeric() {
+            out.push(c.to_ascii_lowercase());
+        } else if !out.ends_with('-') {
+            out.push('-');
+        }
+    }
+    out.trim_matches('-').to_string()
+}
+
+fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
+    let spec = study.spec();
+    let group = &study.data.resolved.groups[gi];
+    let points: Vec<&crate::store::PointRecord> = study.data.resolved.points.iter().filter(|p| p.groups.contains(&gi)).collect();
+    let title = match (group.kind, group.params.len()) {
+        (_, 0) => "Base configuration".to_string(),
+        (SweepKind::OneAtATime, _) => format!("Varying {} (others at base)", group.params[0]),
+        (SweepKind::Grid, _) => format!("Grid over {}", group.params.join(" × ")),
+        (SweepKind::Zip, _) => format!("Varying {} together", group.params.join(", ")),
+    };
+
+    // Table: one row per (map, algorithm, point), metrics as "mean [CI]".
+    let mut columns = vec!["Map".to_string(), "Algorithm".to_string()];
+    columns.extend(group.params.iter().cloned());
+    columns.push("n".into());
+    columns.extend(study.metrics.iter().map(|m| format!("{} [{}]", m.title, m.unit)));
+    columns.push("Failed".into());
+    let mut rows = Vec::new();
+    for (map, _) in &study.maps {
+        for algorithm in &spec.algorithms {
+            for p in &points {
+                let mut row = vec![map.clone(), algorithm.title().to_string()];
+                row.extend(group.params.iter().map(|k| study.value_at(p, k).map(|v| crate::plan::format_value(&v)).unwrap_or_default()));
+                let mut n_ok = 0;
+                let mut failed_text = String::new();
+                for (mi, m) in study.metrics.iter().enumerate() {
+                    let (s, failed, n) = study.cell(map, algorithm.name(), &p.label, m.name);
+                    if mi == 0 {
+                        n_ok = s.n;
+                        failed_text = format!("{failed}/{n}");
+                    }
+                    row.push(if s.ci_low.is_finite() { format!("{} [{}, {}]", sig(s.mean, TABLE_DIGITS), sig(s.ci_low, TABLE_DIGITS), sig(s.ci_high, TABLE_DIGITS)) } else { sig(s.mean, TABLE_DIGITS) });
+                }
+                row.insert(2 + group.params.len(), n_ok.to_string());
+                row.push(failed_text);
+                rows.push(row);
+            }
+        }
+    }
+    let align = format!("ll{}r{}r", "l".repeat(group.params.len()), "r".repeat(study.metrics.len()));
+    let table = TableView { columns, rows, align };
+
+    let mut figures = Vec::new();
+    if let Some(x_param) = group.params.first() {
+        let x_values: Vec<toml::Value> = points.iter().filter_map(|p| study.value_at(p, x_param)).collect();
+        if x_values.len() == points.len() {
+            let (axis, xs, mut ticks) = x_axis(&x_values, spec.report.log_x.contains(x_param));
+            ticks.sort_by(|a, b| a.0.total_cmp(&b.0));
+            ticks.dedup_by(|a, b| a.0 == b.0);
+            // Series: (map, algorithm) and, for grids, the values of the other parameters.
+            let others: Vec<&String> = if group.kind == SweepKind::Grid { group.params[1..].iter().collect() } else { Vec::new() };
+            for m in &study.metrics {
+                let mut series: Vec<LineSeries> = Vec::new();
+                for (map, _) in &study.maps {
+                    for algorithm in &spec.algorithms {
+                        let mut by_key: BTreeMap<usize, (String, Vec<SeriesPoint>)> = BTreeMap::new();
+                        let mut keys: Vec<String> = Vec::new();
+                        for (p, &x) in points.iter().zip(&xs) {
+                            let other = others.iter().map(|k| format!("{k}={}", study.value_at(p, k).map(|v| crate::plan::format_value(&v)).unwrap_or_default())).collect::<Vec<_>>().join(", ");
+                            let ki = keys.iter().position(|k| *k == other).unwrap_or_else(|| {
+                                keys.push(other.clone());
+                                keys.len() - 1
+                            });
+                            let (s, ..) = study.cell(map, algorithm.name(), &p.label, m.name);
+                            let entry = by_key.entry(ki).or_insert_with(|| (other.clone(), Vec::new()));
+                            entry.1.push(SeriesPoint { x, mean: s.mean, lo: s.ci_low, hi: s.ci_high });
+                        }
+                        for (_, (other, mut pts)) in by_key {
+                            pts.sort_by(|a, b| a.x.total_cmp(&b.x));
+                            let mut label = if spec.algorithms.len() > 1 { format!("{map} / {}", algorithm.name()) } else { map.clone() };
+                            if !other.is_empty() {
+                                label = format!("{label} ({other})");
+                            }
+                            series.push(LineSeries { label, color: series.len(), points: pts });
+                        }
+                    }
+                }
+                let x_label = if group.kind == SweepKind::Zip { group.params.join(" / ") } else { x_param.clone() };
+                let fig = LineFigure { x_label, y_label: format!("{} [{}]", m.title, m.unit), x_axis: axis.clone(), x_ticks: ticks.clone(), series };
+                let file = slug(&format!("{}--{}", group.params.join("-"), m.name));
+                figures.push(FigureView {
+                    caption: format!(
+                        "{} against {}: mean over the n successful replicates of each cell, band = {:.0} % confidence interval of the mean (Student t).",
+                        m.title,
+                        x_param,
+                        stats::CONFIDENCE * 100.0
+                    ),
+                    svg: figure::line_svg(&fig),
+                    pgf: super::pgf::line_pgf(&fig),
+                    file,
+                });
+            }
+        }
+    }
+    GroupView { title, figures, table }
+}
+
+/// One figure per map: truth and every algorithm's estimate for a representative replicate.
+fn trajectory_views(study: &Study<'_>, traces: &dyn Fn(&[String]) -> Vec<TraceRows>) -> Vec<FigureView> {
+    let spec = study.spec();
+    let points = &study.data.resolved.points;
+    // The base configuration if it was run, else the middle point of the first group.
+    let reference = points.iter().find(|p| p.assignments.iter().all(|(k, v)| study.base.iter().any(|(bk, bv)| bk == k && bv == v))).or_else(|| {
+        let first: Vec<_> = points.iter().filter(|p| p.groups.contains(&0)).collect();
+        first.get(first.len() / 2).copied()
+    });
+    let Some(reference) = reference else { return Vec::new() };
+    let headline = study.metrics.first().map_or(crate::metrics::ATE_RMSE, |m| m.name);
+    let Some(first_algorithm) = spec.algorithms.first() else { return Vec::new() };
+
+    let mut out = Vec::new();
+    for (map_name, map) in &study.maps {
+        let Some(map) = map else { continue };
+        // Median replicate by the headline metric (lower median; ties by run id).
+        let mut candidates: Vec<&RunRow> = study.runs_of(map_name, first_algorithm.name(), &reference.label).filter(|r| r.status == RunStatus::Ok).collect();
+        candidates.sort_by(|a, b| a.metric(headline).unwrap_or(f64::NAN).total_cmp(&b.metric(headline).unwrap_or(f64::NAN)).then(a.run_id.cmp(&b.run_id)));
+        let Some(chosen) = candidates.get(candidates.len().saturating_sub(1) / 2) else { continue };
+        let ids: Vec<String> = spec
+            .algorithms
+            .iter()
+            .filter_map(|a| study.runs_of(map_name, a.name(), &reference.label).find(|r| r.replicate == chosen.replicate).map(|r| r.run_id.clone()))
+            .collect();
+        let rows = traces(&ids);
+        let Some(truth) = rows.first() else { continue };
+        let mut paths = vec![PathSeries { label: "ground truth".into(), color: None, points: truth.truth.iter().map(|p| (p.x, p.y)).collect() }];
+        for (ai, id) in ids.iter().enumerate() {
+            if let Some(t) = rows.iter().find(|t| &t.run_id == id) {
+                let label = spec.algorithms.iter().find(|a| id.contains(&format!("--{}--", a.name()))).map_or(id.clone(), |a| a.title().to_string());
+                paths.push(PathSeries { label, color: Some(ai), points: t.estimate.iter().map(|p| (p.x, p.y)).collect() });
+            }
+        }
+        let fig = TrajectoryFigure {
+            walls: map.walls.iter().map(|s| ((s.a.x, s.a.y), (s.b.x, s.b.y))).collect(),
+            corners: map.corners.iter().map(|c| (c.x, c.y)).collect(),
+            paths,
+            start: (map.start.x, map.start.y),
+        };
+        let value = chosen.metric(headline).map_or("—".into(), |v| sig(v, TABLE_DIGITS));
+        out.push(FigureView {
+            file: slug(&format!("trajectory--{map_name}")),
+            caption: format!(
+                "{} ({map_name}): ground truth and estimates of replicate {} at {} — the median replicate by {headline} ({value}) of {}. Triangle: start; red dots: true corners.",
+                map.title,
+                chosen.replicate,
+                reference.label,
+                first_algorithm.title()
+            ),
+            svg: figure::trajectory_svg(&fig),
+            pgf: super::pgf::trajectory_pgf(&fig),
+        });
+    }
+    out
+}
+
+fn failures_table(data: &StudyData) -> TableView {
+    TableView {
+        columns: vec!["Run".into(), "Status".into(), "Error".into()],
+        rows: data.runs.iter().filter(|r| r.status != RunStatus::Ok).map(|r| vec![r.run_id.clone(), r.status.as_str().into(), r.error.clone().unwrap_or_default()]).collect(),
+        align: "llp{0.5\\linewidth}".into(),
+    }
+}
+
+fn provenance(data: &StudyData) -> Vec<Kv> {
+    let m = &data.manifest;
+    let mut out = vec![
+        kv("slamlab version", &m.crate_version),
+        kv("git commit (inputs)", format!("{}{}", m.git_commit, if m.git_dirty { " + uncommitted changes" } else { "" })),
+        kv("rustc", &m.rustc),
+        kv("spec", format!("{} (blake3 {})", m.spec_path, &m.spec_blake3[..m.spec_blake3.len().min(16)])),
+        kv("results schema", &m.schema_version),
+    ];
+    out.extend(m.code_versions.iter().map(|(k, v)| kv(&format!("code version: {k}"), v)));
+    out.extend(m.maps.iter().map(|(k, v)| kv(&format!("map {k}"), format!("blake3 {}", &v[..v.len().min(16)]))));
+    out
+}
+
+/// `summary.csv`: one row per (map, algorithm, point, metric) with n, mean, sd and CI.
+fn summary_csv(study: &Study<'_>) -> String {
+    let spec = study.spec();
+    let swept: Vec<String> = {
+        let mut v: Vec<String> = Vec::new();
+        for g in &study.data.resolved.groups {
+            for p in &g.params {
+                if !v.contains(p) {
+                    v.push(p.clone());
+                }
+            }
+        }
+        v
+    };
+    let mut out = String::from("study,map,algorithm,point");
+    for p in &swept {
+        out.push(',');
+        out.push_str(&csv_field(p));
+    }
+    out.push_str(",metric,n,failed,runs,mean,sd,ci95_low,ci95_high,median,min,max\n");
+    for (map, _) in &study.maps {
+        for algorithm in &spec.algorithms {
+            for p in &study.data.resolved.points {
+                for m in &study.metrics {
+                    let (s, failed, n) = study.cell(map, algorithm.name(), &p.label, m.name);
+                    let mut fields = vec![spec.id.clone(), map.clone(), algorithm.name().to_string(), p.label.clone()];
+                    fields.extend(swept.iter().map(|k| study.value_at(p, k).map(|v| crate::plan::format_value(&v)).unwrap_or_default()));
+                    fields.extend([m.name.to_string(), s.n.to_string(), failed.to_string(), n.to_string()]);
+                    fields.extend([s.mean, s.std, s.ci_low, s.ci_high, s.median, s.min, s.max].map(|v| sig_ascii(v, CSV_DIGITS)));
+                    out.push_str(&fields.iter().map(|f| csv_field(f)).collect::<Vec<_>>().join(","));
+                    out.push('\n');
+                }
+            }
+        }
+    }
+    out
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_axis_only_for_positive_wide_ranges() {
+        let f = |v: &[f64]| x_axis(&v.iter().map(|&x| toml::Value::Float(x)).collect::<Vec<_>>(), false).0;
+        assert_eq!(f(&[0.001, 0.01, 0.1]), XAxis::Log);
+        assert_eq!(f(&[0.0, 0.05, 0.1]), XAxis::Linear);
+        assert_eq!(f(&[1.0, 2.0, 5.0]), XAxis::Linear);
+        let cat = x_axis(&[toml::Value::String("pose".into()), toml::Value::String("none".into())], false).0;
+        assert_eq!(cat, XAxis::Categorical(vec!["pose".into(), "none".into()]));
+    }
+
+    #[test]
+    fn slugs_are_file_safe() {
+        assert_eq!(slug("odometry.k--ate_rmse_m"), "odometry-k-ate-rmse-m");
+        assert_eq!(slug("trajectory--Big Loop"), "trajectory-big-loop");
+    }
+
+    #[test]
+    fn csv_quotes_when_needed() {
+        assert_eq!(csv_field("a,b"), "\"a,b\"");
+        assert_eq!(csv_field("plain"), "plain");
+    }
+}

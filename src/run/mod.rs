@@ -1,0 +1,293 @@
+//! Executes plans: ExperimentPlan → per-run simulation (rayon — the only parallel place) →
+//! study results in the store. Each run owns its RNGs, so the results do not depend on the
+//! thread count; rows are sorted by run id before writing. A failed run becomes a row with
+//! `status = failed` and the study goes on.
+
+pub mod progress;
+pub mod provenance;
+
+use crate::metrics;
+use crate::plan::{ExperimentPlan, RunSpec, SCHEMA_VERSION};
+use crate::slam::{self, AlgorithmKind, SlamError, Trace};
+use crate::spec::params::flatten;
+use crate::store::{self, Cache, CachedRun, GroupRecord, Manifest, ParamValue, PointRecord, ResolvedStudy, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows};
+use crate::world::{self, WorldError, WorldSpec, WORLD_CODE_VERSION};
+use progress::Progress;
+pub use provenance::Provenance;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// How to run (never what to compute: that is the spec's job).
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    pub threads: usize,
+    /// Recompute runs even when cached.
+    pub force: bool,
+    pub results_dir: PathBuf,
+    pub cache_dir: PathBuf,
+    /// Progress bar/lines on stderr.
+    pub progress: bool,
+}
+
+/// Why a run will be computed, or that it will not.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reason {
+    Cached,
+    New,
+    ParametersChanged,
+    CodeVersionChanged,
+    Forced,
+}
+
+impl Reason {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Reason::Cached => "cached",
+            Reason::New => "new",
+            Reason::ParametersChanged => "parameters changed",
+            Reason::CodeVersionChanged => "code version changed",
+            Reason::Forced => "forced",
+        }
+    }
+}
+
+/// For each run of the plan: will it be computed, and why. Compares with the cache and with
+/// the study's previous results (by run id).
+pub fn reasons(plan: &ExperimentPlan, opts: &RunOptions) -> Vec<Reason> {
+    let cache = Cache::new(&opts.cache_dir);
+    let previous: BTreeMap<String, RunRow> =
+        store::read_runs(&opts.results_dir.join(plan.id())).unwrap_or_default().into_iter().map(|r| (r.run_id.clone(), r)).collect();
+    plan.runs
+        .iter()
+        .map(|run| {
+            if cache.contains(&run.hash) {
+                return if opts.force { Reason::Forced } else { Reason::Cached };
+            }
+            match previous.get(&run.run_id) {
+                None => Reason::New,
+                Some(prev) if prev.code_version != run.code_version => Reason::CodeVersionChanged,
+                Some(_) => Reason::ParametersChanged,
+            }
+        })
+        .collect()
+}
+
+/// What running a study did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StudySummary {
+    pub study: String,
+    pub dir: PathBuf,
+    pub runs: usize,
+    pub computed: usize,
+    pub failed: usize,
+    pub diverged: usize,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    #[error("cannot start {threads} worker threads: {message}")]
+    Threads { threads: usize, message: String },
+}
+
+/// Runs (or takes from the cache) every run of `plan` and writes the study's results.
+pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenance) -> Result<StudySummary, RunError> {
+    let cache = Cache::new(&opts.cache_dir);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .map_err(|e| RunError::Threads { threads: opts.threads, message: e.to_string() })?;
+    let reasons = reasons(plan, opts);
+    let to_compute = reasons.iter().filter(|r| !matches!(r, Reason::Cached)).count();
+    let progress = Progress::new(plan.id(), plan.runs.len(), opts.progress);
+
+    let outcomes: Vec<(CachedRun, bool)> = pool.install(|| {
+        plan.runs
+            .par_iter()
+            .zip(reasons.par_iter())
+            .map(|(run, reason)| {
+                let cached = (*reason == Reason::Cached).then(|| cache.get(&run.hash)).flatten();
+                let (outcome, from_cache) = match cached {
+                    Some(mut c) => {
+                        relabel(&mut c, plan, run);
+                        (c, true)
+                    }
+                    None => {
+                        let c = execute(plan, run);
+                        // A cache that cannot be written costs only a recomputation next time.
+                        if let Err(e) = cache.put(&run.hash, &c) {
+                            progress.warn(&format!("cannot cache {}: {e}", run.run_id));
+                        }
+                        (c, false)
+                    }
+                };
+                progress.finished(outcome.row.status, from_cache);
+                (outcome, from_cache)
+            })
+            .collect()
+    });
+    progress.done();
+
+    let mut outcomes = outcomes;
+    outcomes.sort_by(|a, b| a.0.row.run_id.cmp(&b.0.row.run_id));
+    let rows: Vec<RunRow> = outcomes.iter().map(|(o, _)| o.row.clone()).collect();
+    let timings: Vec<Timing> = outcomes.iter().map(|(o, cached)| Timing { run_id: o.row.run_id.clone(), wall_ms: o.wall_ms, cached: *cached }).collect();
+    let traces: Vec<TraceRows> = outcomes.into_iter().map(|(o, _)| o.trace).collect();
+    let failed = rows.iter().filter(|r| r.status == RunStatus::Failed).count();
+    let diverged = rows.iter().filter(|r| r.status == RunStatus::Diverged).count();
+
+    let manifest = manifest(plan, provenance, rows.len(), failed + diverged);
+    let resolved = resolved(plan);
+    let maps: Vec<(String, String)> = plan.maps.iter().map(|m| (m.name.clone(), m.text.clone())).collect();
+    let dir = opts.results_dir.join(plan.id());
+    store::write_study(&dir, &StudyOutput { runs: &rows, traces: &traces, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps })?;
+    Ok(StudySummary { study: plan.id().to_string(), dir, runs: rows.len(), computed: to_compute, failed, diverged })
+}
+
+/// Simulates one run; never panics outward: errors and panics become a failed row.
+pub fn execute(plan: &ExperimentPlan, run: &RunSpec) -> CachedRun {
+    let start = Instant::now();
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| simulate(plan, run)));
+    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let mut row = base_row(plan, run);
+    let trace = match result {
+        Ok(Ok((trace_rows, metrics, diverged))) => {
+            row.status = if diverged { RunStatus::Diverged } else { RunStatus::Ok };
+            row.metrics = metrics.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+            trace_rows
+        }
+        Ok(Err(message)) => {
+            row.status = RunStatus::Failed;
+            row.error = Some(message);
+            empty_trace(run)
+        }
+        Err(panic) => {
+            let message = panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_else(|| "panic".into());
+            row.status = RunStatus::Failed;
+            row.error = Some(format!("panicked: {message}"));
+            empty_trace(run)
+        }
+    };
+    CachedRun { row, trace, wall_ms }
+}
+
+#[derive(Debug, thiserror::Error)]
+enum SimError {
+    #[error("world: {0}")]
+    World(#[from] WorldError),
+    #[error("{0}")]
+    Slam(#[from] SlamError),
+}
+
+/// World → algorithm → metrics. Returns the trace, metrics, and whether the estimate diverged.
+fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, metrics::RunMetrics, bool), String> {
+    (|| -> Result<_, SimError> {
+        let params = &plan.points[run.point].params;
+        let sensors = run.algorithm.sensors();
+        let spec = WorldSpec {
+            map: &plan.maps[run.map].map,
+            sim: &params.sim,
+            odometry: &params.odometry,
+            laser: sensors.laser.then_some(&params.laser),
+            landmark_sensor: sensors.landmarks.then_some(&params.landmark_sensor),
+        };
+        let world = world::generate(&spec, run.world_seed)?;
+        let mut filter_rng = ChaCha8Rng::seed_from_u64(run.filter_seed);
+        let trace = run_algorithm(run.algorithm, &world, &mut filter_rng)?;
+        let metrics = metrics::compute(&world, &trace);
+        let diverged = trace.estimate.iter().any(|p| !p.is_finite());
+        let rows = TraceRows { run_id: run.run_id.clone(), dt_s: world.dt_s, truth: world.truth, estimate: trace.estimate };
+        Ok((rows, metrics, diverged))
+    })()
+    .map_err(|e| e.to_string())
+}
+
+/// The one place that maps an algorithm name to its implementation.
+fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, _filter_rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+    match algorithm {
+        AlgorithmKind::Odometry => Ok(slam::odometry::run(world)),
+    }
+}
+
+fn empty_trace(run: &RunSpec) -> TraceRows {
+    TraceRows { run_id: run.run_id.clone(), dt_s: 0.0, truth: Vec::new(), estimate: Vec::new() }
+}
+
+/// The study-specific fields of a run's row (status and metrics are filled by the caller).
+fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
+    let mut leaves = Vec::new();
+    flatten("", &toml::Value::Table(plan.points[run.point].params.sections_read_by(run.algorithm)), &mut leaves);
+    RunRow {
+        study: plan.id().to_string(),
+        run_id: run.run_id.clone(),
+        map: plan.maps[run.map].name.clone(),
+        algorithm: run.algorithm.name().to_string(),
+        point: plan.points[run.point].label.clone(),
+        replicate: run.replicate,
+        world_seed: run.world_seed,
+        filter_seed: run.filter_seed,
+        status: RunStatus::Ok,
+        error: None,
+        run_hash: run.hash.clone(),
+        params_hash: run.params_hash.clone(),
+        code_version: run.code_version.clone(),
+        params: leaves.iter().map(|(k, v)| (k.clone(), ParamValue::from_toml(v))).collect(),
+        metrics: Vec::new(),
+    }
+}
+
+/// A cache entry may come from another study or run id with identical inputs: give it this
+/// run's identity.
+fn relabel(cached: &mut CachedRun, plan: &ExperimentPlan, run: &RunSpec) {
+    let fresh = base_row(plan, run);
+    cached.row = RunRow { status: cached.row.status, error: cached.row.error.take(), metrics: std::mem::take(&mut cached.row.metrics), ..fresh };
+    cached.trace.run_id = run.run_id.clone();
+}
+
+fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -> Manifest {
+    let mut code_versions = BTreeMap::new();
+    code_versions.insert("schema".to_string(), SCHEMA_VERSION.to_string());
+    code_versions.insert("world".to_string(), WORLD_CODE_VERSION.to_string());
+    code_versions.insert("metrics".to_string(), metrics::METRICS_VERSION.to_string());
+    for a in &plan.spec.spec.algorithms {
+        code_versions.insert(a.name().to_string(), a.code_version().to_string());
+    }
+    Manifest {
+        study: plan.id().to_string(),
+        schema_version: SCHEMA_VERSION.to_string(),
+        crate_version: p.crate_version.clone(),
+        git_commit: p.git_commit.clone(),
+        git_dirty: p.git_dirty,
+        rustc: p.rustc.clone(),
+        spec_path: display_path(&plan.spec.path),
+        spec_blake3: plan.spec.hash.clone(),
+        code_versions,
+        maps: plan.maps.iter().map(|m| (m.name.clone(), m.hash.clone())).collect(),
+        runs,
+        failed,
+    }
+}
+
+/// A path as the user gave it, with `/` separators (no absolute paths leak into reports when
+/// the user passes relative ones).
+fn display_path(p: &Path) -> String {
+    p.to_string_lossy().replace('\\', "/")
+}
+
+fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
+    // `spec.base` is already resolved: serialising it writes every default out.
+    ResolvedStudy {
+        spec: plan.spec.spec.clone(),
+        groups: plan.groups.iter().map(|g| GroupRecord { kind: g.kind, params: g.params.clone() }).collect(),
+        points: plan
+            .points
+            .iter()
+            .map(|p| PointRecord { label: p.label.clone(), groups: p.groups.clone(), assignments: p.assignments.iter().cloned().collect() })
+            .collect(),
+    }
+}

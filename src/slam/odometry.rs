@@ -1,0 +1,20 @@
+//! Odometry-only baseline (dead reckoning): World → Trace by composing the measured increments
+//! from the known start pose. No sensor, no randomness. [FT] §11 claim 15: "an odometry-only map
+//! is clearly wrong in every case" — the baseline every SLAM error is read against.
+
+use super::Trace;
+use crate::world::World;
+
+pub const CODE_VERSION: &str = "odometry-1";
+
+/// Integrates the odometry: x̂₀ = x₀ (both trajectories start at the same pose), x̂ₖ₊₁ = x̂ₖ ⊕ uₖ.
+pub fn run(world: &World) -> Trace {
+    let mut pose = world.truth[0];
+    let mut estimate = Vec::with_capacity(world.odometry.len() + 1);
+    estimate.push(pose);
+    for delta in &world.odometry {
+        pose = pose.compose(*delta);
+        estimate.push(pose);
+    }
+    Trace { estimate, numerical_failures: 0 }
+}

@@ -1,0 +1,356 @@
+//! Study specs: `experiments/<id>.toml` → [`LoadedSpec`] — what the user wrote, parsed with
+//! `deny_unknown_fields` and range-checked, every problem reported with file, line, column and key.
+//! Expansion into runs is [`crate::plan`]'s job.
+
+pub mod params;
+
+use crate::metrics::metric_def;
+use crate::slam::AlgorithmKind;
+use crate::source::{join_key, Locator, SourceError};
+pub use params::Params;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// A study as written in its TOML file.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentSpec {
+    /// Study id: lower-case letters, digits, `-` and `_`; names `data/results/<id>/` and `reports/<id>/`.
+    pub id: String,
+    pub title: String,
+    #[serde(default)]
+    pub description: String,
+    /// Study seed: with (map, replicate) it determines every random number of every run.
+    pub seed: u64,
+    /// Runs per (map, algorithm, sweep point).
+    pub replicates: u32,
+    /// Map names, each `data/maps/<name>.toml`.
+    pub maps: Vec<String>,
+    pub algorithms: Vec<AlgorithmKind>,
+    /// Parameters shared by every run; sweeps override single keys.
+    #[serde(default)]
+    pub base: Params,
+    #[serde(default)]
+    pub sweeps: Vec<SweepSpec>,
+    #[serde(default)]
+    pub report: ReportSpec,
+    /// Modelling notes shown in the report (documented choices specific to this study).
+    #[serde(default)]
+    pub notes: Vec<String>,
+}
+
+/// One sweep block: `values` maps parameter paths (`"odometry.k"`, or nested tables) to lists.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SweepSpec {
+    pub kind: SweepKind,
+    pub values: toml::Table,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SweepKind {
+    /// Each parameter varied alone, the others at `[base]` ([FT]'s one-factor-at-a-time design).
+    OneAtATime,
+    /// Every combination of the listed values.
+    Grid,
+    /// The i-th values of every list together (lists of equal length).
+    Zip,
+}
+
+/// What the report shows.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReportSpec {
+    /// Metrics tabulated and plotted against each swept parameter, first = headline metric.
+    pub metrics: Vec<String>,
+    /// Swept parameters plotted on a log x axis (default: automatic, when all values are > 0 and
+    /// span at least two decades).
+    pub log_x: Vec<String>,
+}
+
+impl Default for ReportSpec {
+    fn default() -> Self {
+        Self { metrics: vec!["ate_rmse_m".into(), "final_position_error_m".into(), "final_heading_error_deg".into()], log_x: Vec::new() }
+    }
+}
+
+/// A swept parameter: its path in `[base]`, where it is written, and its values.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweptParam {
+    /// Parameter path, e.g. `odometry.k`.
+    pub path: String,
+    /// Location key of the list in the spec, e.g. `sweeps[0].values."odometry.k"`.
+    pub key: String,
+    pub values: Vec<toml::Value>,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepBlock {
+    pub kind: SweepKind,
+    pub params: Vec<SweptParam>,
+}
+
+/// A parsed, validated spec with what is needed to place later errors in its text.
+#[derive(Debug, Clone)]
+pub struct LoadedSpec {
+    pub path: PathBuf,
+    /// blake3 of the file's bytes.
+    pub hash: String,
+    pub locator: Locator,
+    pub spec: ExperimentSpec,
+    /// `[base]` as written, for applying sweep overrides key by key.
+    pub raw_base: toml::Table,
+    pub sweeps: Vec<SweepBlock>,
+}
+
+/// Problems in one file, each with line, column and key.
+#[derive(Debug)]
+pub struct SpecError {
+    pub path: PathBuf,
+    pub errors: Vec<SourceError>,
+}
+
+impl SpecError {
+    pub fn new(path: &Path, errors: Vec<SourceError>) -> Self {
+        Self { path: path.to_path_buf(), errors }
+    }
+    pub fn io(path: &Path, err: &std::io::Error) -> Self {
+        Self::new(path, vec![SourceError { line: 0, column: 0, key: String::new(), message: format!("cannot read: {err}") }])
+    }
+}
+
+impl fmt::Display for SpecError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, e) in self.errors.iter().enumerate() {
+            if i > 0 {
+                writeln!(f)?;
+            }
+            write!(f, "{}", self.path.display())?;
+            if e.line > 0 {
+                write!(f, ":{}:{}", e.line, e.column)?;
+            }
+            write!(f, ": ")?;
+            if !e.key.is_empty() {
+                write!(f, "key `{}`: ", e.key)?;
+            }
+            f.write_str(&e.message)?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for SpecError {}
+
+/// Problems across several files (a spec and the maps it names).
+#[derive(Debug)]
+pub struct InputErrors(pub Vec<SpecError>);
+
+impl fmt::Display for InputErrors {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let lines: Vec<String> = self.0.iter().map(ToString::to_string).collect();
+        f.write_str(&lines.join("\n"))
+    }
+}
+
+impl std::error::Error for InputErrors {}
+
+impl From<SpecError> for InputErrors {
+    fn from(e: SpecError) -> Self {
+        InputErrors(vec![e])
+    }
+}
+
+/// Reads and validates a spec file.
+pub fn load(path: &Path) -> Result<LoadedSpec, SpecError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SpecError::io(path, &e))?;
+    parse(path, &text)
+}
+
+/// Parses and validates spec text (`path` only names it in errors).
+pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
+    let locator = Locator::new(text);
+    let spec: ExperimentSpec = toml::from_str(text).map_err(|e| SpecError::new(path, vec![SourceError::from_toml(&locator, &e)]))?;
+    let mut raw: toml::Table = toml::from_str(text).map_err(|e| SpecError::new(path, vec![SourceError::from_toml(&locator, &e)]))?;
+    let raw_base = match raw.remove("base") {
+        Some(toml::Value::Table(t)) => t,
+        _ => toml::Table::new(),
+    };
+    let mut errors = Vec::new();
+    let mut err = |key: &str, msg: String| errors.push(SourceError::at_key(&locator, key, msg));
+
+    if spec.id.is_empty() || !spec.id.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' || c == '_') {
+        err("id", format!("must be non-empty lower-case letters, digits, `-` or `_`, got {:?}", spec.id));
+    }
+    if spec.title.trim().is_empty() {
+        err("title", "must not be empty".into());
+    }
+    if spec.replicates == 0 {
+        err("replicates", "must be ≥ 1".into());
+    }
+    if spec.maps.is_empty() {
+        err("maps", "list at least one map".into());
+    }
+    for (i, m) in spec.maps.iter().enumerate() {
+        if spec.maps[..i].contains(m) {
+            err(&format!("maps[{i}]"), format!("map `{m}` is listed twice"));
+        }
+    }
+    if spec.algorithms.is_empty() {
+        err("algorithms", "list at least one algorithm".into());
+    }
+    for (i, a) in spec.algorithms.iter().enumerate() {
+        if spec.algorithms[..i].contains(a) {
+            err(&format!("algorithms[{i}]"), format!("algorithm `{}` is listed twice", a.name()));
+        }
+    }
+    for v in spec.base.validate() {
+        err(&format!("base.{}", v.key), v.message);
+    }
+    for (i, m) in spec.report.metrics.iter().enumerate() {
+        if metric_def(m).is_none() {
+            let known: Vec<_> = crate::metrics::METRICS.iter().map(|d| d.name).collect();
+            err(&format!("report.metrics[{i}]"), format!("unknown metric `{m}` (known: {})", known.join(", ")));
+        }
+    }
+    if spec.report.metrics.is_empty() {
+        err("report.metrics", "list at least one metric".into());
+    }
+
+    // Sweep blocks: flatten nested tables to parameter paths; every leaf must be a non-empty list
+    // naming a parameter that exists in [base].
+    let mut base_leaves = Vec::new();
+    params::flatten("", &toml::Value::Table(spec.base.to_table()), &mut base_leaves);
+    let known = |p: &str| base_leaves.iter().any(|(k, _)| k == p);
+    let mut sweeps = Vec::new();
+    for (i, block) in spec.sweeps.iter().enumerate() {
+        let mut swept = Vec::new();
+        flatten_sweep(&block.values, "", &format!("sweeps[{i}].values"), &mut swept);
+        if swept.is_empty() {
+            err(&format!("sweeps[{i}].values"), "list at least one parameter with its values".into());
+        }
+        // A block that switches a section's `model` may set that variant's own fields; they are
+        // checked when each point is resolved.
+        let switches: Vec<&str> = swept.iter().filter_map(|p| p.path.strip_suffix(".model")).collect();
+        let variant_field = |p: &str| switches.iter().any(|s| p.starts_with(&format!("{s}.")));
+        for p in &swept {
+            if !known(&p.path) && !variant_field(&p.path) {
+                let names: Vec<_> = base_leaves.iter().map(|(k, _)| k.as_str()).collect();
+                err(&p.key, format!("unknown parameter `{}` (parameters: {})", p.path, names.join(", ")));
+            } else if p.values.is_empty() {
+                err(&p.key, "must be a non-empty list of values".into());
+            }
+        }
+        if block.kind == SweepKind::Zip && swept.windows(2).any(|w| w[0].values.len() != w[1].values.len()) {
+            let lens: Vec<_> = swept.iter().map(|p| format!("{} has {}", p.path, p.values.len())).collect();
+            err(&format!("sweeps[{i}].values"), format!("a zip sweep needs lists of equal length ({})", lens.join(", ")));
+        }
+        sweeps.push(SweepBlock { kind: block.kind, params: swept });
+    }
+    for (i, p) in spec.report.log_x.iter().enumerate() {
+        if !sweeps.iter().flat_map(|b| &b.params).any(|s| &s.path == p) {
+            err(&format!("report.log_x[{i}]"), format!("`{p}` is not a swept parameter"));
+        }
+    }
+
+    if !errors.is_empty() {
+        return Err(SpecError::new(path, errors));
+    }
+    Ok(LoadedSpec { path: path.to_path_buf(), hash: blake3::hash(text.as_bytes()).to_hex().to_string(), locator, spec, raw_base, sweeps })
+}
+
+/// Walks a sweep's `values` table: a list is a leaf (the values of one parameter); a non-list,
+/// non-table value is a leaf with no values (reported as an error by the caller).
+fn flatten_sweep(table: &toml::Table, prefix: &str, key_prefix: &str, out: &mut Vec<SweptParam>) {
+    for (k, v) in table {
+        let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+        let key = join_key(key_prefix, k);
+        match v {
+            toml::Value::Table(t) => flatten_sweep(t, &path, &key, out),
+            toml::Value::Array(values) => out.push(SweptParam { path, key, values: values.clone() }),
+            _ => out.push(SweptParam { path, key, values: Vec::new() }),
+        }
+    }
+}
+
+impl LoadedSpec {
+    pub fn error_at(&self, key: &str, message: impl Into<String>) -> SourceError {
+        SourceError::at_key(&self.locator, key, message)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+id = "t"
+title = "T"
+seed = 1
+replicates = 2
+maps = ["a"]
+algorithms = ["odometry"]
+
+[base.odometry]
+model = "proportional"
+k = 0.1
+k_is = "std"
+
+[[sweeps]]
+kind = "one_at_a_time"
+values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
+"#;
+
+    fn errs(text: &str) -> Vec<SourceError> {
+        parse(Path::new("x.toml"), text).unwrap_err().errors
+    }
+
+    #[test]
+    fn good_spec_flattens_sweeps_in_written_order() {
+        let s = parse(Path::new("x.toml"), GOOD).unwrap();
+        let paths: Vec<_> = s.sweeps[0].params.iter().map(|p| (p.path.as_str(), p.key.as_str())).collect();
+        assert_eq!(paths, vec![("odometry.k", "sweeps[0].values.\"odometry.k\""), ("sim.dt_s", "sweeps[0].values.sim.dt_s")]);
+        assert_eq!(s.raw_base["odometry"]["k"].as_float(), Some(0.1));
+    }
+
+    #[test]
+    fn unknown_key_names_line_and_key() {
+        let e = errs(&GOOD.replace("k = 0.1\n", "k = 0.1\nkk = 3\n"));
+        assert_eq!(e.len(), 1);
+        assert!(e[0].message.contains("unknown field `kk`"), "{}", e[0].message);
+        // serde places it at the [base.odometry] table (a tagged enum); we point at the key
+        assert_eq!((e[0].key.as_str(), e[0].line), ("base.odometry.kk", 12));
+    }
+
+    #[test]
+    fn negative_noise_names_line_and_key() {
+        let e = errs(&GOOD.replace("k = 0.1\n", "k = -0.1\n"));
+        assert_eq!(e.len(), 1);
+        assert_eq!(e[0].key, "base.odometry.k");
+        assert_eq!(e[0].line, 11);
+        assert!(e[0].message.contains("≥ 0"));
+    }
+
+    #[test]
+    fn unknown_sweep_parameter_and_algorithm() {
+        let e = errs(&GOOD.replace("\"odometry.k\"", "\"odometry.kk\""));
+        assert_eq!(e[0].key, "sweeps[0].values.\"odometry.kk\"");
+        assert_eq!(e[0].line, 16);
+        let e = errs(&GOOD.replace("[\"odometry\"]", "[\"odometry\", \"magic\"]"));
+        assert!(e[0].message.contains("unknown variant `magic`"), "{}", e[0].message);
+        assert_eq!(e[0].line, 7);
+    }
+
+    #[test]
+    fn zip_needs_equal_lengths() {
+        let e = errs(&GOOD.replace("one_at_a_time", "zip").replace("[0.05, 0.1]", "[0.05]"));
+        assert_eq!(e[0].key, "sweeps[0].values");
+    }
+
+    #[test]
+    fn display_is_file_line_column_key_message() {
+        let err = parse(Path::new("experiments/x.toml"), &GOOD.replace("replicates = 2", "replicates = 0")).unwrap_err();
+        assert_eq!(err.to_string(), "experiments/x.toml:5:1: key `replicates`: must be ≥ 1");
+    }
+}

@@ -1,0 +1,109 @@
+//! `[base]`: every parameter a run reads, one section per layer. Each section is that layer's own
+//! config struct; this type only composes them and checks cross-section constraints.
+
+use crate::config::{Checks, Violation};
+use crate::slam::AlgorithmKind;
+use crate::world::laser::LaserParams;
+use crate::world::odometry::OdometryNoise;
+use crate::world::point_sensor::PointSensorParams;
+use crate::world::{sensor_period_steps, SimParams};
+use serde::{Deserialize, Serialize};
+
+/// The resolved parameters of one sweep point. Omitted sections and keys take their defaults.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// Simulation clock.
+    pub sim: SimParams,
+    /// Odometry noise of the simulated logs.
+    pub odometry: OdometryNoise,
+    /// Simulated laser (read by laser-based algorithms only).
+    pub laser: LaserParams,
+    /// Simulated range-bearing landmark sensor (read by point-landmark algorithms only).
+    pub landmark_sensor: PointSensorParams,
+}
+
+impl Params {
+    pub fn validate(&self) -> Vec<Violation> {
+        let mut c = Checks::new();
+        c.nested("sim", self.sim.validate());
+        c.nested("odometry", self.odometry.validate());
+        c.nested("laser", self.laser.validate());
+        c.nested("landmark_sensor", self.landmark_sensor.validate());
+        for (section, rate) in [("laser", self.laser.rate_hz), ("landmark_sensor", self.landmark_sensor.rate_hz)] {
+            if rate > 0.0 && self.sim.dt_s > 0.0 && sensor_period_steps(rate, self.sim.dt_s).is_none() {
+                c.fail(&format!("{section}.rate_hz"), format!("1/(rate_hz·sim.dt_s) must be a whole number of odometry steps, got {rate} Hz at Δt = {} s", self.sim.dt_s));
+            }
+        }
+        c.finish()
+    }
+
+    /// The parameters as a TOML table, sections and keys in declaration order.
+    pub fn to_table(&self) -> toml::Table {
+        toml::Table::try_from(self).expect("Params serialises to a TOML table")
+    }
+
+    /// The sections `algorithm` reads: the world's (only the sensors it uses) and its own. Their
+    /// values — not the whole parameter set — go into a run's content hash, so changing laser
+    /// settings does not invalidate odometry-only runs.
+    pub fn sections_read_by(&self, algorithm: AlgorithmKind) -> toml::Table {
+        let sensors = algorithm.sensors();
+        let mut wanted = vec!["sim", "odometry"];
+        if sensors.laser {
+            wanted.push("laser");
+        }
+        if sensors.landmarks {
+            wanted.push("landmark_sensor");
+        }
+        wanted.extend(algorithm.param_sections());
+        self.to_table().into_iter().filter(|(k, _)| wanted.contains(&k.as_str())).collect()
+    }
+}
+
+/// Flattens a TOML tree into dotted leaf paths (`odometry.k`), in written order.
+pub fn flatten(prefix: &str, value: &toml::Value, out: &mut Vec<(String, toml::Value)>) {
+    match value {
+        toml::Value::Table(map) => {
+            for (k, v) in map {
+                let p = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                flatten(&p, v, out);
+            }
+        }
+        leaf => out.push((prefix.to_string(), leaf.clone())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_valid() {
+        assert_eq!(Params::default().validate(), vec![]);
+    }
+
+    #[test]
+    fn odometry_baseline_reads_no_sensor_section() {
+        let s = Params::default().sections_read_by(AlgorithmKind::Odometry);
+        let keys: Vec<_> = s.keys().map(String::as_str).collect();
+        // declaration order, not alphabetical
+        assert_eq!(keys, vec!["sim", "odometry"]);
+    }
+
+    #[test]
+    fn sensor_rate_must_fit_the_clock() {
+        let mut p = Params::default();
+        p.laser.rate_hz = 3.0;
+        let v = p.validate();
+        assert_eq!(v.len(), 1);
+        assert_eq!(v[0].key, "laser.rate_hz");
+    }
+
+    #[test]
+    fn flatten_gives_dotted_leaves() {
+        let mut out = Vec::new();
+        flatten("", &toml::Value::Table(Params::default().to_table()), &mut out);
+        let names: Vec<_> = out.iter().map(|(k, _)| k.as_str()).collect();
+        assert!(names.contains(&"odometry.model") && names.contains(&"odometry.k") && names.contains(&"laser.max_range_m"));
+    }
+}

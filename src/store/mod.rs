@@ -1,0 +1,481 @@
+//! Results on disk. A study's results live in `data/results/<study>/`:
+//! `runs.parquet` (one row per run), `traces.parquet` (per-step poses), `timings.parquet` (wall
+//! clock, kept apart so nothing deterministic depends on it), `resolved.toml` (the spec with every
+//! default filled in, plus the expanded sweep points), `manifest.json` (provenance) and `maps/`
+//! (the exact map files the runs read). Run results are also kept in a content-addressed cache,
+//! `data/cache/<hh>/<hash>/`, keyed by each run's content hash.
+//!
+//! Every write is atomic: files are written into a temporary directory that is renamed into
+//! place, so an interrupted run never leaves a half-written study or cache entry.
+
+mod parquet;
+pub mod tum;
+
+use crate::geom::Pose2;
+use crate::spec::{ExperimentSpec, SweepKind};
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}: {message}")]
+    Parquet { path: PathBuf, message: String },
+    #[error("{path}: {message}")]
+    Format { path: PathBuf, message: String },
+}
+
+impl StoreError {
+    fn io(path: &Path, source: std::io::Error) -> Self {
+        StoreError::Io { path: path.to_path_buf(), source }
+    }
+    fn format(path: &Path, message: impl ToString) -> Self {
+        StoreError::Format { path: path.to_path_buf(), message: message.to_string() }
+    }
+}
+
+/// Outcome of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunStatus {
+    /// Finished with finite results.
+    Ok,
+    /// World generation or the algorithm returned an error (or panicked): see `error`.
+    Failed,
+    /// Finished, but the estimate went non-finite.
+    Diverged,
+}
+
+impl RunStatus {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            RunStatus::Ok => "ok",
+            RunStatus::Failed => "failed",
+            RunStatus::Diverged => "diverged",
+        }
+    }
+    fn parse(s: &str) -> RunStatus {
+        match s {
+            "ok" => RunStatus::Ok,
+            "diverged" => RunStatus::Diverged,
+            _ => RunStatus::Failed,
+        }
+    }
+}
+
+/// A parameter value as stored in a `runs.parquet` column.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ParamValue {
+    Float(f64),
+    Int(i64),
+    Bool(bool),
+    Str(String),
+}
+
+impl ParamValue {
+    pub fn from_toml(v: &toml::Value) -> ParamValue {
+        match v {
+            toml::Value::Float(f) => ParamValue::Float(*f),
+            toml::Value::Integer(i) => ParamValue::Int(*i),
+            toml::Value::Boolean(b) => ParamValue::Bool(*b),
+            toml::Value::String(s) => ParamValue::Str(s.clone()),
+            other => ParamValue::Str(other.to_string()),
+        }
+    }
+    pub fn as_f64(&self) -> Option<f64> {
+        match self {
+            ParamValue::Float(f) => Some(*f),
+            ParamValue::Int(i) => Some(*i as f64),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for ParamValue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ParamValue::Float(v) => write!(f, "{v}"),
+            ParamValue::Int(v) => write!(f, "{v}"),
+            ParamValue::Bool(v) => write!(f, "{v}"),
+            ParamValue::Str(v) => f.write_str(v),
+        }
+    }
+}
+
+/// One row of `runs.parquet`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunRow {
+    pub study: String,
+    pub run_id: String,
+    pub map: String,
+    pub algorithm: String,
+    /// Sweep point label.
+    pub point: String,
+    pub replicate: u32,
+    pub world_seed: u64,
+    pub filter_seed: u64,
+    pub status: RunStatus,
+    pub error: Option<String>,
+    pub run_hash: String,
+    pub params_hash: String,
+    pub code_version: String,
+    /// Parameters the run read, as dotted paths.
+    pub params: Vec<(String, ParamValue)>,
+    /// Metric values; empty for a failed run.
+    pub metrics: Vec<(String, f64)>,
+}
+
+impl RunRow {
+    pub fn metric(&self, name: &str) -> Option<f64> {
+        self.metrics.iter().find(|(k, _)| k == name).map(|(_, v)| *v)
+    }
+    pub fn param(&self, path: &str) -> Option<&ParamValue> {
+        self.params.iter().find(|(k, _)| k == path).map(|(_, v)| v)
+    }
+}
+
+/// Per-step truth and estimate of one run (step k at t = k·Δt).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TraceRows {
+    pub run_id: String,
+    pub dt_s: f64,
+    pub truth: Vec<Pose2>,
+    pub estimate: Vec<Pose2>,
+}
+
+/// Wall-clock time of a run (when it was computed; `cached` = taken from the cache this time).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Timing {
+    pub run_id: String,
+    pub wall_ms: f64,
+    pub cached: bool,
+}
+
+/// `manifest.json`: where the results came from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    pub study: String,
+    pub schema_version: String,
+    pub crate_version: String,
+    /// Last commit that touched the inputs of the results (code, maps, specs).
+    pub git_commit: String,
+    /// Whether those inputs had uncommitted changes.
+    pub git_dirty: bool,
+    pub rustc: String,
+    /// The spec file, relative to the working directory.
+    pub spec_path: String,
+    pub spec_blake3: String,
+    /// Code versions that enter the run hashes.
+    pub code_versions: BTreeMap<String, String>,
+    /// Map name → blake3 of the map file.
+    pub maps: BTreeMap<String, String>,
+    pub runs: usize,
+    pub failed: usize,
+}
+
+/// A plot group of `resolved.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroupRecord {
+    pub kind: SweepKind,
+    pub params: Vec<String>,
+}
+
+/// A sweep point of `resolved.toml`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointRecord {
+    pub label: String,
+    pub groups: Vec<usize>,
+    pub assignments: toml::Table,
+}
+
+/// `resolved.toml`: the complete record of what a study ran.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResolvedStudy {
+    pub spec: ExperimentSpec,
+    pub groups: Vec<GroupRecord>,
+    pub points: Vec<PointRecord>,
+}
+
+/// Everything `write_study` puts in a study directory.
+pub struct StudyOutput<'a> {
+    pub runs: &'a [RunRow],
+    pub traces: &'a [TraceRows],
+    pub timings: &'a [Timing],
+    pub resolved: &'a ResolvedStudy,
+    pub manifest: &'a Manifest,
+    /// (map name, exact file text).
+    pub maps: &'a [(String, String)],
+}
+
+/// Writes a study directory atomically (rows must already be sorted by run id).
+pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> {
+    write_dir_atomically(dir, |tmp| {
+        let mut runs = parquet::runs_frame(out.runs).map_err(|e| StoreError::format(dir, e))?;
+        parquet::write(&tmp.join("runs.parquet"), &mut runs)?;
+        let mut traces = parquet::traces_frame(out.traces).map_err(|e| StoreError::format(dir, e))?;
+        parquet::write(&tmp.join("traces.parquet"), &mut traces)?;
+        let mut timings = parquet::timings_frame(out.timings).map_err(|e| StoreError::format(dir, e))?;
+        parquet::write(&tmp.join("timings.parquet"), &mut timings)?;
+        let resolved = toml::to_string(out.resolved).map_err(|e| StoreError::format(dir, e))?;
+        write_file(&tmp.join("resolved.toml"), resolved.as_bytes())?;
+        let manifest = serde_json::to_string_pretty(out.manifest).map_err(|e| StoreError::format(dir, e))? + "\n";
+        write_file(&tmp.join("manifest.json"), manifest.as_bytes())?;
+        let maps = tmp.join("maps");
+        std::fs::create_dir(&maps).map_err(|e| StoreError::io(&maps, e))?;
+        for (name, text) in out.maps {
+            write_file(&maps.join(format!("{name}.toml")), text.as_bytes())?;
+        }
+        Ok(())
+    })
+}
+
+/// A study read back for reporting (traces are read separately, on demand).
+#[derive(Debug, Clone)]
+pub struct StudyData {
+    pub dir: PathBuf,
+    pub resolved: ResolvedStudy,
+    pub manifest: Manifest,
+    pub runs: Vec<RunRow>,
+    /// (map name, file text), sorted by name.
+    pub maps: Vec<(String, String)>,
+}
+
+pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
+    let resolved_path = dir.join("resolved.toml");
+    let text = std::fs::read_to_string(&resolved_path).map_err(|e| StoreError::io(&resolved_path, e))?;
+    let resolved: ResolvedStudy = toml::from_str(&text).map_err(|e| StoreError::format(&resolved_path, e))?;
+    let manifest_path = dir.join("manifest.json");
+    let text = std::fs::read_to_string(&manifest_path).map_err(|e| StoreError::io(&manifest_path, e))?;
+    let manifest: Manifest = serde_json::from_str(&text).map_err(|e| StoreError::format(&manifest_path, e))?;
+    let runs = parquet::read_runs(&dir.join("runs.parquet"))?;
+    let maps_dir = dir.join("maps");
+    let mut maps = Vec::new();
+    for entry in std::fs::read_dir(&maps_dir).map_err(|e| StoreError::io(&maps_dir, e))? {
+        let path = entry.map_err(|e| StoreError::io(&maps_dir, e))?.path();
+        if path.extension().is_some_and(|x| x == "toml") {
+            let name = path.file_stem().unwrap_or_default().to_string_lossy().into_owned();
+            maps.push((name, std::fs::read_to_string(&path).map_err(|e| StoreError::io(&path, e))?));
+        }
+    }
+    maps.sort();
+    Ok(StudyData { dir: dir.to_path_buf(), resolved, manifest, runs, maps })
+}
+
+/// Reads the traces of the runs `keep` accepts.
+pub fn read_traces(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<TraceRows>, StoreError> {
+    parquet::read_traces(&dir.join("traces.parquet"), keep)
+}
+
+pub fn read_timings(dir: &Path) -> Result<Vec<Timing>, StoreError> {
+    parquet::read_timings(&dir.join("timings.parquet"))
+}
+
+/// Reads `runs.parquet` alone (e.g. to compare a new plan with the previous results).
+pub fn read_runs(dir: &Path) -> Result<Vec<RunRow>, StoreError> {
+    parquet::read_runs(&dir.join("runs.parquet"))
+}
+
+/// Study directories under `results_dir` (those with a manifest), sorted by name.
+pub fn list_studies(results_dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
+    let entries = match std::fs::read_dir(results_dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(StoreError::io(results_dir, e)),
+    };
+    let mut dirs: Vec<PathBuf> = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.join("manifest.json").is_file() && !p.file_name().unwrap_or_default().to_string_lossy().starts_with('.'))
+        .collect();
+    dirs.sort();
+    Ok(dirs)
+}
+
+/// The content-addressed run cache.
+#[derive(Debug, Clone)]
+pub struct Cache {
+    dir: PathBuf,
+}
+
+/// A cached run: its row (study-specific fields as first computed), trace and compute time.
+#[derive(Debug, Clone)]
+pub struct CachedRun {
+    pub row: RunRow,
+    pub trace: TraceRows,
+    pub wall_ms: f64,
+}
+
+/// Column under which a cache entry keeps the run's compute time (never in study results).
+const CACHE_WALL_MS: &str = "cache_wall_ms";
+
+impl Cache {
+    pub fn new(dir: &Path) -> Self {
+        Self { dir: dir.to_path_buf() }
+    }
+
+    fn entry(&self, hash: &str) -> PathBuf {
+        self.dir.join(&hash[..2.min(hash.len())]).join(hash)
+    }
+
+    pub fn contains(&self, hash: &str) -> bool {
+        self.entry(hash).join("trace.parquet").is_file()
+    }
+
+    /// The cached run, or `None` when absent or unreadable (then it is simply recomputed).
+    pub fn get(&self, hash: &str) -> Option<CachedRun> {
+        let dir = self.entry(hash);
+        let mut rows = parquet::read_runs(&dir.join("run.parquet")).ok()?;
+        let mut row = rows.pop()?;
+        let wall_ms = row.metric(CACHE_WALL_MS).unwrap_or(f64::NAN);
+        row.metrics.retain(|(k, _)| k != CACHE_WALL_MS);
+        let trace = parquet::read_traces(&dir.join("trace.parquet"), &|_| true).ok()?.pop().unwrap_or(TraceRows {
+            run_id: row.run_id.clone(),
+            dt_s: 0.0,
+            truth: Vec::new(),
+            estimate: Vec::new(),
+        });
+        Some(CachedRun { row, trace, wall_ms })
+    }
+
+    pub fn put(&self, hash: &str, run: &CachedRun) -> Result<(), StoreError> {
+        let dir = self.entry(hash);
+        if self.contains(hash) {
+            return Ok(());
+        }
+        let mut row = run.row.clone();
+        row.metrics.push((CACHE_WALL_MS.to_string(), run.wall_ms));
+        write_dir_atomically(&dir, |tmp| {
+            let mut df = parquet::runs_frame(std::slice::from_ref(&row)).map_err(|e| StoreError::format(&dir, e))?;
+            parquet::write(&tmp.join("run.parquet"), &mut df)?;
+            let mut df = parquet::traces_frame(std::slice::from_ref(&run.trace)).map_err(|e| StoreError::format(&dir, e))?;
+            parquet::write(&tmp.join("trace.parquet"), &mut df)
+        })
+    }
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
+    std::fs::write(path, bytes).map_err(|e| StoreError::io(path, e))
+}
+
+/// Fills a fresh temporary directory beside `dir`, then renames it into place (replacing an old
+/// `dir`). Left-overs of an interrupted earlier write are removed first.
+pub fn write_dir_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<(), StoreError>) -> Result<(), StoreError> {
+    let parent = dir.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = dir.file_name().ok_or_else(|| StoreError::format(dir, "not a directory name"))?.to_string_lossy().into_owned();
+    std::fs::create_dir_all(parent).map_err(|e| StoreError::io(parent, e))?;
+    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
+    let old = parent.join(format!(".{name}.old-{}", std::process::id()));
+    for stale in [&tmp, &old] {
+        if stale.exists() {
+            std::fs::remove_dir_all(stale).map_err(|e| StoreError::io(stale, e))?;
+        }
+    }
+    std::fs::create_dir(&tmp).map_err(|e| StoreError::io(&tmp, e))?;
+    if let Err(e) = fill(&tmp) {
+        let _ = std::fs::remove_dir_all(&tmp);
+        return Err(e);
+    }
+    if dir.exists() {
+        std::fs::rename(dir, &old).map_err(|e| StoreError::io(dir, e))?;
+        std::fs::rename(&tmp, dir).map_err(|e| StoreError::io(dir, e))?;
+        std::fs::remove_dir_all(&old).map_err(|e| StoreError::io(&old, e))?;
+    } else if let Err(e) = std::fs::rename(&tmp, dir) {
+        let _ = std::fs::remove_dir_all(&tmp);
+        // Another writer got there first with the same content (cache entries): fine.
+        if !dir.exists() {
+            return Err(StoreError::io(dir, e));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(id: &str, status: RunStatus) -> RunRow {
+        RunRow {
+            study: "s".into(),
+            run_id: id.into(),
+            map: "m".into(),
+            algorithm: "odometry".into(),
+            point: "base".into(),
+            replicate: 3,
+            world_seed: u64::MAX - 1,
+            filter_seed: 42,
+            status,
+            error: (status == RunStatus::Failed).then(|| "boom".into()),
+            run_hash: "ab".into(),
+            params_hash: "cd".into(),
+            code_version: "v".into(),
+            params: vec![("odometry.model".into(), ParamValue::Str("proportional".into())), ("odometry.k".into(), ParamValue::Float(0.1)), ("trajectory.laps".into(), ParamValue::Int(2))],
+            metrics: if status == RunStatus::Failed { vec![] } else { vec![("ate_rmse_m".into(), 1.5), ("landmark_error_m".into(), f64::INFINITY)] },
+        }
+    }
+
+    #[test]
+    fn runs_round_trip_with_nulls_and_infinities() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows = vec![row("a", RunStatus::Ok), row("b", RunStatus::Failed)];
+        let mut df = parquet::runs_frame(&rows).unwrap();
+        let path = dir.path().join("runs.parquet");
+        parquet::write(&path, &mut df).unwrap();
+        assert_eq!(parquet::read_runs(&path).unwrap(), rows);
+    }
+
+    #[test]
+    fn traces_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let t = |id: &str, n: usize| TraceRows {
+            run_id: id.into(),
+            dt_s: 0.1,
+            truth: (0..n).map(|i| Pose2::new(i as f64, 0.5, 0.1)).collect(),
+            estimate: (0..n).map(|i| Pose2::new(i as f64 + 0.25, 0.0, -0.1)).collect(),
+        };
+        let traces = vec![t("a", 5), t("b", 3)];
+        let mut df = parquet::traces_frame(&traces).unwrap();
+        let path = dir.path().join("traces.parquet");
+        parquet::write(&path, &mut df).unwrap();
+        let back = parquet::read_traces(&path, &|_| true).unwrap();
+        assert_eq!(back.len(), 2);
+        assert_eq!(back[0].truth, traces[0].truth);
+        assert_eq!(back[1].estimate, traces[1].estimate);
+        assert!((back[0].dt_s - 0.1).abs() < 1e-12);
+        assert_eq!(parquet::read_traces(&path, &|id| id == "b").unwrap().len(), 1);
+    }
+
+    #[test]
+    fn cache_round_trip_keeps_compute_time_apart() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = Cache::new(dir.path());
+        assert!(!cache.contains("abcdef"));
+        let run = CachedRun { row: row("a", RunStatus::Ok), trace: TraceRows { run_id: "a".into(), dt_s: 0.1, truth: vec![Pose2::IDENTITY; 2], estimate: vec![Pose2::IDENTITY; 2] }, wall_ms: 12.5 };
+        cache.put("abcdef", &run).unwrap();
+        assert!(cache.contains("abcdef"));
+        let back = cache.get("abcdef").unwrap();
+        assert_eq!(back.row, run.row);
+        assert_eq!(back.wall_ms, 12.5);
+        assert_eq!(back.trace.truth.len(), 2);
+    }
+
+    #[test]
+    fn failed_atomic_write_leaves_the_old_directory() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("study");
+        write_dir_atomically(&target, |t| write_file(&t.join("a"), b"1")).unwrap();
+        let err = write_dir_atomically(&target, |t| {
+            write_file(&t.join("a"), b"2")?;
+            Err(StoreError::format(t, "interrupted"))
+        });
+        assert!(err.is_err());
+        assert_eq!(std::fs::read(target.join("a")).unwrap(), b"1");
+        let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().map(|e| e.file_name()).collect();
+        assert_eq!(leftovers.len(), 1, "{leftovers:?}");
+    }
+}

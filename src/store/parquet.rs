@@ -1,0 +1,218 @@
+//! Typed rows ⇄ Parquet. The only polars code in slamlab. Column names and units are documented
+//! in the README ("Results schema").
+
+use super::{ParamValue, RunRow, RunStatus, StoreError, Timing, TraceRows};
+use crate::geom::Pose2;
+use polars::prelude::*;
+use std::path::Path;
+
+/// Fixed leading columns of `runs.parquet` (then parameters, then metrics).
+const RUN_COLUMNS: &[&str] =
+    &["study", "run_id", "map", "algorithm", "point", "replicate", "world_seed", "filter_seed", "status", "error", "run_hash", "params_hash", "code_version"];
+
+fn err(path: &Path, e: PolarsError) -> StoreError {
+    StoreError::Parquet { path: path.to_path_buf(), message: e.to_string() }
+}
+
+pub(super) fn write(path: &Path, df: &mut DataFrame) -> Result<(), StoreError> {
+    let file = std::fs::File::create(path).map_err(|e| StoreError::io(path, e))?;
+    let mut w = std::io::BufWriter::new(file);
+    ParquetWriter::new(&mut w).with_compression(ParquetCompression::Zstd(None)).set_parallel(false).finish(df).map_err(|e| err(path, e))?;
+    std::io::Write::flush(&mut w).map_err(|e| StoreError::io(path, e))?;
+    w.get_ref().sync_all().map_err(|e| StoreError::io(path, e))
+}
+
+pub(super) fn read(path: &Path) -> Result<DataFrame, StoreError> {
+    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+    ParquetReader::new(file).finish().map_err(|e| err(path, e))
+}
+
+/// Runs → DataFrame. Parameter columns are the union of every row's keys (first appearance in
+/// row order); metric columns the union of metric names; absent values are null.
+pub(super) fn runs_frame(rows: &[RunRow]) -> PolarsResult<DataFrame> {
+    let n = rows.len();
+    let strs = |f: &dyn Fn(&RunRow) -> String| rows.iter().map(f).collect::<Vec<String>>();
+    let mut cols = vec![
+        Column::new("study".into(), strs(&|r| r.study.clone())),
+        Column::new("run_id".into(), strs(&|r| r.run_id.clone())),
+        Column::new("map".into(), strs(&|r| r.map.clone())),
+        Column::new("algorithm".into(), strs(&|r| r.algorithm.clone())),
+        Column::new("point".into(), strs(&|r| r.point.clone())),
+        Column::new("replicate".into(), rows.iter().map(|r| r.replicate).collect::<Vec<u32>>()),
+        Column::new("world_seed".into(), rows.iter().map(|r| r.world_seed).collect::<Vec<u64>>()),
+        Column::new("filter_seed".into(), rows.iter().map(|r| r.filter_seed).collect::<Vec<u64>>()),
+        Column::new("status".into(), strs(&|r| r.status.as_str().to_string())),
+        Column::new("error".into(), rows.iter().map(|r| r.error.clone()).collect::<Vec<Option<String>>>()),
+        Column::new("run_hash".into(), strs(&|r| r.run_hash.clone())),
+        Column::new("params_hash".into(), strs(&|r| r.params_hash.clone())),
+        Column::new("code_version".into(), strs(&|r| r.code_version.clone())),
+    ];
+    let mut param_names: Vec<&str> = Vec::new();
+    for r in rows {
+        for (k, _) in &r.params {
+            if !param_names.contains(&k.as_str()) {
+                param_names.push(k);
+            }
+        }
+    }
+    for name in param_names {
+        let values: Vec<Option<&ParamValue>> = rows.iter().map(|r| r.params.iter().find(|(k, _)| k == name).map(|(_, v)| v)).collect();
+        let col = match values.iter().flatten().next() {
+            Some(ParamValue::Float(_)) => Column::new(name.into(), values.iter().map(|v| v.and_then(ParamValue::as_f64)).collect::<Vec<Option<f64>>>()),
+            Some(ParamValue::Int(_)) => Column::new(name.into(), values.iter().map(|v| match v { Some(ParamValue::Int(i)) => Some(*i), _ => None }).collect::<Vec<Option<i64>>>()),
+            Some(ParamValue::Bool(_)) => Column::new(name.into(), values.iter().map(|v| match v { Some(ParamValue::Bool(b)) => Some(*b), _ => None }).collect::<Vec<Option<bool>>>()),
+            _ => Column::new(name.into(), values.iter().map(|v| v.map(ParamValue::to_string)).collect::<Vec<Option<String>>>()),
+        };
+        cols.push(col);
+    }
+    let mut metric_names: Vec<&str> = Vec::new();
+    for r in rows {
+        for (k, _) in &r.metrics {
+            if !metric_names.contains(&k.as_str()) {
+                metric_names.push(k);
+            }
+        }
+    }
+    for name in metric_names {
+        let values: Vec<Option<f64>> = rows.iter().map(|r| r.metrics.iter().find(|(k, _)| k == name).map(|(_, v)| *v)).collect();
+        cols.push(Column::new(name.into(), values));
+    }
+    DataFrame::new(n, cols)
+}
+
+pub(super) fn read_runs(path: &Path) -> Result<Vec<RunRow>, StoreError> {
+    let df = read(path)?;
+    let e = |x: PolarsError| err(path, x);
+    let s = |name: &str| -> Result<Vec<String>, StoreError> {
+        Ok(df.column(name).map_err(e)?.str().map_err(e)?.iter().map(|v| v.unwrap_or_default().to_string()).collect())
+    };
+    let (study, run_id, map, algorithm, point, status, run_hash, params_hash, code_version) =
+        (s("study")?, s("run_id")?, s("map")?, s("algorithm")?, s("point")?, s("status")?, s("run_hash")?, s("params_hash")?, s("code_version")?);
+    let error: Vec<Option<String>> = df.column("error").map_err(e)?.str().map_err(e)?.iter().map(|v| v.map(str::to_string)).collect();
+    let replicate: Vec<u32> = df.column("replicate").map_err(e)?.u32().map_err(e)?.into_no_null_iter().collect();
+    let world_seed: Vec<u64> = df.column("world_seed").map_err(e)?.u64().map_err(e)?.into_no_null_iter().collect();
+    let filter_seed: Vec<u64> = df.column("filter_seed").map_err(e)?.u64().map_err(e)?.into_no_null_iter().collect();
+
+    let mut rows: Vec<RunRow> = (0..df.height())
+        .map(|i| RunRow {
+            study: study[i].clone(),
+            run_id: run_id[i].clone(),
+            map: map[i].clone(),
+            algorithm: algorithm[i].clone(),
+            point: point[i].clone(),
+            replicate: replicate[i],
+            world_seed: world_seed[i],
+            filter_seed: filter_seed[i],
+            status: RunStatus::parse(&status[i]),
+            error: error[i].clone(),
+            run_hash: run_hash[i].clone(),
+            params_hash: params_hash[i].clone(),
+            code_version: code_version[i].clone(),
+            params: Vec::new(),
+            metrics: Vec::new(),
+        })
+        .collect();
+    for col in df.columns() {
+        let name = col.name().as_str();
+        if RUN_COLUMNS.contains(&name) {
+            continue;
+        }
+        // Parameters are dotted paths (`odometry.k`); metrics never contain a dot.
+        if name.contains('.') {
+            let values: Vec<Option<ParamValue>> = match col.dtype() {
+                DataType::Float64 => col.f64().map_err(e)?.iter().map(|v| v.map(ParamValue::Float)).collect(),
+                DataType::Int64 => col.i64().map_err(e)?.iter().map(|v| v.map(ParamValue::Int)).collect(),
+                DataType::Boolean => col.bool().map_err(e)?.iter().map(|v| v.map(ParamValue::Bool)).collect(),
+                _ => col.str().map_err(e)?.iter().map(|v| v.map(|s| ParamValue::Str(s.to_string()))).collect(),
+            };
+            for (row, v) in rows.iter_mut().zip(values) {
+                if let Some(v) = v {
+                    row.params.push((name.to_string(), v));
+                }
+            }
+        } else {
+            for (row, v) in rows.iter_mut().zip(col.f64().map_err(e)?.iter()) {
+                if let Some(v) = v {
+                    row.metrics.push((name.to_string(), v));
+                }
+            }
+        }
+    }
+    Ok(rows)
+}
+
+const TRACE_COLUMNS: [&str; 8] = ["truth_x_m", "truth_y_m", "truth_theta_rad", "est_x_m", "est_y_m", "est_theta_rad", "t_s", "step"];
+
+pub(super) fn traces_frame(traces: &[TraceRows]) -> PolarsResult<DataFrame> {
+    let n: usize = traces.iter().map(|t| t.truth.len()).sum();
+    let mut run_id = Vec::with_capacity(n);
+    let mut step = Vec::with_capacity(n);
+    let mut t_s = Vec::with_capacity(n);
+    let mut cols: [Vec<f64>; 6] = Default::default();
+    for t in traces {
+        for (k, (truth, est)) in t.truth.iter().zip(&t.estimate).enumerate() {
+            run_id.push(t.run_id.as_str());
+            step.push(k as u32);
+            t_s.push(k as f64 * t.dt_s);
+            for (c, v) in cols.iter_mut().zip([truth.x, truth.y, truth.theta, est.x, est.y, est.theta]) {
+                c.push(v);
+            }
+        }
+    }
+    let mut columns = vec![Column::new("run_id".into(), run_id), Column::new("step".into(), step), Column::new("t_s".into(), t_s)];
+    for (name, c) in TRACE_COLUMNS.iter().zip(cols) {
+        columns.push(Column::new((*name).into(), c));
+    }
+    DataFrame::new(n, columns)
+}
+
+/// Reads traces, keeping only the runs `keep` accepts. Rows of one run are contiguous and in
+/// step order (as written).
+pub(super) fn read_traces(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<TraceRows>, StoreError> {
+    let df = read(path)?;
+    let e = |x: PolarsError| err(path, x);
+    let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
+    let t = df.column("t_s").map_err(e)?.f64().map_err(e)?;
+    let f = |name: &str| -> Result<Vec<f64>, StoreError> { Ok(df.column(name).map_err(e)?.f64().map_err(e)?.iter().map(|v| v.unwrap_or(f64::NAN)).collect()) };
+    let (tx, ty, tt, ex, ey, et) = (f("truth_x_m")?, f("truth_y_m")?, f("truth_theta_rad")?, f("est_x_m")?, f("est_y_m")?, f("est_theta_rad")?);
+    let mut out: Vec<TraceRows> = Vec::new();
+    for i in 0..df.height() {
+        let id = ids.get(i).unwrap_or_default();
+        if !keep(id) {
+            continue;
+        }
+        if out.last().is_none_or(|r| r.run_id != id) {
+            let dt_s = match (t.get(i), t.get(i + 1), ids.get(i + 1)) {
+                (Some(a), Some(b), Some(next)) if next == id => b - a,
+                _ => 0.0,
+            };
+            out.push(TraceRows { run_id: id.to_string(), dt_s, truth: Vec::new(), estimate: Vec::new() });
+        }
+        let r = out.last_mut().expect("just pushed");
+        r.truth.push(Pose2::new(tx[i], ty[i], tt[i]));
+        r.estimate.push(Pose2::new(ex[i], ey[i], et[i]));
+    }
+    Ok(out)
+}
+
+pub(super) fn timings_frame(timings: &[Timing]) -> PolarsResult<DataFrame> {
+    DataFrame::new(
+        timings.len(),
+        vec![
+            Column::new("run_id".into(), timings.iter().map(|t| t.run_id.as_str()).collect::<Vec<_>>()),
+            Column::new("wall_ms".into(), timings.iter().map(|t| t.wall_ms).collect::<Vec<_>>()),
+            Column::new("cached".into(), timings.iter().map(|t| t.cached).collect::<Vec<_>>()),
+        ],
+    )
+}
+
+pub(super) fn read_timings(path: &Path) -> Result<Vec<Timing>, StoreError> {
+    let df = read(path)?;
+    let e = |x: PolarsError| err(path, x);
+    let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
+    let ms = df.column("wall_ms").map_err(e)?.f64().map_err(e)?;
+    let cached = df.column("cached").map_err(e)?.bool().map_err(e)?;
+    Ok((0..df.height())
+        .map(|i| Timing { run_id: ids.get(i).unwrap_or_default().to_string(), wall_ms: ms.get(i).unwrap_or(f64::NAN), cached: cached.get(i).unwrap_or(false) })
+        .collect())
+}

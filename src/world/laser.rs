@@ -1,0 +1,168 @@
+//! 2-D laser range finder: ray casting from the true pose against the walls, with a field of view,
+//! angular resolution, maximum range, scan rate and range noise (constant σ, or σ proportional to
+//! range given as "σ at 1 m" as in [EP]). Mounted at the robot's centre, facing forward.
+
+use super::RangeNoise;
+use crate::config::{Checks, Violation};
+use crate::geom::{cast_ray, Pose2, Segment};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+/// `[base.laser]`. Defaults fill [FT] §10's gaps for a SICK LMS-200 as simulated by Stage.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LaserParams {
+    /// Field of view [deg], centred on the heading (LMS-200: 180°).
+    pub fov_deg: f64,
+    /// Angle between beams [deg] (LMS-200: 0.25/0.5/1°). [FT]'s Pmin depends on it.
+    pub resolution_deg: f64,
+    /// Maximum range [m] ([FT]: 8 m implied); beams with no wall within it return nothing.
+    pub max_range_m: f64,
+    /// Scans per second [Hz]; 1/(rate·Δt) must be a whole number of odometry steps.
+    pub rate_hz: f64,
+    /// Range noise model: `constant` (σ) or `proportional` (σ·r).
+    pub range_noise: RangeNoise,
+    /// σ [m] for `constant`; σ at 1 m [m/m] for `proportional`.
+    pub range_sigma_m: f64,
+}
+
+impl Default for LaserParams {
+    fn default() -> Self {
+        Self { fov_deg: 180.0, resolution_deg: 1.0, max_range_m: 8.0, rate_hz: 5.0, range_noise: RangeNoise::Constant, range_sigma_m: 0.01 }
+    }
+}
+
+/// The beams of one scan: bearing of beam i is `angle_min_rad + i·angle_increment_rad` (robot frame).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LaserGeometry {
+    pub angle_min_rad: f64,
+    pub angle_increment_rad: f64,
+    pub beams: usize,
+    pub max_range_m: f64,
+}
+
+impl LaserGeometry {
+    pub fn bearing(&self, beam: usize) -> f64 {
+        self.angle_min_rad + beam as f64 * self.angle_increment_rad
+    }
+}
+
+/// One scan taken at the pose of odometry step `step`; `None` = no return within range.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scan {
+    pub step: usize,
+    pub ranges_m: Vec<Option<f64>>,
+}
+
+/// Relative tolerance for "a whole number" in FOV/resolution and scan-period checks.
+const WHOLE_NUMBER_TOL: f64 = 1e-9;
+
+impl LaserParams {
+    pub fn validate(&self) -> Vec<Violation> {
+        let mut c = Checks::new();
+        c.in_range("fov_deg", self.fov_deg, f64::MIN_POSITIVE, 360.0);
+        c.positive("resolution_deg", self.resolution_deg);
+        c.positive("max_range_m", self.max_range_m);
+        c.positive("rate_hz", self.rate_hz);
+        c.non_negative("range_sigma_m", self.range_sigma_m);
+        if self.fov_deg > 0.0 && self.resolution_deg > 0.0 {
+            let n = self.fov_deg / self.resolution_deg;
+            c.require((n - n.round()).abs() < WHOLE_NUMBER_TOL * n.max(1.0), "resolution_deg", || {
+                format!("must divide fov_deg = {} into a whole number of intervals, got {}", self.fov_deg, self.resolution_deg)
+            });
+        }
+        c.finish()
+    }
+
+    pub fn geometry(&self) -> LaserGeometry {
+        let intervals = (self.fov_deg / self.resolution_deg).round() as usize;
+        // A full circle would repeat its first beam at +180°.
+        let beams = if self.fov_deg >= 360.0 { intervals } else { intervals + 1 };
+        LaserGeometry {
+            angle_min_rad: -self.fov_deg.to_radians() / 2.0,
+            angle_increment_rad: self.resolution_deg.to_radians(),
+            beams,
+            max_range_m: self.max_range_m,
+        }
+    }
+
+    /// One scan from `pose`. A standard normal is drawn for every beam, hit or not, so the
+    /// noise of beam i is the same draw at every sweep point.
+    pub fn scan(&self, geometry: &LaserGeometry, walls: &[Segment], pose: Pose2, step: usize, rng: &mut ChaCha8Rng) -> Scan {
+        let ranges_m = (0..geometry.beams)
+            .map(|i| {
+                let z: f64 = rng.sample(StandardNormal);
+                cast_ray(walls, pose.position(), pose.theta + geometry.bearing(i), geometry.max_range_m)
+                    .map(|r| (r + self.range_noise.sigma(self.range_sigma_m, r) * z).max(0.0))
+            })
+            .collect();
+        Scan { step, ranges_m }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::Point2;
+    use rand::SeedableRng;
+
+    fn room() -> Vec<Segment> {
+        let p = |x, y| Point2::new(x, y);
+        vec![
+            Segment::new(p(-1.0, -1.0), p(19.0, -1.0)),
+            Segment::new(p(19.0, -1.0), p(19.0, 9.0)),
+            Segment::new(p(19.0, 9.0), p(-1.0, 9.0)),
+            Segment::new(p(-1.0, 9.0), p(-1.0, -1.0)),
+        ]
+    }
+
+    #[test]
+    fn noise_free_ranges_are_exact() {
+        let params = LaserParams { range_sigma_m: 0.0, max_range_m: 30.0, ..LaserParams::default() };
+        let g = params.geometry();
+        assert_eq!(g.beams, 181);
+        let scan = params.scan(&g, &room(), Pose2::new(0.0, 0.0, 0.0), 0, &mut ChaCha8Rng::seed_from_u64(1));
+        // beam 0 looks right (−90°): wall y = −1 at 1 m; beam 90 ahead: x = 19 at 19 m; beam 180 left: 9 m
+        assert!((scan.ranges_m[0].unwrap() - 1.0).abs() < 1e-12);
+        assert!((scan.ranges_m[90].unwrap() - 19.0).abs() < 1e-12);
+        assert!((scan.ranges_m[180].unwrap() - 9.0).abs() < 1e-12);
+        // beam 45 (−45°): y = −1 reached at x = 1, range √2
+        assert!((scan.ranges_m[45].unwrap() - 2f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn max_range_gives_no_return() {
+        let params = LaserParams { range_sigma_m: 0.0, ..LaserParams::default() };
+        let g = params.geometry();
+        let scan = params.scan(&g, &room(), Pose2::new(0.0, 0.0, 0.0), 0, &mut ChaCha8Rng::seed_from_u64(1));
+        assert_eq!(scan.ranges_m[90], None); // 19 m > 8 m
+    }
+
+    #[test]
+    fn proportional_noise_scales_with_range() {
+        // Beam 90 hits at 19 m and beam 0 at 1 m; σ at 1 m = 0.01 ⇒ σ(19 m) = 0.19 m.
+        let params = LaserParams { max_range_m: 30.0, range_noise: RangeNoise::Proportional, range_sigma_m: 0.01, ..LaserParams::default() };
+        let g = params.geometry();
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let n = 4000;
+        let (mut near, mut far) = (0.0, 0.0);
+        for _ in 0..n {
+            let s = params.scan(&g, &room(), Pose2::IDENTITY, 0, &mut rng);
+            near += (s.ranges_m[0].unwrap() - 1.0).powi(2);
+            far += (s.ranges_m[90].unwrap() - 19.0).powi(2);
+        }
+        let (sn, sf) = ((near / n as f64).sqrt(), (far / n as f64).sqrt());
+        assert!((sn - 0.01).abs() < 0.0008, "{sn}");
+        assert!((sf - 0.19).abs() < 0.015, "{sf}");
+    }
+
+    #[test]
+    fn resolution_must_divide_fov() {
+        let bad = LaserParams { resolution_deg: 0.7, ..LaserParams::default() };
+        assert_eq!(bad.validate()[0].key, "resolution_deg");
+        let full = LaserParams { fov_deg: 360.0, ..LaserParams::default() };
+        assert_eq!(full.geometry().beams, 360);
+    }
+}

@@ -1,0 +1,261 @@
+//! Segment maps: TOML text → [`Map`] (walls, start pose, waypoint trajectory, point landmarks) and
+//! the ground-truth landmark list derived from the wall geometry — unique infinite lines (ρ, θ) and
+//! corners (x, y), as [FT] §3.2 lists them. Pure: the caller reads the file.
+
+use crate::geom::{Line, Point2, Pose2, Segment};
+use crate::source::{Locator, SourceError};
+use serde::{Deserialize, Serialize};
+
+/// Two points closer than this [m] are the same vertex; two lines whose ρ differ by less are
+/// the same line. Map coordinates are exact decimals, so any tolerance far below 1 mm works.
+const GEOMETRY_EPS_M: f64 = 1e-9;
+/// Two directions whose angle differs by less than this [rad] are parallel (no corner).
+const PARALLEL_EPS_RAD: f64 = 1e-9;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MapFile {
+    name: String,
+    title: String,
+    #[serde(default)]
+    description: String,
+    #[serde(default)]
+    source: String,
+    /// Geometric choices the source leaves open, stated for the report.
+    #[serde(default)]
+    notes: Vec<String>,
+    start: StartPose,
+    #[serde(default)]
+    walls: Vec<Wall>,
+    trajectory: TrajectorySpec,
+    /// Point landmarks [[x, y], …] [m] for range-bearing worlds.
+    #[serde(default)]
+    landmarks: Vec<[f64; 2]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StartPose {
+    x_m: f64,
+    y_m: f64,
+    theta_deg: f64,
+}
+
+/// A wall as a polyline through `points` [[x, y], …] [m]; close a room by repeating the first point.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Wall {
+    points: Vec<[f64; 2]>,
+}
+
+/// The scripted path: waypoints visited in order, the whole list driven `laps` times.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrajectorySpec {
+    /// Speed limit [m/s] ([FT] §3.2: ≤ 0.5 m/s).
+    pub max_speed_mps: f64,
+    /// Turn-rate limit [deg/s].
+    #[serde(default = "default_turn_rate")]
+    pub max_turn_rate_dps: f64,
+    /// How many times the waypoint list is driven ([FT]: loops driven twice).
+    pub laps: u32,
+    /// A waypoint counts as reached within this distance [m].
+    #[serde(default = "default_tolerance")]
+    pub waypoint_tolerance_m: f64,
+    /// Waypoints [[x, y], …] [m] of one lap.
+    pub waypoints: Vec<[f64; 2]>,
+}
+
+fn default_turn_rate() -> f64 {
+    45.0
+}
+fn default_tolerance() -> f64 {
+    0.2
+}
+
+/// A validated map with its derived ground-truth landmarks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Map {
+    pub name: String,
+    pub title: String,
+    pub description: String,
+    pub source: String,
+    pub notes: Vec<String>,
+    pub start: Pose2,
+    pub walls: Vec<Segment>,
+    pub trajectory: TrajectorySpec,
+    pub point_landmarks: Vec<Point2>,
+    /// Unique infinite lines through the walls, in order of first appearance.
+    pub lines: Vec<Line>,
+    /// Vertices where two non-parallel walls meet, in order of first appearance.
+    pub corners: Vec<Point2>,
+}
+
+impl Map {
+    /// Parses and validates a map file's text.
+    pub fn from_toml(text: &str) -> Result<Map, Vec<SourceError>> {
+        let loc = Locator::new(text);
+        let file: MapFile = toml::from_str(text).map_err(|e| vec![SourceError::from_toml(&loc, &e)])?;
+        let mut errors = Vec::new();
+        let mut err = |key: &str, msg: String| errors.push(SourceError::at_key(&loc, key, msg));
+
+        let mut walls = Vec::new();
+        for (i, wall) in file.walls.iter().enumerate() {
+            if wall.points.len() < 2 {
+                err(&format!("walls[{i}].points"), "a wall needs at least two points".into());
+            }
+            for (j, pair) in wall.points.windows(2).enumerate() {
+                let s = Segment::new(Point2::new(pair[0][0], pair[0][1]), Point2::new(pair[1][0], pair[1][1]));
+                if !(s.length() > GEOMETRY_EPS_M) {
+                    err(&format!("walls[{i}].points[{}]", j + 1), "repeats the previous point (zero-length wall)".into());
+                } else {
+                    walls.push(s);
+                }
+            }
+        }
+        let t = &file.trajectory;
+        if !(t.max_speed_mps > 0.0 && t.max_speed_mps.is_finite()) {
+            err("trajectory.max_speed_mps", format!("must be > 0, got {}", t.max_speed_mps));
+        }
+        if !(t.max_turn_rate_dps > 0.0 && t.max_turn_rate_dps.is_finite()) {
+            err("trajectory.max_turn_rate_dps", format!("must be > 0, got {}", t.max_turn_rate_dps));
+        }
+        if t.laps == 0 {
+            err("trajectory.laps", "must be ≥ 1".into());
+        }
+        if !(t.waypoint_tolerance_m > 0.0 && t.waypoint_tolerance_m.is_finite()) {
+            err("trajectory.waypoint_tolerance_m", format!("must be > 0, got {}", t.waypoint_tolerance_m));
+        }
+        if t.waypoints.is_empty() {
+            err("trajectory.waypoints", "needs at least one waypoint".into());
+        }
+        let all_numbers = file.walls.iter().flat_map(|w| w.points.iter()).chain(&t.waypoints).chain(&file.landmarks);
+        if all_numbers.flatten().any(|v| !v.is_finite()) || ![file.start.x_m, file.start.y_m, file.start.theta_deg].iter().all(|v| v.is_finite()) {
+            err("", "coordinates must be finite numbers".into());
+        }
+        if !errors.is_empty() {
+            return Err(errors);
+        }
+        let (lines, corners) = derive_landmarks(&walls);
+        Ok(Map {
+            name: file.name,
+            title: file.title,
+            description: file.description,
+            source: file.source,
+            notes: file.notes,
+            start: Pose2::new(file.start.x_m, file.start.y_m, file.start.theta_deg.to_radians()),
+            walls,
+            trajectory: file.trajectory,
+            point_landmarks: file.landmarks.iter().map(|p| Point2::new(p[0], p[1])).collect(),
+            lines,
+            corners,
+        })
+    }
+
+    /// Number of ground-truth landmarks of the laser world (lines + corners).
+    pub fn landmark_count(&self) -> usize {
+        self.lines.len() + self.corners.len()
+    }
+}
+
+/// Ground-truth landmarks from wall geometry ([FT] §3.2):
+/// - one infinite line per set of collinear walls (the reference lists each line once, e.g.
+///   Complex's y = 9 and x = 36 bound two walls each);
+/// - a corner wherever two non-parallel walls touch (shared end point, or an end point on the
+///   other wall — a T-junction). Free wall ends are not corners (Lineamedia's interior wall).
+pub fn derive_landmarks(walls: &[Segment]) -> (Vec<Line>, Vec<Point2>) {
+    let mut lines: Vec<Line> = Vec::new();
+    for w in walls {
+        let l = w.line();
+        if !lines.iter().any(|m| m.coincides(&l, GEOMETRY_EPS_M, PARALLEL_EPS_RAD)) {
+            lines.push(l);
+        }
+    }
+    let mut corners: Vec<Point2> = Vec::new();
+    for (i, a) in walls.iter().enumerate() {
+        for b in &walls[i + 1..] {
+            let (ax, ay) = a.direction();
+            let (bx, by) = b.direction();
+            if (ax * by - ay * bx).abs() < PARALLEL_EPS_RAD.sin() {
+                continue;
+            }
+            let touching = [a.a, a.b]
+                .into_iter()
+                .find(|&p| b.distance_to_point(p) < GEOMETRY_EPS_M)
+                .or_else(|| [b.a, b.b].into_iter().find(|&p| a.distance_to_point(p) < GEOMETRY_EPS_M));
+            if let Some(p) = touching
+                && !corners.iter().any(|c| c.distance(p) < GEOMETRY_EPS_M)
+            {
+                corners.push(p);
+            }
+        }
+    }
+    (lines, corners)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BOX: &str = r#"
+name = "box"
+title = "Box"
+start = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }
+[[walls]]
+points = [[-1, -1], [19, -1], [19, 9], [-1, 9], [-1, -1]]
+[[walls]]
+points = [[2, 4], [16, 4]]
+[trajectory]
+max_speed_mps = 0.5
+laps = 2
+waypoints = [[18, 0], [0, 0]]
+"#;
+
+    #[test]
+    fn free_standing_wall_adds_a_line_but_no_corner() {
+        let m = Map::from_toml(BOX).unwrap();
+        assert_eq!(m.lines.len(), 5);
+        assert_eq!(m.corners.len(), 4);
+        assert_eq!(m.walls.len(), 5);
+    }
+
+    #[test]
+    fn t_junction_is_a_corner() {
+        let walls = [
+            Segment::new(Point2::new(0.0, 0.0), Point2::new(10.0, 0.0)),
+            Segment::new(Point2::new(5.0, 0.0), Point2::new(5.0, 3.0)),
+        ];
+        let (lines, corners) = derive_landmarks(&walls);
+        assert_eq!(lines.len(), 2);
+        assert_eq!(corners, vec![Point2::new(5.0, 0.0)]);
+    }
+
+    #[test]
+    fn collinear_walls_share_one_line_and_make_no_corner() {
+        let walls = [
+            Segment::new(Point2::new(0.0, 9.0), Point2::new(5.0, 9.0)),
+            Segment::new(Point2::new(5.0, 9.0), Point2::new(8.0, 9.0)),
+            Segment::new(Point2::new(12.0, 9.0), Point2::new(10.0, 9.0)),
+        ];
+        let (lines, corners) = derive_landmarks(&walls);
+        assert_eq!(lines.len(), 1);
+        assert!(corners.is_empty());
+    }
+
+    #[test]
+    fn errors_name_line_and_key() {
+        let bad = BOX.replace("laps = 2", "laps = 0").replace("max_speed_mps = 0.5", "max_speed_mps = -1.0");
+        let errs = Map::from_toml(&bad).unwrap_err();
+        let keys: Vec<_> = errs.iter().map(|e| (e.key.as_str(), e.line)).collect();
+        assert_eq!(keys, vec![("trajectory.max_speed_mps", 10), ("trajectory.laps", 11)]);
+    }
+
+    #[test]
+    fn unknown_key_is_rejected_with_its_line() {
+        let bad = BOX.replace("laps = 2", "laps = 2\nspeed = 3");
+        let errs = Map::from_toml(&bad).unwrap_err();
+        assert_eq!(errs.len(), 1);
+        assert!(errs[0].message.contains("unknown field `speed`"), "{}", errs[0].message);
+        assert_eq!(errs[0].line, 12);
+    }
+}
