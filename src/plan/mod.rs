@@ -254,7 +254,7 @@ fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)]) -> 
         let names: Vec<&str> = assignments.iter().map(|(p, ..)| p.as_str()).collect();
         vec![spec.error_at(key, format!("with {} set here, [base] does not deserialise: {}", names.join(", "), e.message().trim()))]
     })?;
-    let violations = params.validate();
+    let violations = params.validate(crate::slam::Sensors::union(&spec.spec.algorithms));
     if violations.is_empty() {
         return Ok(params);
     }

@@ -16,7 +16,57 @@ fn rgb(index: usize) -> RGBColor {
 
 const FONT: &str = "sans-serif";
 const WIDTH: u32 = 720;
-const HEIGHT: u32 = 400;
+const HEIGHT: u32 = 380;
+/// Left edge of the plotting area [px] (margin + y label area), where legends start.
+const LEFT_PX: u32 = 78;
+
+/// Gray of the ground-truth path (walls are black).
+const TRUTH: RGBColor = RGBColor(110, 110, 110);
+const CORNER: RGBColor = RGBColor(200, 0, 0);
+
+/// One legend entry: a line or a dot in a colour, and its label.
+struct LegendEntry<'s> {
+    label: &'s str,
+    color: RGBColor,
+    dot: bool,
+}
+
+/// Legend layout in rows above the plot: (entry index, x, row) and the strip's height [px].
+fn legend_layout(entries: &[LegendEntry<'_>], width: u32, left: u32) -> (Vec<(usize, u32, u32)>, u32) {
+    const ROW_PX: u32 = 18;
+    const SWATCH_PX: u32 = 26;
+    const GAP_PX: u32 = 18;
+    const CHAR_PX: u32 = 7; // ≈ width of a 12 px sans-serif character
+    let mut placed = Vec::new();
+    let (mut x, mut row) = (left, 0);
+    for (i, e) in entries.iter().enumerate() {
+        let w = SWATCH_PX + CHAR_PX * e.label.chars().count() as u32 + GAP_PX;
+        if x + w > width && x > left {
+            row += 1;
+            x = left;
+        }
+        placed.push((i, x, row));
+        x += w;
+    }
+    let rows = if entries.is_empty() { 0 } else { row + 1 };
+    (placed, rows * ROW_PX + 10)
+}
+
+fn draw_legend(area: &DrawingArea<SVGBackend<'_>, Shift>, entries: &[LegendEntry<'_>], left: u32) -> Result<(), String> {
+    let (placed, _) = legend_layout(entries, area.dim_in_pixel().0, left);
+    let style = TextStyle::from((FONT, 12).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
+    for (i, x, row) in placed {
+        let e = &entries[i];
+        let (x, y) = (x as i32, 12 + 18 * row as i32);
+        if e.dot {
+            area.draw(&Circle::new((x + 9, y), 4, e.color.filled())).map_err(|e| e.to_string())?;
+        } else {
+            area.draw(&PathElement::new(vec![(x, y), (x + 18, y)], e.color.stroke_width(2))).map_err(|e| e.to_string())?;
+        }
+        area.draw(&Text::new(e.label, (x + 24, y), style.clone())).map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
 
 /// How x values are placed.
 #[derive(Debug, Clone, PartialEq)]
@@ -99,21 +149,25 @@ fn padded(v: &[f64], frac: f64, from_zero: bool) -> (f64, f64) {
 
 /// Renders a line figure to an SVG document string.
 pub fn line_svg(fig: &LineFigure) -> String {
+    let entries: Vec<LegendEntry<'_>> = fig.series.iter().map(|s| LegendEntry { label: &s.label, color: rgb(s.color), dot: false }).collect();
+    let (_, legend_px) = legend_layout(&entries, WIDTH, LEFT_PX);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px)).into_drawing_area();
         // Drawing into a String cannot fail for IO reasons; errors here would be layout bugs.
-        draw_line(&root, fig).expect("drawing an SVG into memory");
+        root.fill(&WHITE).expect("drawing an SVG into memory");
+        let (top, plot) = root.split_vertically(legend_px);
+        draw_legend(&top, &entries, LEFT_PX).expect("drawing an SVG into memory");
+        draw_line(&plot, fig).expect("drawing an SVG into memory");
         root.present().expect("finishing an SVG in memory");
     }
     svg
 }
 
 fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Result<(), String> {
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
     let ((x0, x1), (y0, y1)) = fig.ranges();
     let manual_ticks = !matches!(fig.x_axis, XAxis::Linear);
-    let mut chart = ChartBuilder::on(root).margin(14).x_label_area_size(46).y_label_area_size(64).build_cartesian_2d(x0..x1, y0..y1).map_err(|e| e.to_string())?;
+    let mut chart = ChartBuilder::on(root).margin(14).x_label_area_size(46).y_label_area_size(LEFT_PX - 14).build_cartesian_2d(x0..x1, y0..y1).map_err(|e| e.to_string())?;
     let mut mesh = chart.configure_mesh();
     mesh.x_desc(fig.x_label.as_str()).y_desc(fig.y_label.as_str()).label_style((FONT, 13)).axis_desc_style((FONT, 14)).light_line_style(WHITE.mix(0.0));
     if manual_ticks {
@@ -131,10 +185,7 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
             chart.draw_series(std::iter::once(Polygon::new(poly, color.mix(0.18).filled()))).map_err(|e| e.to_string())?;
         }
         let line: Vec<(f64, f64)> = pts.iter().map(|p| (fig.position(p.x), p.mean)).collect();
-        chart
-            .draw_series(plotters::series::LineSeries::new(line.clone(), color.stroke_width(2))).map_err(|e| e.to_string())?
-            .label(s.label.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+        chart.draw_series(plotters::series::LineSeries::new(line.clone(), color.stroke_width(2))).map_err(|e| e.to_string())?;
         chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(|e| e.to_string())?;
     }
     if manual_ticks {
@@ -145,13 +196,6 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
             root.draw(&Text::new(label.as_str(), (px, py + 6), style.clone())).map_err(|e| e.to_string())?;
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .label_font((FONT, 12))
-        .draw().map_err(|e| e.to_string())?;
     Ok(())
 }
 
@@ -207,10 +251,18 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
     let plot_h = (plot_w * (y1 - y0) / (x1 - x0)).clamp(160.0, 640.0);
     let (plot_w, height) = (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
     let width = (plot_w as u32 + label_y + 2 * margin).min(WIDTH);
+    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false }).collect();
+    if !fig.corners.is_empty() {
+        entries.push(LegendEntry { label: "true corners", color: CORNER, dot: true });
+    }
+    let (_, legend_px) = legend_layout(&entries, width, label_y + margin);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (width, height)).into_drawing_area();
-        draw_trajectory(&root, fig, ((x0, x1), (y0, y1)), (label_x, label_y, margin)).expect("drawing an SVG into memory");
+        let root = SVGBackend::with_string(&mut svg, (width, height + legend_px)).into_drawing_area();
+        root.fill(&WHITE).expect("drawing an SVG into memory");
+        let (top, plot) = root.split_vertically(legend_px);
+        draw_legend(&top, &entries, label_y + margin).expect("drawing an SVG into memory");
+        draw_trajectory(&plot, fig, ((x0, x1), (y0, y1)), (label_x, label_y, margin)).expect("drawing an SVG into memory");
         root.present().expect("finishing an SVG in memory");
     }
     svg
@@ -219,30 +271,19 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
 type Bounds = ((f64, f64), (f64, f64));
 
 fn draw_trajectory(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &TrajectoryFigure, ((x0, x1), (y0, y1)): Bounds, (label_x, label_y, margin): (u32, u32, u32)) -> Result<(), String> {
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let mut chart = ChartBuilder::on(root).margin(margin).x_label_area_size(label_x).y_label_area_size(label_y).build_cartesian_2d(x0..x1, y0..y1).map_err(|e| e.to_string())?;
-    chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FONT, 12)).light_line_style(WHITE.mix(0.0)).bold_line_style(BLACK.mix(0.08)).draw().map_err(|e| e.to_string())?;
-    chart.draw_series(fig.walls.iter().map(|(a, b)| PathElement::new(vec![*a, *b], BLACK.stroke_width(3)))).map_err(|e| e.to_string())?;
+    let e = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
+    let mut chart = ChartBuilder::on(root).margin(margin).x_label_area_size(label_x).y_label_area_size(label_y).build_cartesian_2d(x0..x1, y0..y1).map_err(e)?;
+    chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FONT, 12)).light_line_style(WHITE.mix(0.0)).bold_line_style(BLACK.mix(0.08)).draw().map_err(e)?;
+    chart.draw_series(fig.walls.iter().map(|(a, b)| PathElement::new(vec![*a, *b], BLACK.stroke_width(3)))).map_err(e)?;
     for p in &fig.paths {
-        let color: RGBColor = p.color.map(rgb).unwrap_or(BLACK);
-        let width = if p.color.is_none() { 1 } else { 2 };
-        chart
-            .draw_series(std::iter::once(PathElement::new(decimate(&p.points, SVG_PATH_POINTS), color.stroke_width(width)))).map_err(|e| e.to_string())?
-            .label(p.label.as_str())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2)));
+        let (color, width) = match p.color {
+            Some(c) => (rgb(c), 2),
+            None => (TRUTH, 1),
+        };
+        chart.draw_series(std::iter::once(PathElement::new(decimate(&p.points, SVG_PATH_POINTS), color.stroke_width(width)))).map_err(e)?;
     }
-    chart
-        .draw_series(fig.corners.iter().map(|c| Circle::new(*c, 4, RGBColor(200, 0, 0).filled()))).map_err(|e| e.to_string())?
-        .label("true corners")
-        .legend(|(x, y)| Circle::new((x + 9, y), 4, RGBColor(200, 0, 0).filled()));
-    chart.draw_series(std::iter::once(TriangleMarker::new(fig.start, 7, BLACK.filled()))).map_err(|e| e.to_string())?;
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .label_font((FONT, 12))
-        .draw().map_err(|e| e.to_string())?;
+    chart.draw_series(fig.corners.iter().map(|c| Circle::new(*c, 4, CORNER.filled()))).map_err(e)?;
+    chart.draw_series(std::iter::once(TriangleMarker::new(fig.start, 7, BLACK.filled()))).map_err(e)?;
     Ok(())
 }
 

@@ -37,11 +37,14 @@ fn environment() -> Environment<'static> {
         }
     });
     env.set_formatter(|out, state, value| {
-        if state.auto_escape() == TEX && !value.is_safe() {
-            let text = value.as_str().map(str::to_string).unwrap_or_else(|| value.to_string());
-            out.write_str(&latex::escape(&text)).map_err(minijinja::Error::from)
-        } else {
-            minijinja::escape_formatter(out, state, value)
+        let text = || value.as_str().map(str::to_string).unwrap_or_else(|| value.to_string());
+        match state.auto_escape() {
+            _ if value.is_safe() => minijinja::escape_formatter(out, state, value),
+            TEX => out.write_str(&latex::escape(&text())).map_err(minijinja::Error::from),
+            // The five characters that matter in text and quoted attributes; `/` stays readable
+            // (minijinja's default escapes it, which clutters report diffs).
+            AutoEscape::Html => out.write_str(&html_escape(&text())).map_err(minijinja::Error::from),
+            _ => minijinja::escape_formatter(out, state, value),
         }
     });
     for (name, source) in [
@@ -52,6 +55,21 @@ fn environment() -> Environment<'static> {
         env.add_template(name, source).expect("bundled templates parse");
     }
     env
+}
+
+fn html_escape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 fn render(env: &Environment<'_>, template: &str, ctx: minijinja::Value) -> Result<String, ReportError> {

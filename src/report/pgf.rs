@@ -89,7 +89,7 @@ pub fn trajectory_pgf(fig: &TrajectoryFigure) -> String {
     for p in &fig.paths {
         let style = match p.color {
             Some(c) => format!("color=slamlab{}, thick", c % PALETTE.len()),
-            None => "black, thin".to_string(),
+            None => "black!55, thin".to_string(),
         };
         let coords: Vec<String> = decimate(&p.points, PGF_PATH_POINTS).iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
         let _ = writeln!(s, "\\addplot[{style}] coordinates {{{}}};", coords.join(" "));

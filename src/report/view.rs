@@ -123,8 +123,13 @@ pub fn build(data: &StudyData, traces: &dyn Fn(&[String]) -> Vec<TraceRows>) -> 
     let maps: Vec<(String, Option<Map>)> =
         spec.maps.iter().map(|name| (name.clone(), data.maps.iter().find(|(n, _)| n == name).and_then(|(_, text)| Map::from_toml(text).ok()))).collect();
     let metrics: Vec<&'static MetricDef> = spec.report.metrics.iter().filter_map(|m| metric_def(m)).collect();
+    // Only the sections the study's algorithms read (what entered the run hashes).
+    let mut read = toml::Table::new();
+    for a in &spec.algorithms {
+        read.extend(spec.base.sections_read_by(*a));
+    }
     let mut base = Vec::new();
-    flatten("", &toml::Value::Table(spec.base.to_table()), &mut base);
+    flatten("", &toml::Value::Table(read), &mut base);
     let study = Study { data, maps, metrics, base };
 
     let groups: Vec<GroupView> = data.resolved.groups.iter().enumerate().map(|(gi, _)| group_view(&study, gi)).collect();

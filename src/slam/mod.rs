@@ -23,6 +23,13 @@ pub struct Sensors {
     pub landmarks: bool,
 }
 
+impl Sensors {
+    /// The sensors any of `algorithms` reads.
+    pub fn union(algorithms: &[AlgorithmKind]) -> Sensors {
+        algorithms.iter().fold(Sensors::default(), |a, k| Sensors { laser: a.laser || k.sensors().laser, landmarks: a.landmarks || k.sensors().landmarks })
+    }
+}
+
 impl AlgorithmKind {
     pub const ALL: &'static [AlgorithmKind] = &[AlgorithmKind::Odometry];
 

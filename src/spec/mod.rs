@@ -205,7 +205,7 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
             err(&format!("algorithms[{i}]"), format!("algorithm `{}` is listed twice", a.name()));
         }
     }
-    for v in spec.base.validate() {
+    for v in spec.base.validate(crate::slam::Sensors::union(&spec.algorithms)) {
         err(&format!("base.{}", v.key), v.message);
     }
     for (i, m) in spec.report.metrics.iter().enumerate() {

@@ -2,7 +2,7 @@
 //! config struct; this type only composes them and checks cross-section constraints.
 
 use crate::config::{Checks, Violation};
-use crate::slam::AlgorithmKind;
+use crate::slam::{AlgorithmKind, Sensors};
 use crate::world::laser::LaserParams;
 use crate::world::odometry::OdometryNoise;
 use crate::world::point_sensor::PointSensorParams;
@@ -24,14 +24,17 @@ pub struct Params {
 }
 
 impl Params {
-    pub fn validate(&self) -> Vec<Violation> {
+    /// Range checks of every section, and cross-section checks for the sensors in use (a laser
+    /// rate that does not fit the clock does not matter to a study that simulates no laser).
+    pub fn validate(&self, sensors: Sensors) -> Vec<Violation> {
         let mut c = Checks::new();
         c.nested("sim", self.sim.validate());
         c.nested("odometry", self.odometry.validate());
         c.nested("laser", self.laser.validate());
         c.nested("landmark_sensor", self.landmark_sensor.validate());
-        for (section, rate) in [("laser", self.laser.rate_hz), ("landmark_sensor", self.landmark_sensor.rate_hz)] {
-            if rate > 0.0 && self.sim.dt_s > 0.0 && sensor_period_steps(rate, self.sim.dt_s).is_none() {
+        let in_use = [("laser", self.laser.rate_hz, sensors.laser), ("landmark_sensor", self.landmark_sensor.rate_hz, sensors.landmarks)];
+        for (section, rate, used) in in_use {
+            if used && rate > 0.0 && self.sim.dt_s > 0.0 && sensor_period_steps(rate, self.sim.dt_s).is_none() {
                 c.fail(&format!("{section}.rate_hz"), format!("1/(rate_hz·sim.dt_s) must be a whole number of odometry steps, got {rate} Hz at Δt = {} s", self.sim.dt_s));
             }
         }
@@ -79,7 +82,7 @@ mod tests {
 
     #[test]
     fn defaults_are_valid() {
-        assert_eq!(Params::default().validate(), vec![]);
+        assert_eq!(Params::default().validate(Sensors { laser: true, landmarks: true }), vec![]);
     }
 
     #[test]
@@ -94,9 +97,11 @@ mod tests {
     fn sensor_rate_must_fit_the_clock() {
         let mut p = Params::default();
         p.laser.rate_hz = 3.0;
-        let v = p.validate();
+        let v = p.validate(Sensors { laser: true, landmarks: false });
         assert_eq!(v.len(), 1);
         assert_eq!(v[0].key, "laser.rate_hz");
+        // a study without a laser does not care
+        assert_eq!(p.validate(Sensors::default()), vec![]);
     }
 
     #[test]

@@ -91,6 +91,9 @@ impl LaserParams {
     /// One scan from `pose`. A standard normal is drawn for every beam, hit or not, so the
     /// noise of beam i is the same draw at every sweep point.
     pub fn scan(&self, geometry: &LaserGeometry, walls: &[Segment], pose: Pose2, step: usize, rng: &mut ChaCha8Rng) -> Scan {
+        // Walls entirely out of range cannot be hit: cast only against the others.
+        let near: Vec<Segment> = walls.iter().filter(|w| w.distance_to_point(pose.position()) <= geometry.max_range_m).copied().collect();
+        let walls = &near;
         let ranges_m = (0..geometry.beams)
             .map(|i| {
                 let z: f64 = rng.sample(StandardNormal);

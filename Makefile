@@ -1,0 +1,49 @@
+# slamlab — the two commands: `make report` and `make test`.
+# Every target uses the release profile, so one (slow, ~10–15 min) polars build serves them all.
+
+CARGO ?= cargo
+BIN   := target/release/slamlab
+SPECS := $(sort $(wildcard experiments/*.toml))
+
+.PHONY: all build report run test bench validate clean-results
+
+all: report
+
+build:
+	$(CARGO) build --release --locked
+
+## Run every study in experiments/ (cached, parallel, deterministic) and render reports/.
+report: build
+	$(BIN) run $(SPECS)
+	$(BIN) report
+
+## Only (re)run the studies, without rendering.
+run: build
+	$(BIN) run $(SPECS)
+
+validate: build
+	$(BIN) validate $(SPECS)
+
+## Unit and integration tests.
+test:
+	$(CARGO) test --release --locked
+
+## Benchmarks: criterion micro-benchmarks, then the whole pipeline from scratch.
+bench: build
+	$(CARGO) bench --locked --bench world
+	@tmp=$$(mktemp -d); \
+	start=$$(date +%s.%N); \
+	$(BIN) run --quiet --results $$tmp/results --cache $$tmp/cache $(SPECS); \
+	mid=$$(date +%s.%N); \
+	$(BIN) run --quiet --results $$tmp/results --cache $$tmp/cache $(SPECS); \
+	cached=$$(date +%s.%N); \
+	$(BIN) report --results $$tmp/results --out $$tmp/reports 2>/dev/null; \
+	end=$$(date +%s.%N); \
+	runs=$$(for s in $(SPECS); do $(BIN) plan $$s --results $$tmp/results --cache $$tmp/cache | tail -1; done | awk '{n+=$$NF} END {print n}'); \
+	awk -v a=$$start -v b=$$mid -v c=$$cached -v d=$$end -v n=$$runs 'BEGIN { \
+	  printf "pipeline: %d runs of %d studies from scratch in %.2f s; all cached in %.2f s; reports rendered in %.2f s\n", n, $(words $(SPECS)), b-a, c-b, d-c }'; \
+	rm -rf $$tmp
+
+## Remove generated results and the run cache (reports/ is committed and stays).
+clean-results:
+	rm -rf data/results data/cache

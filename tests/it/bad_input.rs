@@ -1,0 +1,78 @@
+//! Contract: bad input is rejected with file, line and key, a non-zero exit, and nothing written.
+
+use crate::util::{s, slamlab};
+
+const GOOD: &str = r#"id = "bad"
+title = "Bad input"
+seed = 1
+replicates = 1
+maps = ["recinto_basico"]
+algorithms = ["odometry"]
+
+[base.odometry]
+model = "pose"
+var_x_m2 = 0.001
+var_y_m2 = 0.001
+var_theta_rad2 = 0.0001
+"#;
+
+/// Writes `text` as a spec, runs it, and returns stderr after checking the exit status and that
+/// no results, cache or report directory appeared.
+fn rejected(text: &str) -> String {
+    let work = tempfile::tempdir().unwrap();
+    let spec = work.path().join("bad.toml");
+    std::fs::write(&spec, text).unwrap();
+    let (results, cache) = (work.path().join("results"), work.path().join("cache"));
+    let out = slamlab(&["run", s(&spec), "--quiet", "--results", s(&results), "--cache", s(&cache)]);
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!results.exists() && !cache.exists(), "something was written");
+    let stderr = String::from_utf8(out.stderr).unwrap();
+    assert!(stderr.contains(&format!("{}:", spec.display())), "stderr names the file: {stderr}");
+    stderr
+}
+
+#[test]
+fn the_good_spec_is_accepted() {
+    let work = tempfile::tempdir().unwrap();
+    let spec = work.path().join("good.toml");
+    std::fs::write(&spec, GOOD).unwrap();
+    let out = slamlab(&["validate", s(&spec)]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+#[test]
+fn unknown_key() {
+    let err = rejected(&GOOD.replace("var_x_m2 = 0.001", "var_x_m2 = 0.001\nvar_z_m2 = 0.001"));
+    assert!(err.contains("bad.toml:11:1: key `base.odometry.var_z_m2`: unknown field `var_z_m2`"), "{err}");
+}
+
+#[test]
+fn negative_variance() {
+    let err = rejected(&GOOD.replace("var_theta_rad2 = 0.0001", "var_theta_rad2 = -0.0001"));
+    assert!(err.contains("bad.toml:12:1: key `base.odometry.var_theta_rad2`: must be ≥ 0, got -0.0001"), "{err}");
+}
+
+#[test]
+fn negative_variance_in_a_sweep_points_at_the_value() {
+    let err = rejected(&format!("{GOOD}\n[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.var_x_m2\" = [0.001, -1.0] }}\n"));
+    assert!(err.contains("bad.toml:16:42: key `sweeps[0].values.\"odometry.var_x_m2\"[1]`"), "{err}");
+}
+
+#[test]
+fn missing_map() {
+    let err = rejected(&GOOD.replace("[\"recinto_basico\"]", "[\"recinto_basico\", \"atlantis\"]"));
+    assert!(err.contains("bad.toml:5:") && err.contains("key `maps[1]`: no map `atlantis`"), "{err}");
+    assert!(err.contains("available in data/maps: bigloop, bigloop2, complex, lineamedia, recinto_basico"), "{err}");
+}
+
+#[test]
+fn zero_particles_style_range_check_on_replicates() {
+    let err = rejected(&GOOD.replace("replicates = 1", "replicates = 0"));
+    assert!(err.contains("bad.toml:4:1: key `replicates`: must be ≥ 1"), "{err}");
+}
+
+#[test]
+fn toml_syntax_error() {
+    let err = rejected(&GOOD.replace("seed = 1", "seed = = 1"));
+    assert!(err.contains("bad.toml:3:"), "{err}");
+}

@@ -1,0 +1,66 @@
+//! The layering rule (CONVENTIONS.md §1): pure layers do no IO, printing, threading, Parquet or
+//! global randomness; only store/ touches polars, only report/ plotters and minijinja, only run/
+//! rayon.
+
+use crate::util::repo;
+use std::path::Path;
+
+const PURE: &[&str] = &["geom", "world", "features", "slam", "scanmatch", "metrics"];
+const FORBIDDEN_IN_PURE: &[&str] =
+    &["std::fs", "std::io", "std::net", "std::env", "std::thread", "std::process", "println!", "eprintln!", "print!(", "dbg!", "rayon", "polars", "plotters", "minijinja", "thread_rng", "rand::rng(", "from_entropy", "OsRng", "Instant::now", "SystemTime"];
+
+fn sources(dir: &Path) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    if let Ok(entries) = std::fs::read_dir(dir) {
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                out.extend(sources(&p));
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                out.push((p.display().to_string(), std::fs::read_to_string(&p).unwrap()));
+            }
+        }
+    }
+    out
+}
+
+/// Source without comments (doc comments may mention anything).
+fn code(text: &str) -> String {
+    text.lines().map(|l| l.split("//").next().unwrap_or("")).collect::<Vec<_>>().join("\n")
+}
+
+#[test]
+fn pure_layers_stay_pure() {
+    let src = repo().join("src");
+    for layer in PURE {
+        for (path, text) in sources(&src.join(layer)) {
+            let code = code(&text);
+            for bad in FORBIDDEN_IN_PURE {
+                assert!(!code.contains(bad), "{path} uses `{bad}`: pure layers do no IO, threading or global randomness");
+            }
+        }
+    }
+}
+
+#[test]
+fn each_dependency_stays_in_its_layer() {
+    let src = repo().join("src");
+    let rules = [("polars", "store"), ("plotters", "report"), ("minijinja", "report"), ("rayon", "run"), ("indicatif", "run")];
+    for (path, text) in sources(&src) {
+        let code = code(&text);
+        for (dep, home) in rules {
+            let inside = Path::new(&path).starts_with(src.join(home));
+            assert!(inside || !code.contains(&format!("{dep}::")), "{path} uses {dep}, which belongs in src/{home}/ only");
+        }
+    }
+}
+
+#[test]
+fn every_source_file_says_what_it_does() {
+    for (path, text) in sources(&repo().join("src")) {
+        if path.ends_with("main.rs") {
+            continue;
+        }
+        assert!(text.trim_start().starts_with("//!"), "{path} must start with a //! comment saying its role");
+    }
+}

@@ -1,0 +1,10 @@
+//! slamlab's integration tests: one binary (ripgrep-style), one module per contract.
+
+mod bad_input;
+mod determinism;
+mod export_tum;
+mod ft_maps;
+mod layering;
+mod pipeline;
+mod specs;
+mod util;

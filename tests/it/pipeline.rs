@@ -1,0 +1,148 @@
+//! Contract: the smoke study runs end to end into a temporary directory; its Parquet, HTML, TeX
+//! and CSV parse and agree with the plan; a second run is fully cached and changes no byte;
+//! a failing run is recorded and does not stop the study.
+
+use crate::util::{ok, repo, run_and_report, s, tree};
+use slamlab::store::{self, RunStatus};
+use std::path::Path;
+
+fn check_html(path: &Path) -> usize {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc = roxmltree::Document::parse_with_options(&text, roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() })
+        .unwrap_or_else(|e| panic!("{} is not well-formed: {e}", path.display()));
+    // every local link resolves
+    for a in doc.descendants().filter(|n| n.has_tag_name("a")) {
+        let href = a.attribute("href").unwrap();
+        assert!(path.parent().unwrap().join(href).exists(), "{}: broken link {href}", path.display());
+    }
+    doc.descendants().filter(|n| n.tag_name().name() == "svg").count()
+}
+
+fn check_tex(path: &Path) {
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(text.contains("\\begin{document}") && text.trim_end().ends_with("\\end{document}"));
+    let mut stack = Vec::new();
+    for part in text.split("\\begin{").skip(1) {
+        stack.push(part.split('}').next().unwrap().to_string());
+    }
+    let ends: Vec<String> = text.split("\\end{").skip(1).map(|p| p.split('}').next().unwrap().to_string()).collect();
+    stack.sort();
+    let mut ends_sorted = ends.clone();
+    ends_sorted.sort();
+    assert_eq!(stack, ends_sorted, "{}: unbalanced environments", path.display());
+    let (open, close) = (text.matches('{').count() - text.matches("\\{").count(), text.matches('}').count() - text.matches("\\}").count());
+    assert_eq!(open, close, "{}: unbalanced braces", path.display());
+    for input in text.split("\\input{").skip(1) {
+        let file = input.split('}').next().unwrap();
+        let fig = path.parent().unwrap().join(file);
+        assert!(fig.is_file(), "{}: missing {file}", path.display());
+        let body = std::fs::read_to_string(&fig).unwrap();
+        assert!(body.contains("\\begin{axis}") && body.trim_end().ends_with("\\end{tikzpicture}"));
+    }
+}
+
+#[test]
+fn smoke_study_end_to_end_then_fully_cached() {
+    let work = tempfile::tempdir().unwrap();
+    let results = work.path().join("results");
+    run_and_report("experiments/smoke.toml", work.path(), "2");
+
+    // runs.parquet: one row per planned run, sorted, all ok
+    let study = store::read_study(&results.join("smoke")).unwrap();
+    assert_eq!(study.runs.len(), 2 * 2 * 2);
+    let ids: Vec<&str> = study.runs.iter().map(|r| r.run_id.as_str()).collect();
+    let mut sorted = ids.clone();
+    sorted.sort();
+    assert_eq!(ids, sorted);
+    for r in &study.runs {
+        assert_eq!(r.status, RunStatus::Ok, "{}", r.run_id);
+        let ate = r.metric("ate_rmse_m").unwrap();
+        match r.param("odometry.k").and_then(|v| v.as_f64()) {
+            // noise-free odometry reproduces the truth
+            Some(0.0) => assert!(ate < 1e-9, "{}: {ate}", r.run_id),
+            Some(_) => assert!(ate > 0.01, "{}: {ate}", r.run_id),
+            None => panic!("odometry.k column missing"),
+        }
+        assert!(r.metric("path_length_m").unwrap() > 200.0);
+    }
+    assert_eq!(study.manifest.runs, 8);
+    assert_eq!(study.resolved.points.len(), 2);
+    let traces = store::read_traces(&results.join("smoke"), &|_| true).unwrap();
+    assert_eq!(traces.len(), 8);
+    assert!(traces.iter().all(|t| t.truth.len() == t.estimate.len() && t.truth.len() > 1000));
+
+    // reports
+    let reports = work.path().join("reports");
+    check_html(&reports.join("index.html"));
+    let svgs = check_html(&reports.join("smoke/index.html"));
+    assert!(svgs >= 3 + 2, "error-vs-parameter plots and trajectory figures inline, found {svgs}");
+    check_tex(&reports.join("smoke/smoke.tex"));
+    let csv = std::fs::read_to_string(reports.join("smoke/summary.csv")).unwrap();
+    // header + maps × algorithms × points × metrics
+    assert_eq!(csv.lines().count(), 1 + 2 * 2 * 3);
+    assert!(csv.lines().all(|l| !l.contains("NaN")));
+    for (name, bytes) in tree(&reports) {
+        let text = String::from_utf8(bytes).unwrap();
+        assert!(!text.contains(s(work.path())), "{name} contains an absolute path");
+        assert!(!text.contains(s(&repo())), "{name} contains an absolute path");
+    }
+
+    // second run: everything cached, results and reports identical
+    let before = tree(&reports);
+    let runs_before = study.runs;
+    run_and_report("experiments/smoke.toml", work.path(), "2");
+    let timings = store::read_timings(&results.join("smoke")).unwrap();
+    assert!(timings.iter().all(|t| t.cached), "second run recomputed something");
+    assert_eq!(store::read_runs(&results.join("smoke")).unwrap(), runs_before);
+    assert!(tree(&reports) == before, "reports changed although nothing did");
+}
+
+#[test]
+fn plan_dry_run_explains_what_will_run() {
+    let work = tempfile::tempdir().unwrap();
+    let (results, cache) = (work.path().join("results"), work.path().join("cache"));
+    let plan = |extra: &[&str]| {
+        let mut args = vec!["plan", "experiments/smoke.toml", "--dry-run", "--results", s(&results), "--cache", s(&cache)];
+        args.extend(extra);
+        String::from_utf8(ok(&args).stdout).unwrap()
+    };
+    assert!(plan(&[]).contains("to run: 8 (new 8,"));
+    ok(&["run", "experiments/smoke.toml", "--quiet", "--results", s(&results), "--cache", s(&cache)]);
+    let out = plan(&[]);
+    assert!(out.contains("to run: 0") && out.contains("cached: 8"), "{out}");
+    assert!(plan(&["--force"]).contains("forced 8"));
+    // a changed parameter is detected as such (the same run ids, new content)
+    let spec = work.path().join("smoke.toml");
+    std::fs::write(&spec, std::fs::read_to_string("experiments/smoke.toml").unwrap().replace("[0.0, 0.1]", "[0.0, 0.2]")).unwrap();
+    let out = String::from_utf8(ok(&["plan", s(&spec), "--results", s(&results), "--cache", s(&cache)]).stdout).unwrap();
+    // k = 0.2 runs are new ids; k = 0 runs are unchanged
+    assert!(out.contains("new 4") && out.contains("cached: 4"), "{out}");
+    assert!(!work.path().join("results/smoke/.tmp").exists());
+}
+
+#[test]
+fn a_failing_run_is_recorded_and_the_study_goes_on() {
+    let work = tempfile::tempdir().unwrap();
+    let maps = work.path().join("maps");
+    std::fs::create_dir(&maps).unwrap();
+    std::fs::copy("data/maps/recinto_basico.toml", maps.join("recinto_basico.toml")).unwrap();
+    // a waypoint behind the robot and an almost zero turn rate: the controller cannot get there
+    std::fs::write(
+        maps.join("stuck.toml"),
+        "name = \"stuck\"\ntitle = \"Stuck\"\nstart = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }\n[[walls]]\npoints = [[-9, -9], [9, -9], [9, 9], [-9, 9], [-9, -9]]\n[trajectory]\nmax_speed_mps = 0.5\nmax_turn_rate_dps = 0.0001\nlaps = 1\nwaypoints = [[-5, 0]]\n",
+    )
+    .unwrap();
+    let spec = work.path().join("failing.toml");
+    std::fs::write(&spec, "id = \"failing\"\ntitle = \"Failing\"\nseed = 3\nreplicates = 2\nmaps = [\"stuck\", \"recinto_basico\"]\nalgorithms = [\"odometry\"]\n").unwrap();
+    let (results, cache, reports) = (work.path().join("results"), work.path().join("cache"), work.path().join("reports"));
+    let out = ok(&["run", s(&spec), "--quiet", "--maps", s(&maps), "--results", s(&results), "--cache", s(&cache)]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("2 failed"));
+    let runs = store::read_runs(&results.join("failing")).unwrap();
+    let stuck: Vec<_> = runs.iter().filter(|r| r.map == "stuck").collect();
+    assert_eq!(stuck.len(), 2);
+    assert!(stuck.iter().all(|r| r.status == RunStatus::Failed && r.error.as_deref().unwrap().contains("did not reach waypoint")));
+    assert!(runs.iter().filter(|r| r.map == "recinto_basico").all(|r| r.status == RunStatus::Ok));
+    ok(&["report", "--results", s(&results), "--out", s(&reports)]);
+    let html = std::fs::read_to_string(reports.join("failing/index.html")).unwrap();
+    assert!(html.contains("Failed runs") && html.contains("2/2"), "failures are shown as k/n");
+}
