@@ -2,7 +2,7 @@
 # Every target uses the release profile, so one (slow, ~10–15 min) polars build serves them all.
 
 CARGO ?= cargo
-BIN   := target/release/slamlab
+BIN   := $(or $(CARGO_TARGET_DIR),target)/release/slamlab
 SPECS := $(sort $(wildcard experiments/*.toml))
 
 .PHONY: all build report run test bench validate clean-results
