@@ -48,6 +48,8 @@ pub struct FigureView {
 #[derive(Debug, Clone, Serialize)]
 pub struct GroupView {
     pub title: String,
+    /// Leading text columns of `table` (map, algorithm); the rest are right-aligned numbers.
+    pub label_columns: usize,
     pub figures: Vec<FigureView>,
     pub table: TableView,
 }
@@ -190,31 +192,36 @@ fn facts(study: &Study<'_>, failed: usize) -> Vec<Kv> {
 }
 
 fn maps_table(study: &Study<'_>) -> TableView {
+    // Point landmarks only matter (and are only shown) when a map has some.
+    let points = study.maps.iter().any(|(_, m)| m.as_ref().is_some_and(|m| !m.point_landmarks.is_empty()));
     let rows = study
         .maps
         .iter()
         .map(|(name, map)| {
             let path_length = study.data.runs.iter().find(|r| &r.map == name && r.status == RunStatus::Ok).and_then(|r| r.metric("path_length_m"));
+            let mut row = vec![name.clone()];
             match map {
-                Some(m) => vec![
-                    name.clone(),
-                    m.title.clone(),
-                    m.walls.len().to_string(),
-                    format!("{} + {} = {}", m.lines.len(), m.corners.len(), m.landmark_count()),
-                    m.point_landmarks.len().to_string(),
-                    format!("{} × {} waypoints", m.trajectory.laps, m.trajectory.waypoints.len()),
-                    path_length.map_or("—".into(), |l| format!("{l:.1} m")),
-                    m.source.clone(),
-                ],
-                None => vec![name.clone(), "(map file not stored)".into(), String::new(), String::new(), String::new(), String::new(), String::new(), String::new()],
+                Some(m) => {
+                    row.push(format!("{} + {} = {}", m.lines.len(), m.corners.len(), m.landmark_count()));
+                    if points {
+                        row.push(m.point_landmarks.len().to_string());
+                    }
+                    row.push(format!("{} × {} waypoints", m.trajectory.laps, m.trajectory.waypoints.len()));
+                    row.push(path_length.map_or("—".into(), |l| format!("{l:.1} m")));
+                    row.push(m.source.clone());
+                }
+                None => row.extend(["(map file not stored)".to_string(), String::new(), String::new(), String::new()]),
             }
+            row
         })
         .collect();
-    TableView {
-        columns: ["Map", "Title", "Walls", "Lines + corners", "Point landmarks", "Laps", "True path", "Source"].map(String::from).to_vec(),
-        rows,
-        align: "llrrrlrp{0.22\\linewidth}".into(),
+    let mut columns: Vec<String> = vec!["Map".into(), "Lines + corners".into()];
+    if points {
+        columns.push("Point landmarks".into());
     }
+    columns.extend(["Laps".into(), "True path".into(), "Source".into()]);
+    let align = format!("lr{}lrp{{0.3\\linewidth}}", if points { "r" } else { "" });
+    TableView { columns, rows, align }
 }
 
 fn sweep_lines(study: &Study<'_>) -> Vec<String> {
@@ -348,7 +355,12 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
     };
 
     // Table: one row per (map, algorithm, point), metrics as "mean [CI]".
-    let mut columns = vec!["Map".to_string(), "Algorithm".to_string()];
+    // The algorithm column only when there is a choice.
+    let show_algorithm = spec.algorithms.len() > 1;
+    let mut columns = vec!["Map".to_string()];
+    if show_algorithm {
+        columns.push("Algorithm".into());
+    }
     columns.extend(group.params.iter().cloned());
     columns.push("n".into());
     columns.extend(study.metrics.iter().map(|m| format!("{} [{}]", m.title, m.unit)));
@@ -357,7 +369,10 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
     for (map, _) in &study.maps {
         for algorithm in &spec.algorithms {
             for p in &points {
-                let mut row = vec![map.clone(), algorithm.title().to_string()];
+                let mut row = vec![map.clone()];
+                if show_algorithm {
+                    row.push(algorithm.title().to_string());
+                }
                 row.extend(group.params.iter().map(|k| study.value_at(p, k).map(|v| crate::plan::format_value(&v)).unwrap_or_default()));
                 let mut n_ok = 0;
                 let mut failed_text = String::new();
@@ -369,13 +384,13 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                     }
                     row.push(if s.ci_low.is_finite() { format!("{} [{}, {}]", sig(s.mean, TABLE_DIGITS), sig(s.ci_low, TABLE_DIGITS), sig(s.ci_high, TABLE_DIGITS)) } else { sig(s.mean, TABLE_DIGITS) });
                 }
-                row.insert(2 + group.params.len(), n_ok.to_string());
+                row.insert(row.len() - study.metrics.len(), n_ok.to_string());
                 row.push(failed_text);
                 rows.push(row);
             }
         }
     }
-    let align = format!("ll{}r{}r", "l".repeat(group.params.len()), "r".repeat(study.metrics.len()));
+    let align = format!("{}{}r{}r", if show_algorithm { "ll" } else { "l" }, "l".repeat(group.params.len()), "r".repeat(study.metrics.len()));
     let table = TableView { columns, rows, align };
 
     let mut figures = Vec::new();
@@ -430,7 +445,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
             }
         }
     }
-    GroupView { title, figures, table }
+    GroupView { title, label_columns: if show_algorithm { 2 } else { 1 }, figures, table }
 }
 
 /// One figure per map: truth and every algorithm's estimate for a representative replicate.
