@@ -273,10 +273,11 @@ fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -
     }
 }
 
-/// A path as the user gave it, with `/` separators (no absolute paths leak into reports when
-/// the user passes relative ones).
+/// A path relative to the working directory when it lies below it, with `/` separators: no
+/// absolute path leaks into manifests and reports.
 fn display_path(p: &Path) -> String {
-    p.to_string_lossy().replace('\\', "/")
+    let relative = std::env::current_dir().ok().and_then(|cwd| p.strip_prefix(cwd).ok().map(Path::to_path_buf)).unwrap_or_else(|| p.to_path_buf());
+    relative.to_string_lossy().replace('\\', "/")
 }
 
 fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {

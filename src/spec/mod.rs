@@ -100,8 +100,6 @@ pub struct LoadedSpec {
     pub hash: String,
     pub locator: Locator,
     pub spec: ExperimentSpec,
-    /// `[base]` as written, for applying sweep overrides key by key.
-    pub raw_base: toml::Table,
     pub sweeps: Vec<SweepBlock>,
 }
 
@@ -172,11 +170,6 @@ pub fn load(path: &Path) -> Result<LoadedSpec, SpecError> {
 pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     let locator = Locator::new(text);
     let spec: ExperimentSpec = toml::from_str(text).map_err(|e| SpecError::new(path, vec![SourceError::from_toml(&locator, &e)]))?;
-    let mut raw: toml::Table = toml::from_str(text).map_err(|e| SpecError::new(path, vec![SourceError::from_toml(&locator, &e)]))?;
-    let raw_base = match raw.remove("base") {
-        Some(toml::Value::Table(t)) => t,
-        _ => toml::Table::new(),
-    };
     let mut errors = Vec::new();
     let mut err = |key: &str, msg: String| errors.push(SourceError::at_key(&locator, key, msg));
 
@@ -257,7 +250,7 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     if !errors.is_empty() {
         return Err(SpecError::new(path, errors));
     }
-    Ok(LoadedSpec { path: path.to_path_buf(), hash: blake3::hash(text.as_bytes()).to_hex().to_string(), locator, spec, raw_base, sweeps })
+    Ok(LoadedSpec { path: path.to_path_buf(), hash: blake3::hash(text.as_bytes()).to_hex().to_string(), locator, spec, sweeps })
 }
 
 /// Walks a sweep's `values` table: a list is a leaf (the values of one parameter); a non-list,
@@ -311,7 +304,7 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let s = parse(Path::new("x.toml"), GOOD).unwrap();
         let paths: Vec<_> = s.sweeps[0].params.iter().map(|p| (p.path.as_str(), p.key.as_str())).collect();
         assert_eq!(paths, vec![("odometry.k", "sweeps[0].values.\"odometry.k\""), ("sim.dt_s", "sweeps[0].values.sim.dt_s")]);
-        assert_eq!(s.raw_base["odometry"]["k"].as_float(), Some(0.1));
+        assert_eq!(s.spec.base.odometry, crate::world::odometry::OdometryNoise::Proportional { k: 0.1, k_is: crate::world::odometry::Spread::Std });
     }
 
     #[test]

@@ -47,15 +47,7 @@ pub(super) fn runs_frame(rows: &[RunRow]) -> PolarsResult<DataFrame> {
         Column::new("params_hash".into(), strs(&|r| r.params_hash.clone())),
         Column::new("code_version".into(), strs(&|r| r.code_version.clone())),
     ];
-    let mut param_names: Vec<&str> = Vec::new();
-    for r in rows {
-        for (k, _) in &r.params {
-            if !param_names.contains(&k.as_str()) {
-                param_names.push(k);
-            }
-        }
-    }
-    for name in param_names {
+    for name in union_of_names(rows.iter().map(|r| r.params.iter().map(|(k, _)| k.as_str()))) {
         let values: Vec<Option<&ParamValue>> = rows.iter().map(|r| r.params.iter().find(|(k, _)| k == name).map(|(_, v)| v)).collect();
         let col = match values.iter().flatten().next() {
             Some(ParamValue::Float(_)) => Column::new(name.into(), values.iter().map(|v| v.and_then(ParamValue::as_f64)).collect::<Vec<Option<f64>>>()),
@@ -65,19 +57,22 @@ pub(super) fn runs_frame(rows: &[RunRow]) -> PolarsResult<DataFrame> {
         };
         cols.push(col);
     }
-    let mut metric_names: Vec<&str> = Vec::new();
-    for r in rows {
-        for (k, _) in &r.metrics {
-            if !metric_names.contains(&k.as_str()) {
-                metric_names.push(k);
-            }
-        }
-    }
-    for name in metric_names {
+    for name in union_of_names(rows.iter().map(|r| r.metrics.iter().map(|(k, _)| k.as_str()))) {
         let values: Vec<Option<f64>> = rows.iter().map(|r| r.metrics.iter().find(|(k, _)| k == name).map(|(_, v)| *v)).collect();
         cols.push(Column::new(name.into(), values));
     }
     DataFrame::new(n, cols)
+}
+
+/// Every name that occurs in any row, in order of first appearance.
+fn union_of_names<'a, R: Iterator<Item = &'a str>>(rows: impl Iterator<Item = R>) -> Vec<&'a str> {
+    let mut names: Vec<&str> = Vec::new();
+    for name in rows.flatten() {
+        if !names.contains(&name) {
+            names.push(name);
+        }
+    }
+    names
 }
 
 pub(super) fn read_runs(path: &Path) -> Result<Vec<RunRow>, StoreError> {

@@ -1,6 +1,7 @@
 //! slamlab's integration tests: one binary (ripgrep-style), one module per contract.
 
 mod bad_input;
+mod code_versions;
 mod determinism;
 mod export_tum;
 mod ft_maps;

@@ -1,0 +1,68 @@
+//! Cache safety: a run's cache key includes hand-maintained code versions. If world generation,
+//! an algorithm or a metric changes its output without a version bump, stale cached results would
+//! be served silently. This test fingerprints a fixed-seed run and fails until the versions (and
+//! then the fingerprint) are updated.
+
+use crate::util::repo;
+use slamlab::geom::Pose2;
+use slamlab::metrics::{self, METRICS_VERSION};
+use slamlab::slam::{odometry, AlgorithmKind};
+use slamlab::world::laser::LaserParams;
+use slamlab::world::map::Map;
+use slamlab::world::odometry::OdometryNoise;
+use slamlab::world::point_sensor::PointSensorParams;
+use slamlab::world::{generate, SimParams, WorldSpec, WORLD_CODE_VERSION};
+
+/// The code versions the fingerprint below was taken with.
+const VERSIONS: &str = "world-1+metrics-1+odometry-1";
+const FINGERPRINT: &str = "2ddfcccb7555e522e5375b0c13db51224ac76647c00a50c2d84c375844b8be9a";
+
+fn fingerprint() -> String {
+    let text = std::fs::read_to_string(repo().join("data/maps/bigloop2.toml")).unwrap();
+    let mut map = Map::from_toml(&text).unwrap();
+    map.point_landmarks = vec![slamlab::geom::Point2::new(4.0, 1.0), slamlab::geom::Point2::new(12.0, 7.0)];
+    let (sim, noise, laser, sensor) = (SimParams::default(), OdometryNoise::default(), LaserParams::default(), PointSensorParams::default());
+    let world = generate(&WorldSpec { map: &map, sim: &sim, odometry: &noise, laser: Some(&laser), landmark_sensor: Some(&sensor) }, 42).unwrap();
+    let trace = odometry::run(&world);
+    let mut h = blake3::Hasher::new();
+    let pose = |h: &mut blake3::Hasher, p: &Pose2| {
+        for v in [p.x, p.y, p.theta] {
+            h.update(&v.to_le_bytes());
+        }
+    };
+    world.truth.iter().chain(&world.odometry).chain(&trace.estimate).for_each(|p| pose(&mut h, p));
+    for s in &world.scans {
+        h.update(&(s.step as u64).to_le_bytes());
+        for r in &s.ranges_m {
+            h.update(&r.unwrap_or(-1.0).to_le_bytes());
+        }
+    }
+    for s in &world.point_scans {
+        for o in &s.observations {
+            h.update(&(o.landmark as u64).to_le_bytes());
+            h.update(&o.range_m.to_le_bytes());
+            h.update(&o.bearing_rad.to_le_bytes());
+        }
+    }
+    for (name, v) in metrics::compute(&world, &trace) {
+        h.update(name.as_bytes());
+        h.update(&v.to_le_bytes());
+    }
+    h.finalize().to_hex().to_string()
+}
+
+#[test]
+fn outputs_change_only_with_a_code_version_bump() {
+    let versions = format!("{WORLD_CODE_VERSION}+{METRICS_VERSION}+{}", AlgorithmKind::Odometry.code_version());
+    let now = fingerprint();
+    assert_eq!(
+        versions, VERSIONS,
+        "code versions changed: set VERSIONS = \"{versions}\" and FINGERPRINT = \"{now}\" in {}",
+        file!()
+    );
+    assert_eq!(
+        now, FINGERPRINT,
+        "world/odometry/metrics output changed with the same code versions ({versions}): bump the version of the layer you changed \
+         (WORLD_CODE_VERSION, METRICS_VERSION or the algorithm's CODE_VERSION) so cached runs are recomputed, then update VERSIONS and FINGERPRINT"
+    );
+}
