@@ -190,8 +190,11 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
     }
     if manual_ticks {
         let style = TextStyle::from((FONT, 12).into_font()).pos(Pos::new(HPos::Center, VPos::Top));
+        // backend_coord is in whole-SVG pixels; `root` starts below the legend strip.
+        let (bx, by) = root.get_base_pixel();
         for (x, label) in &fig.x_ticks {
             let (px, py) = chart.backend_coord(&(fig.position(*x), y0));
+            let (px, py) = (px - bx, py - by);
             root.draw(&PathElement::new(vec![(px, py), (px, py + 4)], BLACK)).map_err(|e| e.to_string())?;
             root.draw(&Text::new(label.as_str(), (px, py + 6), style.clone())).map_err(|e| e.to_string())?;
         }

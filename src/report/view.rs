@@ -300,12 +300,18 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     }
     out.push("Seeds derive from (study seed, map, replicate), never from the swept value: replicate k of every sweep point and algorithm sees the same world noise (paired comparisons).".into());
     out.push("Trajectory error is evo's APE (translation part, every step, no alignment: estimate and truth start at the same pose).".into());
+    // Map notes, each stated once with the maps it applies to (in spec order).
+    let mut notes: Vec<(&str, Vec<&str>)> = Vec::new();
     for (name, map) in &study.maps {
-        if let Some(m) = map {
-            for note in &m.notes {
-                out.push(format!("Map {name}: {note}"));
+        for note in map.iter().flat_map(|m| &m.notes) {
+            match notes.iter_mut().find(|(n, _)| *n == note.as_str()) {
+                Some((_, maps)) => maps.push(name),
+                None => notes.push((note, vec![name])),
             }
         }
+    }
+    for (note, maps) in notes {
+        out.push(format!("{} {}: {note}", if maps.len() == 1 { "Map" } else { "Maps" }, maps.join(", ")));
     }
     out
 }
