@@ -203,15 +203,17 @@ fn cmd_plan(spec_path: &Path, dirs: &Dirs, force: bool) -> Result<()> {
     let reasons = run::reasons(plan, &opts);
     println!("study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs", plan.id(), plan.points.len(), plan.maps.len(), plan.spec.spec.algorithms.len(), plan.spec.spec.replicates, plan.runs.len());
     for (r, reason) in plan.runs.iter().zip(&reasons) {
-        println!("{:<22} {}", reason.as_str(), r.run_id);
+        println!("{:<36} {}", reason.as_str(), r.run_id);
     }
     let count = |x: Reason| reasons.iter().filter(|r| **r == x).count();
     println!(
-        "to run: {} (new {}, parameters changed {}, code version changed {}, forced {}); cached: {}",
+        "to run: {} (new {}, parameters changed {}, code version changed {}, both changed {}, cache entry missing {}, forced {}); cached: {}",
         reasons.iter().filter(|r| **r != Reason::Cached).count(),
         count(Reason::New),
         count(Reason::ParametersChanged),
         count(Reason::CodeVersionChanged),
+        count(Reason::ParametersAndCodeVersionChanged),
+        count(Reason::CacheMissing),
         count(Reason::Forced),
         count(Reason::Cached)
     );

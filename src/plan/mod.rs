@@ -250,9 +250,11 @@ fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)]) -> 
         set_path(&mut table, path, value.clone());
     }
     let params: Params = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
-        let (_, _, key) = &assignments[0];
+        // Blame the values that fail on their own; if only the combination fails, blame all.
+        let alone: Vec<&(String, toml::Value, String)> = assignments.iter().filter(|a| assignments.len() > 1 && resolve(spec, std::slice::from_ref(*a)).is_err()).collect();
+        let culprits: Vec<&(String, toml::Value, String)> = if alone.is_empty() { assignments.iter().collect() } else { alone };
         let names: Vec<&str> = assignments.iter().map(|(p, ..)| p.as_str()).collect();
-        vec![spec.error_at(key, format!("with {} set here, [base] does not deserialise: {}", names.join(", "), e.message().trim()))]
+        culprits.iter().map(|(_, _, key)| spec.error_at(key, format!("with {} set here, [base] does not deserialise: {}", names.join(", "), e.message().trim()))).collect::<Vec<_>>()
     })?;
     let violations = params.validate(crate::slam::Sensors::union(&spec.spec.algorithms));
     if violations.is_empty() {
@@ -424,6 +426,14 @@ mod tests {
         let text = format!("{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.model\" = [\"pose\"], \"odometry.var_x_m2\" = [0.01], \"odometry.var_y_m2\" = [0.01], \"odometry.var_theta_rad2\" = [0.001] }}\n");
         let plan = plan_of(&text).unwrap();
         assert!(matches!(plan.points[0].params.odometry, crate::world::odometry::OdometryNoise::Pose { var_theta_rad2, .. } if var_theta_rad2 == 0.001));
+    }
+
+    #[test]
+    fn a_bad_value_in_a_grid_is_blamed_on_its_own_key() {
+        let text = format!("{HEAD}[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.k\" = [0.1], \"sim.dt_s\" = [\"fast\"] }}\n");
+        let err = plan_of(&text).unwrap_err();
+        let keys: Vec<&str> = err.0[0].errors.iter().map(|e| e.key.as_str()).collect();
+        assert_eq!(keys, ["sweeps[0].values.\"sim.dt_s\"[0]"]);
     }
 
     #[test]

@@ -13,10 +13,12 @@ pub fn palette_definitions() -> String {
     PALETTE.iter().enumerate().map(|(i, hex)| format!("\\definecolor{{slamlab{i}}}{{HTML}}{{{}}}\n", hex.to_uppercase())).collect()
 }
 
+/// Significant figures of coordinates: far below what a printed figure resolves, and last-digit
+/// floating-point noise then cannot change the file (committed reports diff cleanly).
+const PGF_DIGITS: usize = 6;
+
 fn num(v: f64) -> String {
-    // pgfplots reads plain and scientific notation; Rust's shortest round-trip form is both exact
-    // and deterministic.
-    format!("{v}")
+    super::stats::sig_ascii(v, PGF_DIGITS)
 }
 
 pub fn line_pgf(fig: &LineFigure) -> String {

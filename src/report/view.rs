@@ -134,7 +134,20 @@ pub fn build(data: &StudyData, traces: &dyn Fn(&[String]) -> Vec<TraceRows>) -> 
     flatten("", &toml::Value::Table(read), &mut base);
     let study = Study { data, maps, metrics, base };
 
-    let groups: Vec<GroupView> = data.resolved.groups.iter().enumerate().map(|(gi, _)| group_view(&study, gi)).collect();
+    let mut groups: Vec<GroupView> = data.resolved.groups.iter().enumerate().map(|(gi, _)| group_view(&study, gi)).collect();
+    // Two groups can sweep the same parameters (e.g. a one-at-a-time list and a zip): keep file
+    // names (and HTML ids) unique, deterministically, in group order.
+    let mut used: Vec<String> = Vec::new();
+    for f in groups.iter_mut().flat_map(|g| g.figures.iter_mut()) {
+        let mut name = f.file.clone();
+        let mut k = 2;
+        while used.contains(&name) {
+            name = format!("{}-{k}", f.file);
+            k += 1;
+        }
+        f.file = name.clone();
+        used.push(name);
+    }
     let trajectories = trajectory_views(&study, traces);
     let failed = data.runs.iter().filter(|r| r.status != RunStatus::Ok).count();
     let view = StudyView {
@@ -262,7 +275,7 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     )];
     use crate::world::odometry::{OdometryNoise, Spread};
     out.push(match &b.odometry {
-        OdometryNoise::None => "Odometry: noise-free.".to_string(),
+        OdometryNoise::None {} => "Odometry: noise-free.".to_string(),
         OdometryNoise::Proportional { k, k_is } => format!(
             "Odometry ([FT] §3.2 \"proportional\" model): v += N(0, s(|v|)), ω += N(0, s(|ω|)) each step, with {} (k = {k} in the base configuration). Odometry is passed to algorithms as body-frame pose increments (the velocity model's arc).",
             match k_is {
@@ -329,8 +342,14 @@ fn x_axis(values: &[toml::Value], force_log: bool) -> (XAxis, Vec<f64>, Vec<(f64
             (if log { XAxis::Log } else { XAxis::Linear }, xs, ticks)
         }
         None => {
-            let names: Vec<String> = values.iter().map(crate::plan::format_value).collect();
-            let xs = (0..names.len()).map(|i| i as f64).collect();
+            // One position per distinct value (a grid repeats each value once per other value).
+            let mut names: Vec<String> = Vec::new();
+            for v in values.iter().map(crate::plan::format_value) {
+                if !names.contains(&v) {
+                    names.push(v);
+                }
+            }
+            let xs = values.iter().map(|v| names.iter().position(|n| *n == crate::plan::format_value(v)).unwrap_or(0) as f64).collect();
             let ticks = names.iter().enumerate().map(|(i, n)| (i as f64, n.clone())).collect();
             (XAxis::Categorical(names), xs, ticks)
         }
@@ -587,6 +606,12 @@ mod tests {
         assert_eq!(f(&[1.0, 2.0, 5.0]), XAxis::Linear);
         let cat = x_axis(&[toml::Value::String("pose".into()), toml::Value::String("none".into())], false).0;
         assert_eq!(cat, XAxis::Categorical(vec!["pose".into(), "none".into()]));
+        // a grid repeats values: positions follow the distinct values
+        let s = |v: &str| toml::Value::String(v.into());
+        let (axis, xs, ticks) = x_axis(&[s("std"), s("std"), s("variance"), s("variance")], false);
+        assert_eq!(axis, XAxis::Categorical(vec!["std".into(), "variance".into()]));
+        assert_eq!(xs, vec![0.0, 0.0, 1.0, 1.0]);
+        assert_eq!(ticks.len(), 2);
     }
 
     #[test]

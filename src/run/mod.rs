@@ -36,10 +36,16 @@ pub struct RunOptions {
 /// Why a run will be computed, or that it will not.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Reason {
+    /// A valid cache entry exists: nothing to compute.
     Cached,
+    /// No earlier result with this run id.
     New,
     ParametersChanged,
     CodeVersionChanged,
+    ParametersAndCodeVersionChanged,
+    /// Unchanged since the study's last results, but the cache entry is gone.
+    CacheMissing,
+    /// `--force`.
     Forced,
 }
 
@@ -50,6 +56,8 @@ impl Reason {
             Reason::New => "new",
             Reason::ParametersChanged => "parameters changed",
             Reason::CodeVersionChanged => "code version changed",
+            Reason::ParametersAndCodeVersionChanged => "parameters and code version changed",
+            Reason::CacheMissing => "cache entry missing",
             Reason::Forced => "forced",
         }
     }
@@ -59,18 +67,29 @@ impl Reason {
 /// the study's previous results (by run id).
 pub fn reasons(plan: &ExperimentPlan, opts: &RunOptions) -> Vec<Reason> {
     let cache = Cache::new(&opts.cache_dir);
-    let previous: BTreeMap<String, RunRow> =
-        store::read_runs(&opts.results_dir.join(plan.id())).unwrap_or_default().into_iter().map(|r| (r.run_id.clone(), r)).collect();
-    plan.runs
-        .iter()
+    let previous = store::read_runs(&opts.results_dir.join(plan.id())).unwrap_or_default();
+    explain(&plan.runs, &|h| cache.contains(h), &previous, opts.force)
+}
+
+/// The pure part of [`reasons`].
+pub fn explain(runs: &[RunSpec], cached: &dyn Fn(&str) -> bool, previous: &[RunRow], force: bool) -> Vec<Reason> {
+    let previous: BTreeMap<&str, &RunRow> = previous.iter().map(|r| (r.run_id.as_str(), r)).collect();
+    runs.iter()
         .map(|run| {
-            if cache.contains(&run.hash) {
-                return if opts.force { Reason::Forced } else { Reason::Cached };
+            if force {
+                return Reason::Forced;
             }
-            match previous.get(&run.run_id) {
+            if cached(&run.hash) {
+                return Reason::Cached;
+            }
+            match previous.get(run.run_id.as_str()) {
                 None => Reason::New,
-                Some(prev) if prev.code_version != run.code_version => Reason::CodeVersionChanged,
-                Some(_) => Reason::ParametersChanged,
+                Some(prev) => match (prev.params_hash != run.params_hash, prev.code_version != run.code_version) {
+                    (true, true) => Reason::ParametersAndCodeVersionChanged,
+                    (true, false) => Reason::ParametersChanged,
+                    (false, true) => Reason::CodeVersionChanged,
+                    (false, false) => Reason::CacheMissing,
+                },
             }
         })
         .collect()
@@ -103,34 +122,49 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         .build()
         .map_err(|e| RunError::Threads { threads: opts.threads, message: e.to_string() })?;
     let reasons = reasons(plan, opts);
-    let to_compute = reasons.iter().filter(|r| !matches!(r, Reason::Cached)).count();
-    let progress = Progress::new(plan.id(), plan.runs.len(), opts.progress);
-
-    let outcomes: Vec<(CachedRun, bool)> = pool.install(|| {
-        plan.runs
+    let to_compute = reasons.iter().filter(|r| **r != Reason::Cached).count();
+    // Each distinct content hash is computed (or read) once, even when two runs share it.
+    let mut unique: Vec<usize> = Vec::new();
+    let mut seen = std::collections::BTreeSet::new();
+    for (i, run) in plan.runs.iter().enumerate() {
+        if seen.insert(run.hash.as_str()) {
+            unique.push(i);
+        }
+    }
+    let progress = Progress::new(plan.id(), unique.len(), opts.progress);
+    let computed: BTreeMap<&str, (CachedRun, bool)> = pool.install(|| {
+        unique
             .par_iter()
-            .zip(reasons.par_iter())
-            .map(|(run, reason)| {
-                let cached = (*reason == Reason::Cached).then(|| cache.get(&run.hash)).flatten();
-                let (outcome, from_cache) = match cached {
-                    Some(mut c) => {
-                        relabel(&mut c, plan, run);
-                        (c, true)
-                    }
+            .map(|&i| {
+                let run = &plan.runs[i];
+                let cached = (reasons[i] == Reason::Cached).then(|| cache.get(&run.hash)).flatten();
+                let outcome = match cached {
+                    Some(c) => (c, true),
                     None => {
                         let c = execute(plan, run);
-                        // A cache that cannot be written costs only a recomputation next time.
-                        if let Err(e) = cache.put(&run.hash, &c) {
+                        // Replace whatever is there: forced, or an entry that could not be read.
+                        // A cache that cannot be written only costs a recomputation next time.
+                        if let Err(e) = cache.put(&run.hash, &c, true) {
                             progress.warn(&format!("cannot cache {}: {e}", run.run_id));
                         }
                         (c, false)
                     }
                 };
-                progress.finished(outcome.row.status, from_cache);
-                (outcome, from_cache)
+                progress.finished(outcome.0.row.status, outcome.1);
+                (run.hash.as_str(), outcome)
             })
             .collect()
     });
+    let outcomes: Vec<(CachedRun, bool)> = plan
+        .runs
+        .iter()
+        .map(|run| {
+            let (c, from_cache) = &computed[run.hash.as_str()];
+            let mut c = c.clone();
+            relabel(&mut c, plan, run);
+            (c, *from_cache)
+        })
+        .collect();
     progress.done();
 
     let mut outcomes = outcomes;
@@ -273,11 +307,16 @@ fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -
     }
 }
 
-/// A path relative to the working directory when it lies below it, with `/` separators: no
-/// absolute path leaks into manifests and reports.
+/// The spec's path relative to the working directory (the repository) when it lies below it,
+/// else only its file name: no absolute path reaches manifests and reports.
 fn display_path(p: &Path) -> String {
-    let relative = std::env::current_dir().ok().and_then(|cwd| p.strip_prefix(cwd).ok().map(Path::to_path_buf)).unwrap_or_else(|| p.to_path_buf());
-    relative.to_string_lossy().replace('\\', "/")
+    let absolute = if p.is_absolute() { Some(p.to_path_buf()) } else { std::env::current_dir().ok().map(|c| c.join(p)) };
+    let below_cwd = absolute.as_ref().zip(std::env::current_dir().ok()).and_then(|(a, cwd)| a.strip_prefix(&cwd).ok().map(Path::to_path_buf));
+    let shown = match below_cwd {
+        Some(rel) => rel,
+        None => PathBuf::from(p.file_name().unwrap_or_default()),
+    };
+    shown.to_string_lossy().replace('\\', "/")
 }
 
 fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
@@ -290,5 +329,59 @@ fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
             .iter()
             .map(|p| PointRecord { label: p.label.clone(), groups: p.groups.clone(), assignments: p.assignments.iter().cloned().collect() })
             .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::slam::AlgorithmKind;
+
+    fn run(id: &str, params: &str, code: &str) -> RunSpec {
+        RunSpec {
+            run_id: id.into(),
+            map: 0,
+            point: 0,
+            algorithm: AlgorithmKind::Odometry,
+            replicate: 0,
+            world_seed: 1,
+            filter_seed: 2,
+            params_hash: params.into(),
+            code_version: code.into(),
+            hash: format!("{params}/{code}"),
+        }
+    }
+
+    fn row(id: &str, params: &str, code: &str) -> RunRow {
+        RunRow {
+            study: "s".into(),
+            run_id: id.into(),
+            map: "m".into(),
+            algorithm: "odometry".into(),
+            point: "base".into(),
+            replicate: 0,
+            world_seed: 1,
+            filter_seed: 2,
+            status: RunStatus::Ok,
+            error: None,
+            run_hash: format!("{params}/{code}"),
+            params_hash: params.into(),
+            code_version: code.into(),
+            params: vec![],
+            metrics: vec![],
+        }
+    }
+
+    #[test]
+    fn every_reason_is_told_apart() {
+        let runs = [run("a", "p1", "c1"), run("b", "p2", "c1"), run("c", "p1", "c2"), run("d", "p2", "c2"), run("e", "p1", "c1"), run("f", "p1", "c1")];
+        let previous = [row("b", "p1", "c1"), row("c", "p1", "c1"), row("d", "p1", "c1"), row("e", "p1", "c1"), row("f", "p1", "c1")];
+        let cached = |h: &str| h == "p1/c1";
+        // "a" and "f" have the cached hash; "e" too — it is the same content
+        let got = explain(&runs, &cached, &previous, false);
+        assert_eq!(got, [Reason::Cached, Reason::ParametersChanged, Reason::CodeVersionChanged, Reason::ParametersAndCodeVersionChanged, Reason::Cached, Reason::Cached]);
+        // the cache entry is gone although nothing changed
+        assert_eq!(explain(&runs[4..5], &|_| false, &previous, false), [Reason::CacheMissing]);
+        assert!(explain(&runs, &cached, &previous, true).iter().all(|r| *r == Reason::Forced));
     }
 }

@@ -69,6 +69,20 @@ impl AlgorithmKind {
             AlgorithmKind::Odometry => &[],
         }
     }
+
+    /// Every `[base]` section a run of this algorithm reads: the clock and odometry, the sensors
+    /// it uses, and its own sections.
+    pub fn sections_read(self) -> Vec<&'static str> {
+        let mut s = vec!["sim", "odometry"];
+        if self.sensors().laser {
+            s.push("laser");
+        }
+        if self.sensors().landmarks {
+            s.push("landmark_sensor");
+        }
+        s.extend(self.param_sections());
+        s
+    }
 }
 
 /// What an algorithm produced: its pose estimate at every odometry step (same length as the

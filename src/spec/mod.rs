@@ -163,7 +163,13 @@ impl From<SpecError> for InputErrors {
 /// Reads and validates a spec file.
 pub fn load(path: &Path) -> Result<LoadedSpec, SpecError> {
     let text = std::fs::read_to_string(path).map_err(|e| SpecError::io(path, &e))?;
-    parse(path, &text)
+    let loaded = parse(path, &text)?;
+    // `experiments/<id>.toml`: the file says which study it is.
+    let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+    if stem != loaded.spec.id {
+        return Err(SpecError::new(path, vec![loaded.error_at("id", format!("is `{}` but the file is named {stem}.toml: name the file after the study id", loaded.spec.id))]));
+    }
+    Ok(loaded)
 }
 
 /// Parses and validates spec text (`path` only names it in errors).
@@ -227,7 +233,14 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         // checked when each point is resolved.
         let switches: Vec<&str> = swept.iter().filter_map(|p| p.path.strip_suffix(".model")).collect();
         let variant_field = |p: &str| switches.iter().any(|s| p.starts_with(&format!("{s}.")));
+        let read: Vec<&str> = spec.algorithms.iter().flat_map(|a| a.sections_read()).collect();
         for p in &swept {
+            let section = p.path.split('.').next().unwrap_or("");
+            if known(&p.path) && !read.contains(&section) {
+                let names: Vec<&str> = spec.algorithms.iter().map(|a| a.name()).collect();
+                err(&p.key, format!("`{}` is not read by any of this study's algorithms ({}): sweeping it would only repeat identical runs", p.path, names.join(", ")));
+                continue;
+            }
             if !known(&p.path) && !variant_field(&p.path) {
                 let names: Vec<_> = base_leaves.iter().map(|(k, _)| k.as_str()).collect();
                 err(&p.key, format!("unknown parameter `{}` (parameters: {})", p.path, names.join(", ")));
@@ -242,8 +255,11 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         sweeps.push(SweepBlock { kind: block.kind, params: swept });
     }
     for (i, p) in spec.report.log_x.iter().enumerate() {
-        if !sweeps.iter().flat_map(|b| &b.params).any(|s| &s.path == p) {
+        let values: Vec<&toml::Value> = sweeps.iter().flat_map(|b| &b.params).filter(|s| &s.path == p).flat_map(|s| &s.values).collect();
+        if values.is_empty() {
             err(&format!("report.log_x[{i}]"), format!("`{p}` is not a swept parameter"));
+        } else if !values.iter().all(|v| v.as_float().map(|f| f > 0.0).or(v.as_integer().map(|n| n > 0)).unwrap_or(false)) {
+            err(&format!("report.log_x[{i}]"), format!("`{p}` can only be plotted on a log axis if all its values are numbers > 0"));
         }
     }
 
@@ -333,6 +349,20 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let e = errs(&GOOD.replace("[\"odometry\"]", "[\"odometry\", \"magic\"]"));
         assert!(e[0].message.contains("unknown variant `magic`"), "{}", e[0].message);
         assert_eq!(e[0].line, 7);
+    }
+
+    #[test]
+    fn sweeping_what_no_algorithm_reads_is_refused() {
+        // the odometry baseline reads no laser: runs would differ in label only
+        let e = errs(&GOOD.replace("\"odometry.k\" = [0.0, 0.1]", "\"laser.max_range_m\" = [4.0, 8.0]"));
+        assert_eq!(e[0].key, "sweeps[0].values.\"laser.max_range_m\"");
+        assert!(e[0].message.contains("not read by any"), "{}", e[0].message);
+    }
+
+    #[test]
+    fn log_axis_needs_positive_values() {
+        let e = errs(&format!("{GOOD}\n[report]\nlog_x = [\"odometry.k\"]\n"));
+        assert_eq!(e[0].key, "report.log_x[0]");
     }
 
     #[test]

@@ -50,15 +50,7 @@ impl Params {
     /// values — not the whole parameter set — go into a run's content hash, so changing laser
     /// settings does not invalidate odometry-only runs.
     pub fn sections_read_by(&self, algorithm: AlgorithmKind) -> toml::Table {
-        let sensors = algorithm.sensors();
-        let mut wanted = vec!["sim", "odometry"];
-        if sensors.laser {
-            wanted.push("laser");
-        }
-        if sensors.landmarks {
-            wanted.push("landmark_sensor");
-        }
-        wanted.extend(algorithm.param_sections());
+        let wanted = algorithm.sections_read();
         self.to_table().into_iter().filter(|(k, _)| wanted.contains(&k.as_str())).collect()
     }
 }

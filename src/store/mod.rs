@@ -343,9 +343,11 @@ impl Cache {
         Some(CachedRun { row, trace, wall_ms })
     }
 
-    pub fn put(&self, hash: &str, run: &CachedRun) -> Result<(), StoreError> {
+    /// Stores a run. An existing entry is kept unless `replace` (a forced recomputation, or an
+    /// entry that could not be read).
+    pub fn put(&self, hash: &str, run: &CachedRun, replace: bool) -> Result<(), StoreError> {
         let dir = self.entry(hash);
-        if self.contains(hash) {
+        if !replace && self.contains(hash) {
             return Ok(());
         }
         let mut row = run.row.clone();
@@ -363,36 +365,50 @@ fn write_file(path: &Path, bytes: &[u8]) -> Result<(), StoreError> {
     std::fs::write(path, bytes).map_err(|e| StoreError::io(path, e))
 }
 
+/// Distinguishes the temporary directories of concurrent writers within one process.
+static WRITE_COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Temporary directories older than this are left-overs of an interrupted write and removed.
+const STALE_AFTER: std::time::Duration = std::time::Duration::from_secs(3600);
+
 /// Fills a fresh temporary directory beside `dir`, then renames it into place (replacing an old
-/// `dir`). Left-overs of an interrupted earlier write are removed first.
+/// `dir`). Temporary names are unique per process and write, so concurrent writers never share
+/// one; left-overs of interrupted writes (older than an hour) are removed.
 pub fn write_dir_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<(), StoreError>) -> Result<(), StoreError> {
     let parent = dir.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = dir.file_name().ok_or_else(|| StoreError::format(dir, "not a directory name"))?.to_string_lossy().into_owned();
     std::fs::create_dir_all(parent).map_err(|e| StoreError::io(parent, e))?;
-    let tmp = parent.join(format!(".{name}.tmp-{}", std::process::id()));
-    let old = parent.join(format!(".{name}.old-{}", std::process::id()));
-    for stale in [&tmp, &old] {
-        if stale.exists() {
-            std::fs::remove_dir_all(stale).map_err(|e| StoreError::io(stale, e))?;
-        }
-    }
+    remove_stale(parent, &name);
+    let unique = format!("{}-{}", std::process::id(), WRITE_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed));
+    let tmp = parent.join(format!(".{name}.tmp-{unique}"));
+    let old = parent.join(format!(".{name}.old-{unique}"));
     std::fs::create_dir(&tmp).map_err(|e| StoreError::io(&tmp, e))?;
     if let Err(e) = fill(&tmp) {
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(e);
     }
-    if dir.exists() {
-        std::fs::rename(dir, &old).map_err(|e| StoreError::io(dir, e))?;
-        std::fs::rename(&tmp, dir).map_err(|e| StoreError::io(dir, e))?;
-        std::fs::remove_dir_all(&old).map_err(|e| StoreError::io(&old, e))?;
-    } else if let Err(e) = std::fs::rename(&tmp, dir) {
-        let _ = std::fs::remove_dir_all(&tmp);
-        // Another writer got there first with the same content (cache entries): fine.
-        if !dir.exists() {
-            return Err(StoreError::io(dir, e));
+    let swapped = if dir.exists() { std::fs::rename(dir, &old).and_then(|()| std::fs::rename(&tmp, dir)) } else { std::fs::rename(&tmp, dir) };
+    let _ = std::fs::remove_dir_all(&old);
+    match swapped {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            let _ = std::fs::remove_dir_all(&tmp);
+            // Another writer put the same content-addressed entry in place first: fine.
+            if dir.exists() { Ok(()) } else { Err(StoreError::io(dir, e)) }
         }
     }
-    Ok(())
+}
+
+/// Removes `.{name}.tmp-*` / `.{name}.old-*` siblings that an interrupted write left behind.
+fn remove_stale(parent: &Path, name: &str) {
+    let prefixes = [format!(".{name}.tmp-"), format!(".{name}.old-")];
+    for e in std::fs::read_dir(parent).into_iter().flatten().flatten() {
+        let file = e.file_name().to_string_lossy().into_owned();
+        let old_enough = e.metadata().and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok()).is_some_and(|age| age > STALE_AFTER);
+        if old_enough && prefixes.iter().any(|p| file.starts_with(p.as_str())) {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
 }
 
 #[cfg(test)]
@@ -456,12 +472,33 @@ mod tests {
         let cache = Cache::new(dir.path());
         assert!(!cache.contains("abcdef"));
         let run = CachedRun { row: row("a", RunStatus::Ok), trace: TraceRows { run_id: "a".into(), dt_s: 0.1, truth: vec![Pose2::IDENTITY; 2], estimate: vec![Pose2::IDENTITY; 2] }, wall_ms: 12.5 };
-        cache.put("abcdef", &run).unwrap();
+        cache.put("abcdef", &run, false).unwrap();
         assert!(cache.contains("abcdef"));
         let back = cache.get("abcdef").unwrap();
         assert_eq!(back.row, run.row);
         assert_eq!(back.wall_ms, 12.5);
         assert_eq!(back.trace.truth.len(), 2);
+        // an existing entry is kept, unless replaced (forced recomputation)
+        let newer = CachedRun { wall_ms: 99.0, ..run.clone() };
+        cache.put("abcdef", &newer, false).unwrap();
+        assert_eq!(cache.get("abcdef").unwrap().wall_ms, 12.5);
+        cache.put("abcdef", &newer, true).unwrap();
+        assert_eq!(cache.get("abcdef").unwrap().wall_ms, 99.0);
+    }
+
+    #[test]
+    fn concurrent_writers_of_one_entry_leave_one_complete_entry() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("entry");
+        std::thread::scope(|s| {
+            for i in 0..8 {
+                let target = &target;
+                s.spawn(move || write_dir_atomically(target, |t| write_file(&t.join("x"), format!("{i}").as_bytes())).unwrap());
+            }
+        });
+        assert!(target.join("x").is_file());
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().map(|e| e.file_name()).collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("entry")], "no temporary directory left behind");
     }
 
     #[test]

@@ -56,6 +56,10 @@ pub struct Scan {
     pub ranges_m: Vec<Option<f64>>,
 }
 
+/// Finest angular resolution [deg] accepted (0.01° = 36 000 beams per turn; real scanners stop
+/// near 0.1°): bounds the memory of a scan.
+const MIN_RESOLUTION_DEG: f64 = 0.01;
+
 /// Relative tolerance for "a whole number" in FOV/resolution and scan-period checks.
 const WHOLE_NUMBER_TOL: f64 = 1e-9;
 
@@ -63,7 +67,7 @@ impl LaserParams {
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.in_range("fov_deg", self.fov_deg, f64::MIN_POSITIVE, 360.0);
-        c.positive("resolution_deg", self.resolution_deg);
+        c.in_range("resolution_deg", self.resolution_deg, MIN_RESOLUTION_DEG, 360.0);
         c.positive("max_range_m", self.max_range_m);
         c.positive("rate_hz", self.rate_hz);
         c.non_negative("range_sigma_m", self.range_sigma_m);

@@ -99,6 +99,10 @@ impl Map {
         let mut errors = Vec::new();
         let mut err = |key: &str, msg: String| errors.push(SourceError::at_key(&loc, key, msg));
 
+        // Map names become file names and parts of run ids.
+        if file.name.is_empty() || !file.name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_' || c == '-') {
+            err("name", format!("must be non-empty lower-case letters, digits, `-` or `_`, got {:?}", file.name));
+        }
         let mut walls = Vec::new();
         for (i, wall) in file.walls.iter().enumerate() {
             if wall.points.len() < 2 {

@@ -32,6 +32,11 @@ const ODOMETRY_STREAM: u64 = 1;
 const LASER_STREAM: u64 = 2;
 const POINT_SENSOR_STREAM: u64 = 3;
 
+/// Bounds of the odometry period [s]: 1 kHz to 1 Hz covers every real odometry source; outside
+/// them a run would take unbounded memory or model nothing.
+pub const MIN_DT_S: f64 = 1e-3;
+pub const MAX_DT_S: f64 = 1.0;
+
 /// `[base.sim]`: simulation clock.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -50,7 +55,7 @@ impl Default for SimParams {
 impl SimParams {
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
-        c.positive("dt_s", self.dt_s);
+        c.in_range("dt_s", self.dt_s, MIN_DT_S, MAX_DT_S);
         c.finish()
     }
 }
@@ -113,6 +118,8 @@ pub struct World {
 pub enum WorldError {
     #[error("trajectory controller did not reach waypoint {waypoint} of lap {lap} within {steps} steps")]
     TrajectoryStuck { waypoint: usize, lap: usize, steps: usize },
+    #[error("the trajectory would take about {steps:.0} steps, more than the limit of {max}")]
+    TooLong { steps: f64, max: usize },
     #[error("{sensor} rate must be a whole number of odometry steps")]
     SensorRate { sensor: &'static str },
 }
@@ -206,7 +213,7 @@ waypoints = [[9, 0], [9, 2], [0, 2], [0, 0]]
 
     #[test]
     fn noise_free_odometry_integrates_to_truth() {
-        let w = world(&OdometryNoise::None, false, 1);
+        let w = world(&OdometryNoise::None {}, false, 1);
         let mut p = w.truth[0];
         for (k, d) in w.odometry.iter().enumerate() {
             p = p.compose(*d);

@@ -25,8 +25,9 @@ pub enum Spread {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
 pub enum OdometryNoise {
-    /// Perfect odometry.
-    None,
+    /// Perfect odometry. (A struct variant, so that stray keys are rejected like everywhere
+    /// else: serde skips the rest of the table for a unit variant.)
+    None {},
     /// [FT] §3.2: v += N(0, s(k, |v|)), ω += N(0, s(k, |ω|)) per step, s given by `k_is`.
     Proportional {
         /// k: noise scale (dimensionless).
@@ -57,7 +58,7 @@ impl OdometryNoise {
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         match *self {
-            OdometryNoise::None => {}
+            OdometryNoise::None {} => {}
             OdometryNoise::Proportional { k, .. } => c.non_negative("k", k),
             OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => {
                 c.non_negative("var_x_m2", var_x_m2);
@@ -73,7 +74,7 @@ impl OdometryNoise {
     /// parameter values, so every sweep point sees the same underlying draws.
     pub fn measure(&self, start: Pose2, controls: &[(f64, f64)], dt_s: f64, rng: &mut ChaCha8Rng) -> Vec<Pose2> {
         match *self {
-            OdometryNoise::None => controls.iter().map(|&(v, w)| unicycle_increment(v, w, dt_s)).collect(),
+            OdometryNoise::None {} => controls.iter().map(|&(v, w)| unicycle_increment(v, w, dt_s)).collect(),
             OdometryNoise::Proportional { k, k_is } => {
                 let sigma = |x: f64| match k_is {
                     Spread::Std => k * x.abs(),
@@ -119,7 +120,7 @@ mod tests {
     #[test]
     fn no_noise_reproduces_truth() {
         let controls = vec![(0.5, 0.1); 50];
-        let inc = OdometryNoise::None.measure(Pose2::IDENTITY, &controls, 0.1, &mut rng());
+        let inc = OdometryNoise::None {}.measure(Pose2::IDENTITY, &controls, 0.1, &mut rng());
         assert_eq!(inc[0], unicycle_increment(0.5, 0.1, 0.1));
     }
 
@@ -164,6 +165,14 @@ mod tests {
         assert!((vt - 0.0004).abs() < 0.00003, "{vt}");
         let pos = inc.iter().map(|d| d.x * d.x + d.y * d.y).sum::<f64>() / n as f64;
         assert!((pos - 0.0125).abs() < 0.0008, "{pos}"); // σx² + σy², rotation-invariant
+    }
+
+    #[test]
+    fn none_rejects_stray_keys() {
+        // regression: `model = "none"` (a unit variant) silently accepted any other key
+        let err = toml::from_str::<OdometryNoise>("model = \"none\"\nk = 0.5\n").unwrap_err();
+        assert!(err.message().contains("unknown field `k`"), "{}", err.message());
+        assert_eq!(toml::from_str::<OdometryNoise>("model = \"none\"\n").unwrap(), OdometryNoise::None {});
     }
 
     #[test]

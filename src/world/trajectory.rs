@@ -15,6 +15,8 @@ const TURN_IN_PLACE_RAD: f64 = 0.5;
 const TIMEOUT_FACTOR: f64 = 4.0;
 /// Extra time [s] allowed per waypoint for turning in place.
 const TURN_ALLOWANCE_S: f64 = 30.0;
+/// Longest simulation, in steps (55 h at 10 Hz): a bound on memory per run.
+pub const MAX_STEPS: usize = 2_000_000;
 
 /// The true path: `poses[k]` is the pose at time k·Δt; `controls[k]` = (v [m/s], ω [rad/s]) moves
 /// `poses[k]` to `poses[k + 1]`.
@@ -36,7 +38,11 @@ pub fn drive(start: Pose2, spec: &TrajectorySpec, dt_s: f64) -> Result<TruthRun,
         .sum();
     let legs = waypoints.len() * spec.laps as usize;
     let budget_s = TIMEOUT_FACTOR * (lap_length * spec.laps as f64 / spec.max_speed_mps) + TURN_ALLOWANCE_S * legs as f64;
-    let max_steps = (budget_s / dt_s).ceil() as usize;
+    let expected_steps = lap_length * spec.laps as f64 / spec.max_speed_mps / dt_s;
+    if !(expected_steps <= MAX_STEPS as f64) {
+        return Err(WorldError::TooLong { steps: expected_steps, max: MAX_STEPS });
+    }
+    let max_steps = ((budget_s / dt_s).ceil() as usize).min(MAX_STEPS);
 
     let mut pose = start;
     let mut poses = vec![pose];
@@ -103,6 +109,13 @@ mod tests {
             let p = Point2::new(w[0], w[1]);
             assert!(run.poses.iter().any(|q| q.position().distance(p) <= spec.waypoint_tolerance_m));
         }
+    }
+
+    #[test]
+    fn absurdly_long_runs_are_refused() {
+        let mut spec = square();
+        spec.laps = 100_000;
+        assert!(matches!(drive(Pose2::IDENTITY, &spec, 0.1), Err(WorldError::TooLong { .. })));
     }
 
     #[test]

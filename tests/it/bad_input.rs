@@ -34,7 +34,7 @@ fn rejected(text: &str) -> String {
 #[test]
 fn the_good_spec_is_accepted() {
     let work = tempfile::tempdir().unwrap();
-    let spec = work.path().join("good.toml");
+    let spec = work.path().join("bad.toml"); // named after its id
     std::fs::write(&spec, GOOD).unwrap();
     let out = slamlab(&["validate", s(&spec)]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

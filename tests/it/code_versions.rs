@@ -9,28 +9,45 @@ use slamlab::metrics::{self, METRICS_VERSION};
 use slamlab::slam::{odometry, AlgorithmKind};
 use slamlab::world::laser::LaserParams;
 use slamlab::world::map::Map;
-use slamlab::world::odometry::OdometryNoise;
+use slamlab::world::odometry::{OdometryNoise, Spread};
 use slamlab::world::point_sensor::PointSensorParams;
-use slamlab::world::{generate, SimParams, WorldSpec, WORLD_CODE_VERSION};
+use slamlab::world::{generate, RangeNoise, SimParams, WorldSpec, WORLD_CODE_VERSION};
 
 /// The code versions the fingerprint below was taken with.
 const VERSIONS: &str = "world-1+metrics-1+odometry-1";
-const FINGERPRINT: &str = "2ddfcccb7555e522e5375b0c13db51224ac76647c00a50c2d84c375844b8be9a";
+const FINGERPRINT: &str = "7f07746280d4a4e588a6838ea96cf05bf22e3a83af4f989ae77edba9e51665d6";
 
 fn fingerprint() -> String {
     let text = std::fs::read_to_string(repo().join("data/maps/bigloop2.toml")).unwrap();
     let mut map = Map::from_toml(&text).unwrap();
     map.point_landmarks = vec![slamlab::geom::Point2::new(4.0, 1.0), slamlab::geom::Point2::new(12.0, 7.0)];
-    let (sim, noise, laser, sensor) = (SimParams::default(), OdometryNoise::default(), LaserParams::default(), PointSensorParams::default());
-    let world = generate(&WorldSpec { map: &map, sim: &sim, odometry: &noise, laser: Some(&laser), landmark_sensor: Some(&sensor) }, 42).unwrap();
-    let trace = odometry::run(&world);
     let mut h = blake3::Hasher::new();
+    // Every odometry noise model and reading, and both sensors with both range-noise models.
+    let models = [
+        OdometryNoise::None {},
+        OdometryNoise::Proportional { k: 0.1, k_is: Spread::Std },
+        OdometryNoise::Proportional { k: 0.1, k_is: Spread::Variance },
+        OdometryNoise::Pose { var_x_m2: 1e-4, var_y_m2: 2e-4, var_theta_rad2: 1e-5 },
+    ];
+    for (i, noise) in models.iter().enumerate() {
+        let sim = SimParams::default();
+        let range_noise = if i % 2 == 0 { RangeNoise::Constant } else { RangeNoise::Proportional };
+        let laser = LaserParams { range_noise, ..LaserParams::default() };
+        let sensor = PointSensorParams { range_noise, ..PointSensorParams::default() };
+        let world = generate(&WorldSpec { map: &map, sim: &sim, odometry: noise, laser: Some(&laser), landmark_sensor: Some(&sensor) }, 42).unwrap();
+        hash_run(&mut h, &world);
+    }
+    h.finalize().to_hex().to_string()
+}
+
+fn hash_run(h: &mut blake3::Hasher, world: &slamlab::world::World) {
+    let trace = odometry::run(world);
     let pose = |h: &mut blake3::Hasher, p: &Pose2| {
         for v in [p.x, p.y, p.theta] {
             h.update(&v.to_le_bytes());
         }
     };
-    world.truth.iter().chain(&world.odometry).chain(&trace.estimate).for_each(|p| pose(&mut h, p));
+    world.truth.iter().chain(&world.odometry).chain(&trace.estimate).for_each(|p| pose(h, p));
     for s in &world.scans {
         h.update(&(s.step as u64).to_le_bytes());
         for r in &s.ranges_m {
@@ -44,11 +61,10 @@ fn fingerprint() -> String {
             h.update(&o.bearing_rad.to_le_bytes());
         }
     }
-    for (name, v) in metrics::compute(&world, &trace) {
+    for (name, v) in metrics::compute(world, &trace) {
         h.update(name.as_bytes());
         h.update(&v.to_le_bytes());
     }
-    h.finalize().to_hex().to_string()
 }
 
 #[test]

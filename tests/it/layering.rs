@@ -29,14 +29,24 @@ fn code(text: &str) -> String {
     text.lines().map(|l| l.split("//").next().unwrap_or("")).collect::<Vec<_>>().join("\n")
 }
 
+/// Modules of `std` a pure layer must not import, also when grouped: `use std::{fs, io}`.
+const FORBIDDEN_STD_MODULES: &[&str] = &["fs", "io", "net", "env", "thread", "process", "time"];
+
 #[test]
 fn pure_layers_stay_pure() {
     let src = repo().join("src");
     for layer in PURE {
         for (path, text) in sources(&src.join(layer)) {
             let code = code(&text);
-            for bad in FORBIDDEN_IN_PURE {
+            for bad in FORBIDDEN_IN_PURE.iter().chain(&["rand::random", "File::", "OpenOptions"]) {
                 assert!(!code.contains(bad), "{path} uses `{bad}`: pure layers do no IO, threading or global randomness");
+            }
+            // grouped imports: `use std::{fs, io::Write}`
+            for group in code.split("std::{").skip(1) {
+                let items = group.split('}').next().unwrap_or("");
+                for item in items.split(',').map(|i| i.trim().split("::").next().unwrap_or("").trim()) {
+                    assert!(!FORBIDDEN_STD_MODULES.contains(&item), "{path} imports std::{item}: pure layers do no IO, threading or timing");
+                }
             }
         }
     }

@@ -111,13 +111,40 @@ fn plan_dry_run_explains_what_will_run() {
     let out = plan(&[]);
     assert!(out.contains("to run: 0") && out.contains("cached: 8"), "{out}");
     assert!(plan(&["--force"]).contains("forced 8"));
-    // a changed parameter is detected as such (the same run ids, new content)
     let spec = work.path().join("smoke.toml");
-    std::fs::write(&spec, std::fs::read_to_string("experiments/smoke.toml").unwrap().replace("[0.0, 0.1]", "[0.0, 0.2]")).unwrap();
-    let out = String::from_utf8(ok(&["plan", s(&spec), "--results", s(&results), "--cache", s(&cache)]).stdout).unwrap();
-    // k = 0.2 runs are new ids; k = 0 runs are unchanged
-    assert!(out.contains("new 4") && out.contains("cached: 4"), "{out}");
-    assert!(!work.path().join("results/smoke/.tmp").exists());
+    let plan_of = |text: String| {
+        std::fs::write(&spec, text).unwrap();
+        String::from_utf8(ok(&["plan", s(&spec), "--results", s(&results), "--cache", s(&cache)]).stdout).unwrap()
+    };
+    let smoke = std::fs::read_to_string("experiments/smoke.toml").unwrap();
+    // a new sweep value: new run ids for k = 0.2, the k = 0 runs unchanged
+    let out = plan_of(smoke.replace("[0.0, 0.1]", "[0.0, 0.2]"));
+    assert!(out.contains("new 4,") && out.contains("cached: 4"), "{out}");
+    // the same run ids with other inputs (the seed changes every world): parameters changed
+    let out = plan_of(smoke.replace("seed = 1", "seed = 2"));
+    assert!(out.contains("parameters changed 8,") && out.lines().filter(|l| l.starts_with("parameters changed ")).count() == 8, "{out}");
+    // nothing changed but the cache was emptied
+    std::fs::remove_dir_all(&cache).unwrap();
+    assert!(plan(&[]).contains("cache entry missing 8,"));
+    // no temporary folder is left next to the results
+    let leftovers: Vec<_> = std::fs::read_dir(&results).unwrap().flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with('.')).collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+#[test]
+fn report_refuses_to_wipe_a_foreign_folder() {
+    let work = tempfile::tempdir().unwrap();
+    let out = work.path().join("thesis");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("chapter1.tex"), "precious").unwrap();
+    let r = crate::util::slamlab(&["report", "--results", "data/results-none", "--out", s(&out)]);
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("refusing to replace it"));
+    assert_eq!(std::fs::read_to_string(out.join("chapter1.tex")).unwrap(), "precious");
+    // an empty or previously generated folder is fine
+    let fresh = work.path().join("reports");
+    ok(&["report", "--results", "data/results-none", "--out", s(&fresh)]);
+    ok(&["report", "--results", "data/results-none", "--out", s(&fresh)]);
 }
 
 #[test]
@@ -145,4 +172,9 @@ fn a_failing_run_is_recorded_and_the_study_goes_on() {
     ok(&["report", "--results", s(&results), "--out", s(&reports)]);
     let html = std::fs::read_to_string(reports.join("failing/index.html")).unwrap();
     assert!(html.contains("Failed runs") && html.contains("2/2"), "failures are shown as k/n");
+    // the spec lies outside the repository: only its file name is recorded, no absolute path
+    assert_eq!(store::read_study(&results.join("failing")).unwrap().manifest.spec_path, "failing.toml");
+    for (name, bytes) in tree(&reports) {
+        assert!(!String::from_utf8_lossy(&bytes).contains(s(work.path())), "{name} contains an absolute path");
+    }
 }
