@@ -8,6 +8,7 @@
 
 pub mod cli;
 pub mod config;
+pub mod features;
 pub mod geom;
 pub mod metrics;
 pub mod plan;

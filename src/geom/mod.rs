@@ -126,11 +126,7 @@ impl Segment {
 
     /// The infinite line through this segment, in normalised Hessian form.
     pub fn line(&self) -> Line {
-        let (dx, dy) = self.direction();
-        // The normal (cos θ, sin θ) is perpendicular to the direction.
-        let theta = dy.atan2(dx) + PI / 2.0;
-        let rho = self.a.x * theta.cos() + self.a.y * theta.sin();
-        Line::normalised(rho, theta)
+        Line::through(self.a, self.b)
     }
 
     /// Euclidean distance from `p` to the closest point of the segment.
@@ -185,6 +181,26 @@ impl Line {
     /// 10.1–10.2 use to compare lines.
     pub fn foot_point(&self) -> Point2 {
         Point2::new(self.rho * self.theta.cos(), self.rho * self.theta.sin())
+    }
+
+    /// The line through two distinct points.
+    pub fn through(a: Point2, b: Point2) -> Line {
+        // The normal (cos θ, sin θ) is perpendicular to b − a.
+        let theta = (b.y - a.y).atan2(b.x - a.x) + PI / 2.0;
+        Line::normalised(a.x * theta.cos() + a.y * theta.sin(), theta)
+    }
+
+    /// Perpendicular distance from `p` to the line.
+    pub fn distance(&self, p: Point2) -> f64 {
+        (p.x * self.theta.cos() + p.y * self.theta.sin() - self.rho).abs()
+    }
+
+    /// The intersection point, or `None` for parallel lines.
+    pub fn intersection(&self, other: &Line) -> Option<Point2> {
+        let (s1, c1) = self.theta.sin_cos();
+        let (s2, c2) = other.theta.sin_cos();
+        let det = c1 * s2 - s1 * c2; // sin(θ2 − θ1)
+        (det.abs() > PARALLEL_EPS).then(|| Point2::new((self.rho * s2 - other.rho * s1) / det, (c1 * other.rho - c2 * self.rho) / det))
     }
 
     /// Whether two normalised lines coincide within the given tolerances.
@@ -283,6 +299,20 @@ mod tests {
                 assert!(wrap_angle(l.theta - theta_deg.to_radians()).abs() < 1e-12, "{seg:?} → {l:?}");
             }
         }
+    }
+
+    #[test]
+    fn line_distance_and_intersection() {
+        let l = Line::through(Point2::new(0.0, 2.0), Point2::new(4.0, 2.0)); // y = 2
+        assert!((l.rho - 2.0).abs() < 1e-12 && (l.theta - PI / 2.0).abs() < 1e-12);
+        assert!((l.distance(Point2::new(1.0, 5.0)) - 3.0).abs() < 1e-12);
+        let m = Line::through(Point2::new(3.0, -1.0), Point2::new(3.0, 7.0)); // x = 3
+        let p = l.intersection(&m).unwrap();
+        assert!(p.distance(Point2::new(3.0, 2.0)) < 1e-12);
+        assert_eq!(l.intersection(&Line::normalised(5.0, PI / 2.0)), None);
+        // a line through the origin side: ρ stays ≥ 0 whatever the direction of travel
+        let d = Line::through(Point2::new(1.0, -1.0), Point2::new(-1.0, 1.0));
+        assert!(d.rho.abs() < 1e-12 && d.distance(Point2::new(2.0, -2.0)) < 1e-12);
     }
 
     #[test]
