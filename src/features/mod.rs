@@ -60,10 +60,16 @@ pub struct FeatureParams {
     pub split_fit: LineFit,
     /// Refit of merged lines ([FT] leaves it open; least squares uses every point).
     pub merge_fit: LineFit,
-    /// Split the scan at range jumps before Split & Merge ([FT] describes none: off).
+    /// Split the scan at range jumps before Split & Merge. [FT] describes none; without it a line
+    /// can take in a point of another wall that happens to lie on its extension across a gap
+    /// (a range cut-off or an occlusion), and its intersections become fictitious corners.
     pub breakpoints: bool,
-    /// A jump larger than this [m] between consecutive points starts a new point set.
-    pub breakpoint_m: f64,
+    /// λ [deg] of the adaptive breakpoint detector (Borges & Aldon 2004): consecutive points
+    /// farther apart than r·sin Δφ / sin(λ − Δφ) + margin are on different surfaces — the gap a
+    /// wall seen at incidence λ would leave.
+    pub breakpoint_lambda_deg: f64,
+    /// Margin [m] added to the breakpoint distance (≈ 3σ of the range noise).
+    pub breakpoint_margin_m: f64,
 }
 
 impl Default for FeatureParams {
@@ -79,8 +85,9 @@ impl Default for FeatureParams {
             kind: FeatureKind::Both,
             split_fit: LineFit::Endpoints,
             merge_fit: LineFit::LeastSquares,
-            breakpoints: false,
-            breakpoint_m: 0.5,
+            breakpoints: true,
+            breakpoint_lambda_deg: 10.0,
+            breakpoint_margin_m: 0.03,
         }
     }
 }
@@ -95,7 +102,8 @@ impl FeatureParams {
         c.in_range("theta_max_rad", self.theta_max_rad, 0.0, std::f64::consts::PI);
         c.non_negative("emax_m", self.emax_m);
         c.in_range("corner_min_angle_rad", self.corner_min_angle_rad, 0.0, std::f64::consts::FRAC_PI_2);
-        c.positive("breakpoint_m", self.breakpoint_m);
+        c.in_range("breakpoint_lambda_deg", self.breakpoint_lambda_deg, f64::MIN_POSITIVE, 90.0);
+        c.non_negative("breakpoint_margin_m", self.breakpoint_margin_m);
         c.finish()
     }
 }
@@ -124,25 +132,36 @@ impl ScanFeatures {
     }
 }
 
-/// The returns of a scan as Cartesian points in the robot frame, in beam order.
-pub fn scan_points(scan: &Scan, geometry: &LaserGeometry) -> Vec<Point2> {
+/// One return of a scan: its point in the robot frame, its range and its beam index.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScanPoint {
+    pub p: Point2,
+    pub range_m: f64,
+    pub beam: usize,
+}
+
+/// The returns of a scan as points in the robot frame, in beam order.
+pub fn scan_points(scan: &Scan, geometry: &LaserGeometry) -> Vec<ScanPoint> {
     scan.ranges_m
         .iter()
         .enumerate()
-        .filter_map(|(i, r)| r.map(|r| (r, geometry.bearing(i))))
-        .map(|(r, phi)| Point2::new(r * phi.cos(), r * phi.sin()))
+        .filter_map(|(i, r)| r.map(|r| (i, r, geometry.bearing(i))))
+        .map(|(beam, r, phi)| ScanPoint { p: Point2::new(r * phi.cos(), r * phi.sin()), range_m: r, beam })
         .collect()
 }
 
 /// Extracts the features of one scan.
 pub fn extract(scan: &Scan, geometry: &LaserGeometry, params: &FeatureParams) -> ScanFeatures {
-    extract_points(&scan_points(scan, geometry), params)
+    extract_points(&scan_points(scan, geometry), geometry.angle_increment_rad, params)
 }
 
-/// Extracts features from ordered points (robot frame).
-pub fn extract_points(points: &[Point2], params: &FeatureParams) -> ScanFeatures {
+/// Extracts features from ordered scan points (robot frame) of a laser with the given angle
+/// between beams.
+pub fn extract_points(scan: &[ScanPoint], increment_rad: f64, params: &FeatureParams) -> ScanFeatures {
+    let points: Vec<Point2> = scan.iter().map(|s| s.p).collect();
+    let points = points.as_slice();
     let mut segments = Vec::new();
-    for set in point_sets(points, params) {
+    for set in point_sets(scan, increment_rad, params) {
         split_and_merge(points, set, params, &mut segments);
     }
     let lines = merge_collinear(points, segments, params);
@@ -162,20 +181,28 @@ pub fn extract_points(points: &[Point2], params: &FeatureParams) -> ScanFeatures
     ScanFeatures { lines, corners }
 }
 
-/// The point sets Split & Merge starts from: the whole scan, or runs between range jumps.
-fn point_sets(points: &[Point2], params: &FeatureParams) -> Vec<Range<usize>> {
+/// The point sets Split & Merge starts from: the whole scan, or the runs between breakpoints.
+/// A breakpoint is a beam without return between two points (nothing connects them), or two
+/// adjacent returns farther apart than the adaptive distance r·sin Δφ / sin(λ − Δφ) + margin
+/// (Borges & Aldon 2004).
+fn point_sets(scan: &[ScanPoint], increment_rad: f64, params: &FeatureParams) -> Vec<Range<usize>> {
     if !params.breakpoints {
-        return vec![0..points.len()];
+        return vec![0..scan.len()];
     }
+    let lambda = params.breakpoint_lambda_deg.to_radians();
+    let dphi = increment_rad.abs();
+    let factor = if dphi < lambda { dphi.sin() / (lambda - dphi).sin() } else { f64::INFINITY };
     let mut sets = Vec::new();
     let mut start = 0;
-    for i in 1..points.len() {
-        if points[i].distance(points[i - 1]) > params.breakpoint_m {
+    for i in 1..scan.len() {
+        let (a, b) = (&scan[i - 1], &scan[i]);
+        let missed_between = b.beam > a.beam + 1;
+        if missed_between || a.p.distance(b.p) > a.range_m * factor + params.breakpoint_margin_m {
             sets.push(start..i);
             start = i;
         }
     }
-    sets.push(start..points.len());
+    sets.push(start..scan.len());
     sets
 }
 
@@ -282,8 +309,18 @@ mod tests {
         (0..=n).map(|i| i as f64 / n as f64).map(|t| Point2::new(a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1))).collect()
     }
 
+    /// Test points as consecutive beams of a 1° laser.
+    fn beams(points: &[Point2]) -> Vec<ScanPoint> {
+        points.iter().enumerate().map(|(beam, p)| ScanPoint { p: *p, range_m: p.x.hypot(p.y), beam }).collect()
+    }
+
+    fn extract_points(points: &[Point2], params: &FeatureParams) -> ScanFeatures {
+        super::extract_points(&beams(points), 1f64.to_radians(), params)
+    }
+
+    /// The faithful [FT] variant (no breakpoints) with small thresholds for short test walls.
     fn params() -> FeatureParams {
-        FeatureParams { pmin: 5, lmin_m: 0.5, ..FeatureParams::default() }
+        FeatureParams { pmin: 5, lmin_m: 0.5, breakpoints: false, ..FeatureParams::default() }
     }
 
     #[test]
@@ -375,10 +412,36 @@ mod tests {
     }
 
     #[test]
-    fn breakpoints_separate_distant_walls() {
-        let mut pts = wall((3.0, -2.0), (3.0, 0.0), 0.05);
-        pts.extend(wall((6.0, 0.0), (6.0, 2.0), 0.05));
-        let on = extract_points(&pts, &FeatureParams { breakpoints: true, ..params() });
-        assert_eq!(on.lines.len(), 2);
+    fn breakpoints_keep_a_far_collinear_point_out_of_a_line() {
+        // regression: a 1° laser at the origin sees a far wall x = 12 up to the 12.7 m range
+        // limit, which it reaches at (12, 4.02) — on the extension of a near wall y = 4 (x from
+        // 8 to 4), seen after eight beams without return. Without breakpoints the far point joins
+        // the near wall's line, whose intersection with x = 12 then passes the Emax test as a
+        // fictitious corner (what Lineamedia and Bigloop2 showed).
+        let far: Vec<ScanPoint> = (0..=18).map(|b| {
+            let p = if b == 18 { Point2::new(12.0, 4.02) } else { Point2::new(12.0, 12.0 * (b as f64).to_radians().tan()) };
+            ScanPoint { p, range_m: p.x.hypot(p.y), beam: b }
+        }).collect();
+        let near = (27..=45).map(|b| {
+            let p = Point2::new(4.0 / (b as f64).to_radians().tan(), 4.0);
+            ScanPoint { p, range_m: p.x.hypot(p.y), beam: b }
+        });
+        let pts: Vec<ScanPoint> = far.into_iter().chain(near).collect();
+        let faithful = super::extract_points(&pts, 1f64.to_radians(), &params());
+        assert_eq!(faithful.corners.len(), 1, "the artefact exists without breakpoints");
+        let with = super::extract_points(&pts, 1f64.to_radians(), &FeatureParams { breakpoints: true, ..params() });
+        assert!(with.corners.is_empty(), "{:?}", with.corners);
+        assert_eq!(with.lines.len(), 2);
+    }
+
+    #[test]
+    fn breakpoints_do_not_cut_a_continuous_wall_but_do_cut_a_jump() {
+        // a wall at 5 m sampled every degree is one point set
+        let wall_5m: Vec<Point2> = (-30..=30).map(|d| Point2::new(5.0, 5.0 * (d as f64).to_radians().tan())).collect();
+        assert_eq!(point_sets(&beams(&wall_5m), 1f64.to_radians(), &FeatureParams::default()).len(), 1);
+        // adjacent beams that land 1 m apart in depth are on different surfaces
+        let mut jump = wall_5m.clone();
+        jump.extend((31..=40).map(|d| Point2::new(6.0, 6.0 * (d as f64).to_radians().tan())));
+        assert_eq!(point_sets(&beams(&jump), 1f64.to_radians(), &FeatureParams::default()).len(), 2);
     }
 }

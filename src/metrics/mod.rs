@@ -2,8 +2,8 @@
 //! (translation part, no alignment: both trajectories start at the same pose), with evo's names
 //! (rmse, mean, median, max).
 
-use crate::geom::{wrap_angle, Pose2};
-use crate::slam::Trace;
+use crate::geom::{wrap_angle, Line, Point2, Pose2};
+use crate::slam::{LandmarkMap, Trace};
 use crate::world::World;
 
 /// Bump when a metric's definition changes (part of every run's content hash).
@@ -31,7 +31,31 @@ pub const METRICS: &[MetricDef] = &[
     MetricDef { name: "final_heading_error_deg", title: "Final heading error", unit: "deg", description: "absolute heading error at the last step, wrapped to [0, 180]", lower_is_better: true },
     MetricDef { name: "path_length_m", title: "Path length", unit: "m", description: "length of the true trajectory", lower_is_better: false },
     MetricDef { name: "numerical_failures", title: "Numerical failures", unit: "count", description: "numerical problems the algorithm met and survived", lower_is_better: true },
+    MetricDef {
+        name: LANDMARK_ERROR,
+        title: "Landmark error",
+        unit: "m",
+        description: "[FT] §5: mean, over the landmarks of the final map, of the distance to the nearest same-type true landmark (lines compared by their foot point (ρ cos θ, ρ sin θ)); ∞ when nothing is detected",
+        lower_is_better: true,
+    },
+    MetricDef { name: LANDMARKS_DETECTED, title: "Landmarks detected", unit: "count", description: "landmarks (lines + corners) in the final map ([FT]'s \"hitos detectados\")", lower_is_better: false },
+    MetricDef { name: "lines_detected", title: "Lines detected", unit: "count", description: "lines in the final map", lower_is_better: false },
+    MetricDef { name: "corners_detected", title: "Corners detected", unit: "count", description: "corners in the final map", lower_is_better: false },
+    MetricDef { name: "landmarks_true", title: "True landmarks", unit: "count", description: "landmarks of the map's ground truth (8, 9, 16, 22, 26 for the [FT] maps)", lower_is_better: false },
+    MetricDef { name: "landmark_count_ratio", title: "Detected / true landmarks", unit: "ratio", description: "landmarks detected divided by the true count (1 = as many as there are)", lower_is_better: false },
+    MetricDef { name: "landmark_precision", title: "Landmark precision", unit: "fraction", description: "share of detected landmarks within 0.5 m of a same-type true landmark", lower_is_better: false },
+    MetricDef { name: "landmark_recall", title: "Landmark recall", unit: "fraction", description: "share of true landmarks with a same-type detected landmark within 0.5 m", lower_is_better: false },
+    MetricDef { name: "neff_mean", title: "Mean N̂eff", unit: "particles", description: "effective sample size 1/Σw², averaged over the steps that weighted the particles", lower_is_better: false },
+    MetricDef { name: "resamples", title: "Resamples", unit: "count", description: "how many times the particles were resampled", lower_is_better: false },
 ];
+
+pub const LANDMARK_ERROR: &str = "landmark_error_m";
+pub const LANDMARKS_DETECTED: &str = "landmarks_detected";
+
+/// Distance [m] within which a detected landmark counts as finding a true one (precision, recall).
+/// The [FT] metric itself has no gate; half a metre separates the nearest distinct landmarks of
+/// the [FT] maps (≥ 2 m apart) from their estimates comfortably.
+pub const LANDMARK_GATE_M: f64 = 0.5;
 
 pub fn metric_def(name: &str) -> Option<&'static MetricDef> {
     METRICS.iter().find(|m| m.name == name)
@@ -44,7 +68,41 @@ pub type RunMetrics = Vec<(&'static str, f64)>;
 pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
     let mut out = trajectory_metrics(&world.truth, &trace.estimate);
     out.push(("numerical_failures", trace.numerical_failures as f64));
+    if let Some(map) = &trace.map {
+        out.extend(landmark_metrics(map, &world.truth_lines, &world.truth_corners));
+    }
+    let neff: Vec<f64> = trace.neff.iter().flatten().copied().collect();
+    if !neff.is_empty() {
+        out.push(("neff_mean", neff.iter().sum::<f64>() / neff.len() as f64));
+        out.push(("resamples", trace.resamples as f64));
+    }
     out
+}
+
+/// The [FT] §5 landmark metrics and their extensions, for a final map against the truth.
+pub fn landmark_metrics(map: &LandmarkMap, true_lines: &[Line], true_corners: &[Point2]) -> RunMetrics {
+    // Every landmark as a point: lines by their foot point ([FT] Eqs. 10.1–10.3).
+    let est_lines: Vec<Point2> = map.lines.iter().map(Line::foot_point).collect();
+    let ref_lines: Vec<Point2> = true_lines.iter().map(Line::foot_point).collect();
+    let nearest = |p: &Point2, refs: &[Point2]| refs.iter().map(|r| r.distance(*p)).fold(f64::INFINITY, f64::min);
+    // Many-to-one: every detected landmark is matched to the nearest true one of its type.
+    let errors: Vec<f64> = est_lines.iter().map(|p| nearest(p, &ref_lines)).chain(map.corners.iter().map(|p| nearest(p, true_corners))).collect();
+    let detected = errors.len();
+    let truth = true_lines.len() + true_corners.len();
+    let error = if detected == 0 { f64::INFINITY } else { errors.iter().sum::<f64>() / detected as f64 };
+    let precision = if detected == 0 { f64::NAN } else { errors.iter().filter(|&&e| e <= LANDMARK_GATE_M).count() as f64 / detected as f64 };
+    let found = ref_lines.iter().filter(|r| nearest(r, &est_lines) <= LANDMARK_GATE_M).count() + true_corners.iter().filter(|r| nearest(r, &map.corners) <= LANDMARK_GATE_M).count();
+    let recall = if truth == 0 { f64::NAN } else { found as f64 / truth as f64 };
+    vec![
+        (LANDMARK_ERROR, error),
+        (LANDMARKS_DETECTED, detected as f64),
+        ("lines_detected", map.lines.len() as f64),
+        ("corners_detected", map.corners.len() as f64),
+        ("landmarks_true", truth as f64),
+        ("landmark_count_ratio", if truth == 0 { f64::NAN } else { detected as f64 / truth as f64 }),
+        ("landmark_precision", precision),
+        ("landmark_recall", recall),
+    ]
 }
 
 /// ATE statistics, final errors and path length. Pairs poses by step index; a shorter estimate is
@@ -115,11 +173,35 @@ mod tests {
     }
 
     #[test]
+    fn thesis_landmark_error_matches_nearest_same_type_and_counts_duplicates() {
+        let true_lines = [Line::normalised(1.0, -std::f64::consts::FRAC_PI_2), Line::normalised(19.0, 0.0)];
+        let true_corners = [Point2::new(-1.0, -1.0), Point2::new(19.0, 9.0)];
+        // one line 0.1 m off, a duplicate of it 0.3 m off, one corner 0.2 m off; the second true
+        // line and corner are missed
+        let map = LandmarkMap {
+            lines: vec![Line::normalised(1.1, -std::f64::consts::FRAC_PI_2), Line::normalised(1.3, -std::f64::consts::FRAC_PI_2)],
+            corners: vec![Point2::new(-1.2, -1.0)],
+        };
+        let m = landmark_metrics(&map, &true_lines, &true_corners);
+        let get = |n: &str| m.iter().find(|(k, _)| *k == n).unwrap().1;
+        assert!((get(LANDMARK_ERROR) - 0.2).abs() < 1e-12); // (0.1 + 0.3 + 0.2) / 3: missed ones do not count
+        assert_eq!(get(LANDMARKS_DETECTED), 3.0);
+        assert!((get("landmark_precision") - 1.0).abs() < 1e-12);
+        assert!((get("landmark_recall") - 0.5).abs() < 1e-12);
+        assert!((get("landmark_count_ratio") - 0.75).abs() < 1e-12);
+        // nothing detected: the thesis reports ∞
+        let empty = landmark_metrics(&LandmarkMap::default(), &true_lines, &true_corners);
+        assert_eq!(empty[0].1, f64::INFINITY);
+    }
+
+    #[test]
     fn every_computed_metric_is_documented() {
         let truth = vec![Pose2::IDENTITY; 3];
-        let m = trajectory_metrics(&truth, &truth);
+        let mut m = trajectory_metrics(&truth, &truth);
+        m.extend(landmark_metrics(&LandmarkMap::default(), &[], &[]));
         for (name, _) in m {
             assert!(metric_def(name).is_some(), "{name} undocumented");
+            assert!(!name.contains('.'), "metric names never contain a dot (parameter columns do)");
         }
     }
 }

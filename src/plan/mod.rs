@@ -8,13 +8,14 @@
 use crate::metrics::METRICS_VERSION;
 use crate::slam::AlgorithmKind;
 use crate::spec::{InputErrors, LoadedSpec, Params, SpecError, SweepKind};
+use crate::store::{reference as reference_file, ClaimCells};
 use crate::world::map::Map;
 use crate::world::WORLD_CODE_VERSION;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Version of the results schema (`runs.parquet`, `traces.parquet`): part of every content hash.
-pub const SCHEMA_VERSION: &str = "results-1";
+pub const SCHEMA_VERSION: &str = "results-2";
 
 /// A map a study uses, with the exact bytes that were hashed.
 #[derive(Debug, Clone)]
@@ -72,6 +73,10 @@ pub struct ExperimentPlan {
     pub groups: Vec<SweepGroup>,
     pub points: Vec<SweepPoint>,
     pub runs: Vec<RunSpec>,
+    /// The cells each claim refers to.
+    pub claims: Vec<ClaimCells>,
+    /// The reference rows of `[report] reference` (header + that experiment's lines, verbatim).
+    pub reference: Option<String>,
 }
 
 impl ExperimentPlan {
@@ -106,13 +111,21 @@ pub fn build(spec: LoadedSpec, maps_dir: &Path) -> Result<ExperimentPlan, InputE
     if !errors.is_empty() {
         return Err(InputErrors(errors));
     }
+    let claims = match claim_cells(&spec, &points) {
+        Ok(c) => c,
+        Err(e) => return Err(e.into()),
+    };
+    let reference = match reference(&spec) {
+        Ok(r) => r,
+        Err(e) => return Err(e.into()),
+    };
     let runs = runs(&spec, &maps, &points);
     let mut ids: Vec<&str> = runs.iter().map(|r| r.run_id.as_str()).collect();
     ids.sort_unstable();
     if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
         return Err(SpecError::new(&spec.path, vec![spec.error_at("sweeps", format!("two sweep points give the same run id `{}`", w[0]))]).into());
     }
-    Ok(ExperimentPlan { spec, maps, groups, points, runs })
+    Ok(ExperimentPlan { spec, maps, groups, points, runs, claims, reference })
 }
 
 fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) -> Vec<MapEntry> {
@@ -279,6 +292,71 @@ fn get_path<'a>(table: &'a toml::Table, path: &str) -> Option<&'a toml::Value> {
     Some(value)
 }
 
+/// The sweep point with the base parameters plus `table`'s assignments (`key` places errors).
+fn find_point(spec: &LoadedSpec, points: &[SweepPoint], table: &toml::Table, key: &str) -> Result<usize, crate::source::SourceError> {
+    let mut leaves = Vec::new();
+    crate::spec::params::flatten("", &toml::Value::Table(table.clone()), &mut leaves);
+    let assignments: Vec<(String, toml::Value, String)> = leaves.into_iter().map(|(p, v)| (p.clone(), v, crate::source::join_key(key, &p))).collect();
+    let params = resolve(spec, &assignments).map_err(|mut e| e.remove(0))?;
+    points.iter().position(|p| p.params == params).ok_or_else(|| spec.error_at(key, "no sweep point of this study has these parameters (the others at base)"))
+}
+
+/// Resolves every claim's cells to sweep points.
+fn claim_cells(spec: &LoadedSpec, points: &[SweepPoint]) -> Result<Vec<ClaimCells>, SpecError> {
+    let mut out = Vec::new();
+    let mut errors = Vec::new();
+    for (i, c) in spec.spec.claims.iter().enumerate() {
+        let mut cell = |t: &toml::Table, k: &str| -> Option<String> {
+            if t.is_empty() {
+                return Some(points.iter().find(|p| p.params == spec.spec.base).map_or_else(|| points[0].label.clone(), |p| p.label.clone())).filter(|_| k == "at");
+            }
+            match find_point(spec, points, t, &format!("claims[{i}].{k}")) {
+                Ok(p) => Some(points[p].label.clone()),
+                Err(e) => {
+                    errors.push(e);
+                    None
+                }
+            }
+        };
+        let at = cell(&c.at, "at");
+        let than = if c.than.is_empty() { None } else { cell(&c.than, "than") };
+        let mut over = Vec::new();
+        if let Some((param, values)) = c.over.iter().next() {
+            for (j, v) in values.as_array().map(Vec::as_slice).unwrap_or_default().iter().enumerate() {
+                let mut t = toml::Table::new();
+                t.insert(param.clone(), v.clone());
+                match find_point(spec, points, &t, &format!("claims[{i}].over")) {
+                    Ok(p) => over.push((format_value(v), points[p].label.clone())),
+                    Err(mut e) => {
+                        e.key = format!("claims[{i}].over.{}[{j}]", crate::source::join_key("", param));
+                        errors.push(e);
+                    }
+                }
+            }
+        }
+        out.push(ClaimCells { id: c.id.clone(), at, than, over });
+    }
+    if errors.is_empty() { Ok(out) } else { Err(SpecError::new(&spec.path, errors)) }
+}
+
+/// Reads and checks `[report] reference`: the file parses, has rows of the experiment, and
+/// those rows sweep a parameter the study sweeps.
+fn reference(spec: &LoadedSpec) -> Result<Option<String>, SpecError> {
+    let Some(r) = &spec.spec.report.reference else { return Ok(None) };
+    let fail = |key: &str, msg: String| SpecError::new(&spec.path, vec![spec.error_at(key, msg)]);
+    let text = std::fs::read_to_string(&r.file).map_err(|e| fail("report.reference.file", format!("cannot read {}: {e}", r.file)))?;
+    let rows = reference_file::parse(&text).map_err(|e| fail("report.reference.file", format!("{}: {e}", r.file)))?;
+    let rows: Vec<_> = rows.into_iter().filter(|row| row.experiment == r.experiment).collect();
+    if rows.is_empty() {
+        return Err(fail("report.reference.experiment", format!("{} has no rows of experiment `{}`", r.file, r.experiment)));
+    }
+    let swept: Vec<&str> = spec.sweeps.iter().flat_map(|b| &b.params).map(|p| p.path.as_str()).collect();
+    if let Some(row) = rows.iter().find(|row| !swept.contains(&row.parameter.as_str())) {
+        return Err(fail("report.reference.experiment", format!("its rows sweep `{}`, which this study does not sweep", row.parameter)));
+    }
+    Ok(Some(reference_file::select(&text, &r.experiment)))
+}
+
 /// Sets `a.b.c = value`, creating intermediate tables.
 fn set_path(table: &mut toml::Table, path: &str, value: toml::Value) {
     let mut parts = path.split('.').peekable();
@@ -324,13 +402,10 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
                 for replicate in 0..s.replicates {
                     let world_seed = derive_seed(s.seed, &map.name, replicate, "world");
                     let filter_seed = derive_seed(s.seed, &map.name, replicate, "filter");
-                    let inputs = serde_json::json!({
-                        "map_blake3": map.hash,
-                        "world_seed": world_seed,
-                        "filter_seed": filter_seed,
-                        "params": sections,
-                    });
-                    let params_hash = blake3::hash(inputs.to_string().as_bytes()).to_hex().to_string();
+                    // TOML text, not JSON: it keeps `inf` (e.g. fastslam.neff_threshold) distinct.
+                    let params = toml::to_string(&sections).expect("parameters serialise to TOML");
+                    let inputs = format!("map_blake3 = {:?}\nworld_seed = {world_seed}\nfilter_seed = {filter_seed}\n{params}", map.hash);
+                    let params_hash = blake3::hash(inputs.as_bytes()).to_hex().to_string();
                     let hash = blake3::hash(format!("{code_version}\n{params_hash}").as_bytes()).to_hex().to_string();
                     runs.push(RunSpec {
                         run_id: format!("{}--{}--{}--r{:0width$}", map.name, algorithm.name(), sanitize(&point.label), replicate),

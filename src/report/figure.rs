@@ -29,6 +29,7 @@ struct LegendEntry<'s> {
     label: &'s str,
     color: RGBColor,
     dot: bool,
+    dashed: bool,
 }
 
 /// Legend layout in rows above the plot: (entry index, x, row) and the strip's height [px].
@@ -60,6 +61,10 @@ fn draw_legend(area: &DrawingArea<SVGBackend<'_>, Shift>, entries: &[LegendEntry
         let (x, y) = (x as i32, 12 + 18 * row as i32);
         if e.dot {
             area.draw(&Circle::new((x + 9, y), 4, e.color.filled())).map_err(|e| e.to_string())?;
+        } else if e.dashed {
+            for (a, b) in [(0, 5), (8, 13), (16, 18)] {
+                area.draw(&PathElement::new(vec![(x + a, y), (x + b, y)], e.color.stroke_width(2))).map_err(|e| e.to_string())?;
+            }
         } else {
             area.draw(&PathElement::new(vec![(x, y), (x + 18, y)], e.color.stroke_width(2))).map_err(|e| e.to_string())?;
         }
@@ -92,6 +97,8 @@ pub struct LineSeries {
     pub label: String,
     pub color: usize,
     pub points: Vec<SeriesPoint>,
+    /// Published values: dashed, without a band.
+    pub dashed: bool,
 }
 
 /// Error (or any metric) against a swept parameter: mean line with a CI band per series.
@@ -149,7 +156,7 @@ fn padded(v: &[f64], frac: f64, from_zero: bool) -> (f64, f64) {
 
 /// Renders a line figure to an SVG document string.
 pub fn line_svg(fig: &LineFigure) -> String {
-    let entries: Vec<LegendEntry<'_>> = fig.series.iter().map(|s| LegendEntry { label: &s.label, color: rgb(s.color), dot: false }).collect();
+    let entries: Vec<LegendEntry<'_>> = fig.series.iter().map(|s| LegendEntry { label: &s.label, color: rgb(s.color), dot: false, dashed: s.dashed }).collect();
     let (_, legend_px) = legend_layout(&entries, WIDTH, LEFT_PX);
     let mut svg = String::new();
     {
@@ -178,6 +185,12 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
     for s in &fig.series {
         let color = rgb(s.color);
         let pts: Vec<&SeriesPoint> = LineFigure::drawable(&s.points).collect();
+        if s.dashed {
+            let line: Vec<(f64, f64)> = pts.iter().map(|p| (fig.position(p.x), p.mean)).collect();
+            chart.draw_series(plotters::series::DashedLineSeries::new(line.clone(), 6, 4, color.stroke_width(2))).map_err(|e| e.to_string())?;
+            chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.stroke_width(1)))).map_err(|e| e.to_string())?;
+            continue;
+        }
         let band: Vec<&SeriesPoint> = pts.iter().copied().filter(|p| p.lo.is_finite() && p.hi.is_finite()).collect();
         if band.len() >= 2 {
             let mut poly: Vec<(f64, f64)> = band.iter().map(|p| (fig.position(p.x), p.hi)).collect();
@@ -254,9 +267,9 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
     let plot_h = (plot_w * (y1 - y0) / (x1 - x0)).clamp(160.0, 640.0);
     let (plot_w, height) = (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
     let width = (plot_w as u32 + label_y + 2 * margin).min(WIDTH);
-    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false }).collect();
+    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false, dashed: false }).collect();
     if !fig.corners.is_empty() {
-        entries.push(LegendEntry { label: "true corners", color: CORNER, dot: true });
+        entries.push(LegendEntry { label: "true corners", color: CORNER, dot: true, dashed: false });
     }
     let (_, legend_px) = legend_layout(&entries, width, label_y + margin);
     let mut svg = String::new();
@@ -308,6 +321,7 @@ mod tests {
                     SeriesPoint { x: 0.1, mean: 2.0, lo: f64::NAN, hi: f64::NAN },
                     SeriesPoint { x: 1.0, mean: f64::INFINITY, lo: f64::NAN, hi: f64::NAN },
                 ],
+                dashed: false,
             }],
         }
     }

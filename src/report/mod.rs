@@ -3,6 +3,7 @@
 //! Reads only the store. Output is byte-identical for identical results: no timestamps, no
 //! absolute paths, explicit ordering, fixed significant figures.
 
+pub mod claims;
 pub mod figure;
 pub mod latex;
 pub mod pgf;

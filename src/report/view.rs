@@ -6,6 +6,7 @@ use super::stats::{self, sig, sig_ascii, Summary};
 use crate::metrics::{metric_def, MetricDef};
 use crate::spec::params::flatten;
 use crate::spec::SweepKind;
+use crate::store::reference::ReferenceRow;
 use crate::store::{ParamValue, RunRow, RunStatus, StudyData, TraceRows};
 use crate::world::map::Map;
 use serde::Serialize;
@@ -48,6 +49,8 @@ pub struct FigureView {
 #[derive(Debug, Clone, Serialize)]
 pub struct GroupView {
     pub title: String,
+    /// How often the published values lie inside our confidence intervals, per metric.
+    pub agreement: Vec<String>,
     /// Leading text columns of `table` (map, algorithm); the rest are right-aligned numbers.
     pub label_columns: usize,
     pub figures: Vec<FigureView>,
@@ -66,6 +69,7 @@ pub struct StudyView {
     pub choices: Vec<String>,
     pub notes: Vec<String>,
     pub groups: Vec<GroupView>,
+    pub claims: Vec<super::claims::ClaimView>,
     pub trajectories: Vec<FigureView>,
     pub failures: TableView,
     pub metrics: TableView,
@@ -114,6 +118,15 @@ impl Study<'_> {
         let failed = runs.iter().filter(|r| r.status != RunStatus::Ok).count();
         (stats::summarize(&values), failed, runs.len())
     }
+    /// The published row for (map, parameter = value), if the study shows a reference.
+    fn published(&self, map: &str, param: &str, value: f64) -> Option<&ReferenceRow> {
+        self.data.reference.iter().find(|r| r.map == map && r.parameter == param && (r.value - value).abs() <= 1e-9 * value.abs().max(1.0))
+    }
+
+    fn reference_label(&self) -> &str {
+        self.spec().report.reference.as_ref().map_or("published", |r| r.label.as_str())
+    }
+
     /// The value of parameter `path` at a point: its sweep assignment, else the base value.
     fn value_at(&self, point: &crate::store::PointRecord, path: &str) -> Option<toml::Value> {
         point.assignments.get(path).cloned().or_else(|| self.base.iter().find(|(k, _)| k == path).map(|(_, v)| v.clone()))
@@ -161,6 +174,7 @@ pub fn build(data: &StudyData, traces: &dyn Fn(&[String]) -> Vec<TraceRows>) -> 
         choices: modelling_choices(&study),
         notes: spec.notes.clone(),
         groups,
+        claims: super::claims::evaluate(data),
         trajectories,
         failures: failures_table(data),
         metrics: TableView {
@@ -390,6 +404,17 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
     columns.push("n".into());
     columns.extend(study.metrics.iter().map(|m| format!("{} [{}]", m.title, m.unit)));
     columns.push("Failed".into());
+    // Published values beside ours, for the metrics the reference has, when it sweeps this x.
+    let x_param = group.params.first();
+    let ref_metrics: Vec<&MetricDef> = study
+        .metrics
+        .iter()
+        .copied()
+        .filter(|m| x_param.is_some_and(|x| study.data.reference.iter().any(|r| &r.parameter == x && r.metric(m.name).is_some())))
+        .collect();
+    let label = study.reference_label();
+    columns.extend(ref_metrics.iter().map(|m| format!("{label}: {}", m.title)));
+    let mut agreement: Vec<(usize, usize)> = vec![(0, 0); ref_metrics.len()];
     let mut rows = Vec::new();
     for (map, _) in &study.maps {
         for algorithm in &spec.algorithms {
@@ -411,12 +436,34 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 }
                 row.insert(row.len() - study.metrics.len(), n_ok.to_string());
                 row.push(failed_text);
+                // The reference ran the study's first algorithm.
+                let x = x_param.and_then(|k| study.value_at(p, k)).and_then(|v| ParamValue::from_toml(&v).as_f64());
+                let published = x.zip(x_param).filter(|_| Some(algorithm) == spec.algorithms.first()).and_then(|(x, k)| study.published(map, k, x));
+                for (mi, m) in ref_metrics.iter().enumerate() {
+                    row.push(match published.and_then(|r| r.metric(m.name)) {
+                        None => String::new(),
+                        Some(v) => {
+                            let (ours, ..) = study.cell(map, algorithm.name(), &p.label, m.name);
+                            let inside = ours.ci_low.is_finite() && v >= ours.ci_low && v <= ours.ci_high || ours.mean == v;
+                            agreement[mi].1 += 1;
+                            agreement[mi].0 += inside as usize;
+                            let var = published.and_then(|r| r.metric(&format!("{}_var", m.name))).map(|w| format!(" (σ² {})", sig(w, 2))).unwrap_or_default();
+                            format!("{}{var}{}", sig(v, TABLE_DIGITS), if inside { "" } else { " ≠" })
+                        }
+                    });
+                }
                 rows.push(row);
             }
         }
     }
-    let align = format!("{}{}r{}r", if show_algorithm { "ll" } else { "l" }, "l".repeat(group.params.len()), "r".repeat(study.metrics.len()));
+    let align = format!("{}{}r{}r{}", if show_algorithm { "ll" } else { "l" }, "l".repeat(group.params.len()), "r".repeat(study.metrics.len()), "r".repeat(ref_metrics.len()));
     let table = TableView { columns, rows, align };
+    let agreement: Vec<String> = ref_metrics
+        .iter()
+        .zip(&agreement)
+        .filter(|(_, (_, n))| *n > 0)
+        .map(|(m, (k, n))| format!("{}: the published value lies inside our 95 % CI in {k} of {n} cells (≠ marks the others).", m.title))
+        .collect();
 
     let mut figures = Vec::new();
     if let Some(x_param) = group.params.first() {
@@ -449,7 +496,27 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                             if !other.is_empty() {
                                 label = format!("{label} ({other})");
                             }
-                            series.push(LineSeries { label, color: series.len(), points: pts });
+                            series.push(LineSeries { label, color: series.len(), points: pts, dashed: false });
+                        }
+                    }
+                }
+                // Published values: dashed, in the colour of the map's (first algorithm's) series.
+                if let Some(x_param) = group.params.first() {
+                    for (mi, (map, _)) in study.maps.iter().enumerate() {
+                        let color = mi * spec.algorithms.len();
+                        let pts: Vec<SeriesPoint> = points
+                            .iter()
+                            .zip(&xs)
+                            .filter_map(|(p, &x)| {
+                                let v = study.value_at(p, x_param).and_then(|v| ParamValue::from_toml(&v).as_f64())?;
+                                let published = study.published(map, x_param, v)?.metric(m.name)?;
+                                Some(SeriesPoint { x, mean: published, lo: f64::NAN, hi: f64::NAN })
+                            })
+                            .collect();
+                        if !pts.is_empty() {
+                            let mut pts = pts;
+                            pts.sort_by(|a, b| a.x.total_cmp(&b.x));
+                            series.push(LineSeries { label: format!("{map} ({})", study.reference_label()), color, points: pts, dashed: true });
                         }
                     }
                 }
@@ -470,7 +537,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
             }
         }
     }
-    GroupView { title, label_columns: if show_algorithm { 2 } else { 1 }, figures, table }
+    GroupView { title, label_columns: if show_algorithm { 2 } else { 1 }, figures, table, agreement }
 }
 
 /// One figure per map: truth and every algorithm's estimate for a representative replicate.

@@ -10,7 +10,7 @@ use crate::metrics;
 use crate::plan::{ExperimentPlan, RunSpec, SCHEMA_VERSION};
 use crate::slam::{self, AlgorithmKind, SlamError, Trace};
 use crate::spec::params::flatten;
-use crate::store::{self, Cache, CachedRun, GroupRecord, Manifest, ParamValue, PointRecord, ResolvedStudy, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows};
+use crate::store::{self, Cache, CachedRun, GroupRecord, LandmarkRow, Manifest, ParamValue, PointRecord, ResolvedStudy, RunLandmarks, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows};
 use crate::world::{self, WorldError, WorldSpec, WORLD_CODE_VERSION};
 use progress::Progress;
 pub use provenance::Provenance;
@@ -171,6 +171,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     outcomes.sort_by(|a, b| a.0.row.run_id.cmp(&b.0.row.run_id));
     let rows: Vec<RunRow> = outcomes.iter().map(|(o, _)| o.row.clone()).collect();
     let timings: Vec<Timing> = outcomes.iter().map(|(o, cached)| Timing { run_id: o.row.run_id.clone(), wall_ms: o.wall_ms, cached: *cached }).collect();
+    let landmarks: Vec<RunLandmarks> = outcomes.iter().map(|(o, _)| o.landmarks.clone()).collect();
     let traces: Vec<TraceRows> = outcomes.into_iter().map(|(o, _)| o.trace).collect();
     let failed = rows.iter().filter(|r| r.status == RunStatus::Failed).count();
     let diverged = rows.iter().filter(|r| r.status == RunStatus::Diverged).count();
@@ -179,7 +180,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     let resolved = resolved(plan);
     let maps: Vec<(String, String)> = plan.maps.iter().map(|m| (m.name.clone(), m.text.clone())).collect();
     let dir = opts.results_dir.join(plan.id());
-    store::write_study(&dir, &StudyOutput { runs: &rows, traces: &traces, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps })?;
+    store::write_study(&dir, &StudyOutput { runs: &rows, traces: &traces, landmarks: &landmarks, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps, reference: plan.reference.as_deref() })?;
     Ok(StudySummary { study: plan.id().to_string(), dir, runs: rows.len(), computed: to_compute, failed, diverged })
 }
 
@@ -189,25 +190,26 @@ pub fn execute(plan: &ExperimentPlan, run: &RunSpec) -> CachedRun {
     let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| simulate(plan, run)));
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut row = base_row(plan, run);
-    let trace = match result {
-        Ok(Ok((trace_rows, metrics, diverged))) => {
+    let no_map = || RunLandmarks { run_id: run.run_id.clone(), landmarks: Vec::new() };
+    let (trace, landmarks) = match result {
+        Ok(Ok((trace_rows, landmarks, metrics, diverged))) => {
             row.status = if diverged { RunStatus::Diverged } else { RunStatus::Ok };
             row.metrics = metrics.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
-            trace_rows
+            (trace_rows, landmarks)
         }
         Ok(Err(message)) => {
             row.status = RunStatus::Failed;
             row.error = Some(message);
-            empty_trace(run)
+            (TraceRows::empty(&run.run_id), no_map())
         }
         Err(panic) => {
             let message = panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_else(|| "panic".into());
             row.status = RunStatus::Failed;
             row.error = Some(format!("panicked: {message}"));
-            empty_trace(run)
+            (TraceRows::empty(&run.run_id), no_map())
         }
     };
-    CachedRun { row, trace, wall_ms }
+    CachedRun { row, trace, landmarks, wall_ms }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -218,8 +220,9 @@ enum SimError {
     Slam(#[from] SlamError),
 }
 
-/// World → algorithm → metrics. Returns the trace, metrics, and whether the estimate diverged.
-fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, metrics::RunMetrics, bool), String> {
+/// World → algorithm → metrics. Returns the trace, the final map, the metrics, and whether the
+/// estimate diverged.
+fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandmarks, metrics::RunMetrics, bool), String> {
     (|| -> Result<_, SimError> {
         let params = &plan.points[run.point].params;
         let sensors = run.algorithm.sensors();
@@ -232,24 +235,30 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, metrics:
         };
         let world = world::generate(&spec, run.world_seed)?;
         let mut filter_rng = ChaCha8Rng::seed_from_u64(run.filter_seed);
-        let trace = run_algorithm(run.algorithm, &world, &mut filter_rng)?;
+        let trace = run_algorithm(run.algorithm, &world, params, &mut filter_rng)?;
         let metrics = metrics::compute(&world, &trace);
         let diverged = trace.estimate.iter().any(|p| !p.is_finite());
-        let rows = TraceRows { run_id: run.run_id.clone(), dt_s: world.dt_s, truth: world.truth, estimate: trace.estimate };
-        Ok((rows, metrics, diverged))
+        let landmarks = RunLandmarks {
+            run_id: run.run_id.clone(),
+            landmarks: trace
+                .map
+                .iter()
+                .flat_map(|m| m.lines.iter().map(|l| LandmarkRow::Line { rho_m: l.rho, theta_rad: l.theta }).chain(m.corners.iter().map(|c| LandmarkRow::Corner { x_m: c.x, y_m: c.y })))
+                .collect(),
+        };
+        let rows = TraceRows { run_id: run.run_id.clone(), dt_s: world.dt_s, truth: world.truth, estimate: trace.estimate, neff: trace.neff };
+        Ok((rows, landmarks, metrics, diverged))
     })()
     .map_err(|e| e.to_string())
 }
 
-/// The one place that maps an algorithm name to its implementation.
-fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, _filter_rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+/// The one place that maps an algorithm name to its implementation and its parameters.
+fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, params: &crate::spec::Params, filter_rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
     match algorithm {
         AlgorithmKind::Odometry => Ok(slam::odometry::run(world)),
+        AlgorithmKind::OdometryMap => slam::odometry::run_with_map(world, &params.fastslam, &params.features, filter_rng),
+        AlgorithmKind::Fastslam1 => slam::fastslam::run(world, &params.fastslam, &params.features, filter_rng),
     }
-}
-
-fn empty_trace(run: &RunSpec) -> TraceRows {
-    TraceRows { run_id: run.run_id.clone(), dt_s: 0.0, truth: Vec::new(), estimate: Vec::new() }
 }
 
 /// The study-specific fields of a run's row (status and metrics are filled by the caller).
@@ -281,6 +290,7 @@ fn relabel(cached: &mut CachedRun, plan: &ExperimentPlan, run: &RunSpec) {
     let fresh = base_row(plan, run);
     cached.row = RunRow { status: cached.row.status, error: cached.row.error.take(), metrics: std::mem::take(&mut cached.row.metrics), ..fresh };
     cached.trace.run_id = run.run_id.clone();
+    cached.landmarks.run_id = run.run_id.clone();
 }
 
 fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -> Manifest {
@@ -329,6 +339,7 @@ fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
             .iter()
             .map(|p| PointRecord { label: p.label.clone(), groups: p.groups.clone(), assignments: p.assignments.iter().cloned().collect() })
             .collect(),
+        claims: plan.claims.clone(),
     }
 }
 

@@ -2,9 +2,10 @@
 //! pure, reads only its own parameters, and declares the sensors it needs so the world simulates
 //! nothing more.
 
+pub mod fastslam;
 pub mod odometry;
 
-use crate::geom::Pose2;
+use crate::geom::{Line, Point2, Pose2};
 use serde::{Deserialize, Serialize};
 
 /// The algorithms a study can list under `algorithms = [...]`.
@@ -14,6 +15,12 @@ pub enum AlgorithmKind {
     /// Dead reckoning: integrate odometry, use no sensor ([FT] claim 15: the reference every SLAM
     /// result is compared against).
     Odometry,
+    /// Dead reckoning plus landmark mapping along the odometry path: the "odometry map" of [FT]
+    /// (FastSLAM's extraction, association and landmark EKFs with one particle and no motion
+    /// noise).
+    OdometryMap,
+    /// FastSLAM 1.0 on laser line and corner landmarks ([FT] Table 6.3).
+    Fastslam1,
 }
 
 /// Which simulated sensors an algorithm reads.
@@ -31,11 +38,13 @@ impl Sensors {
 }
 
 impl AlgorithmKind {
-    pub const ALL: &'static [AlgorithmKind] = &[AlgorithmKind::Odometry];
+    pub const ALL: &'static [AlgorithmKind] = &[AlgorithmKind::Odometry, AlgorithmKind::OdometryMap, AlgorithmKind::Fastslam1];
 
     pub fn name(self) -> &'static str {
         match self {
             AlgorithmKind::Odometry => "odometry",
+            AlgorithmKind::OdometryMap => "odometry_map",
+            AlgorithmKind::Fastslam1 => "fastslam1",
         }
     }
 
@@ -47,6 +56,8 @@ impl AlgorithmKind {
     pub fn title(self) -> &'static str {
         match self {
             AlgorithmKind::Odometry => "Odometry only",
+            AlgorithmKind::OdometryMap => "Odometry map",
+            AlgorithmKind::Fastslam1 => "FastSLAM 1.0",
         }
     }
 
@@ -54,12 +65,15 @@ impl AlgorithmKind {
     pub fn code_version(self) -> &'static str {
         match self {
             AlgorithmKind::Odometry => odometry::CODE_VERSION,
+            AlgorithmKind::OdometryMap => ODOMETRY_MAP_CODE_VERSION,
+            AlgorithmKind::Fastslam1 => fastslam::CODE_VERSION,
         }
     }
 
     pub fn sensors(self) -> Sensors {
         match self {
             AlgorithmKind::Odometry => Sensors::default(),
+            AlgorithmKind::OdometryMap | AlgorithmKind::Fastslam1 => Sensors { laser: true, landmarks: false },
         }
     }
 
@@ -67,6 +81,7 @@ impl AlgorithmKind {
     pub fn param_sections(self) -> &'static [&'static str] {
         match self {
             AlgorithmKind::Odometry => &[],
+            AlgorithmKind::OdometryMap | AlgorithmKind::Fastslam1 => &["features", "fastslam"],
         }
     }
 
@@ -85,13 +100,32 @@ impl AlgorithmKind {
     }
 }
 
-/// What an algorithm produced: its pose estimate at every odometry step (same length as the
-/// world's truth) and counters of numerical trouble it met and survived.
+/// The odometry map shares FastSLAM's code; its own version covers the one-particle setup.
+pub const ODOMETRY_MAP_CODE_VERSION: &str = "odometry-map-1";
+
+/// A landmark map in the world frame.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LandmarkMap {
+    pub lines: Vec<Line>,
+    pub corners: Vec<Point2>,
+}
+
+/// What an algorithm produced.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Trace {
+    /// Pose estimate at every odometry step (same length as the world's truth).
     pub estimate: Vec<Pose2>,
     /// Singular matrices, all-zero weights, …: counted, never a panic.
     pub numerical_failures: u64,
+    /// The final map, for algorithms that build one (FastSLAM: the best particle's).
+    pub map: Option<LandmarkMap>,
+    /// N̂eff at every step that weighted particles (`None` elsewhere); empty for non-particle
+    /// algorithms.
+    pub neff: Vec<Option<f64>>,
+    /// How many times the particles were resampled.
+    pub resamples: u64,
+    /// Steps with an observation that weighted the particles.
+    pub weighted_steps: u64,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]

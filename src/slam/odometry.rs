@@ -16,5 +16,18 @@ pub fn run(world: &World) -> Trace {
         pose = pose.compose(*delta);
         estimate.push(pose);
     }
-    Trace { estimate, numerical_failures: 0 }
+    Trace { estimate, ..Trace::default() }
+}
+
+/// The odometry map: FastSLAM's mapping (extraction, ML association, landmark EKFs) along the
+/// dead-reckoned path — one particle, no motion noise, so its pose is exactly the odometry.
+pub fn run_with_map(world: &World, fastslam: &super::fastslam::FastSlamParams, features: &crate::features::FeatureParams, rng: &mut rand_chacha::ChaCha8Rng) -> Result<Trace, super::SlamError> {
+    let params = super::fastslam::FastSlamParams {
+        particles: 1,
+        motion_x: 0.0,
+        motion_y: 0.0,
+        motion_theta: 0.0,
+        ..fastslam.clone()
+    };
+    super::fastslam::run(world, &params, features, rng)
 }

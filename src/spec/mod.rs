@@ -38,6 +38,91 @@ pub struct ExperimentSpec {
     /// Modelling notes shown in the report (documented choices specific to this study).
     #[serde(default)]
     pub notes: Vec<String>,
+    /// Testable claims of the reference work, evaluated from this study's runs in its report.
+    #[serde(default)]
+    pub claims: Vec<ClaimSpec>,
+}
+
+/// A claim of a reference work and the test that checks it against the study's cells.
+/// Cells are picked by parameter values (`at`, `than`, `over`); every claim is evaluated per map
+/// (and algorithm) and then combined according to `require`.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClaimSpec {
+    /// Short identifier (shown in the report).
+    pub id: String,
+    /// Where the claim is made, e.g. "[FT] §7 claim 5".
+    pub source: String,
+    /// The claim in words.
+    pub text: String,
+    pub metric: String,
+    pub test: ClaimTest,
+    /// The cell the claim is about: parameter path → value (the other parameters at base).
+    #[serde(default)]
+    pub at: toml::Table,
+    /// For `greater` / `less`: the cell it is compared with.
+    #[serde(default)]
+    pub than: toml::Table,
+    /// For `flat`: one parameter and the values over which the metric should not change.
+    #[serde(default)]
+    pub over: toml::Table,
+    /// For `above` / `below`: the threshold; for `between`: the lower bound.
+    #[serde(default)]
+    pub value: Option<f64>,
+    /// For `between`: the upper bound.
+    #[serde(default)]
+    pub upper: Option<f64>,
+    /// For `flat`: the largest difference between cell means that still counts as flat.
+    #[serde(default)]
+    pub tolerance: Option<f64>,
+    /// Maps to check (default: all of the study's).
+    #[serde(default)]
+    pub maps: Vec<String>,
+    /// Algorithm the claim is about (default: the study's first).
+    #[serde(default)]
+    pub algorithm: Option<AlgorithmKind>,
+    /// How many maps must confirm: all (default), most, or any.
+    #[serde(default)]
+    pub require: Require,
+}
+
+/// The statistical test behind a claim (all at 95 % confidence).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ClaimTest {
+    /// The cell's mean is above `value` (its CI lies above it).
+    Above,
+    /// The cell's mean is below `value`.
+    Below,
+    /// The cell's mean lies in [`value`, `upper`].
+    Between,
+    /// The cell's mean exceeds the `than` cell's (Welch CI of the difference above 0).
+    Greater,
+    /// The cell's mean is below the `than` cell's.
+    Less,
+    /// The means over `over` differ by at most `tolerance`.
+    Flat,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Require {
+    #[default]
+    All,
+    Most,
+    Any,
+}
+
+/// A reference work's published results to show beside this study's.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReferenceSpec {
+    /// CSV file of published results (see data/reference/README.md).
+    pub file: String,
+    /// Rows of this experiment are used.
+    pub experiment: String,
+    /// How the published values are labelled, e.g. "[FT] Table 10.3".
+    pub label: String,
 }
 
 /// One sweep block: `values` maps parameter paths (`"odometry.k"`, or nested tables) to lists.
@@ -68,11 +153,13 @@ pub struct ReportSpec {
     /// Swept parameters plotted on a log x axis (default: automatic, when all values are > 0 and
     /// span at least two decades).
     pub log_x: Vec<String>,
+    /// Published results shown beside ours (tables, and a dashed series on the plots).
+    pub reference: Option<ReferenceSpec>,
 }
 
 impl Default for ReportSpec {
     fn default() -> Self {
-        Self { metrics: vec!["ate_rmse_m".into(), "final_position_error_m".into(), "final_heading_error_deg".into()], log_x: Vec::new() }
+        Self { metrics: vec!["ate_rmse_m".into(), "final_position_error_m".into(), "final_heading_error_deg".into()], log_x: Vec::new(), reference: None }
     }
 }
 
@@ -260,6 +347,35 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
             err(&format!("report.log_x[{i}]"), format!("`{p}` is not a swept parameter"));
         } else if !values.iter().all(|v| v.as_float().map(|f| f > 0.0).or(v.as_integer().map(|n| n > 0)).unwrap_or(false)) {
             err(&format!("report.log_x[{i}]"), format!("`{p}` can only be plotted on a log axis if all its values are numbers > 0"));
+        }
+    }
+
+    for (i, c) in spec.claims.iter().enumerate() {
+        let key = |k: &str| format!("claims[{i}].{k}");
+        if metric_def(&c.metric).is_none() {
+            err(&key("metric"), format!("unknown metric `{}`", c.metric));
+        }
+        let missing = match c.test {
+            ClaimTest::Above | ClaimTest::Below => c.value.is_none().then_some("a threshold `value`"),
+            ClaimTest::Between => (c.value.is_none() || c.upper.is_none()).then_some("bounds `value` and `upper`"),
+            ClaimTest::Greater | ClaimTest::Less => c.than.is_empty().then_some("a cell to compare with, `than`"),
+            ClaimTest::Flat => (c.over.len() != 1 || c.tolerance.is_none()).then_some("one parameter's values in `over` and a `tolerance`"),
+        };
+        if let Some(what) = missing {
+            err(&format!("claims[{i}]"), format!("this test needs {what}"));
+        }
+        for m in &c.maps {
+            if !spec.maps.contains(m) {
+                err(&key("maps"), format!("map `{m}` is not one of the study's maps"));
+            }
+        }
+        if let Some(a) = c.algorithm
+            && !spec.algorithms.contains(&a)
+        {
+            err(&key("algorithm"), format!("`{}` is not one of the study's algorithms", a.name()));
+        }
+        if spec.claims[..i].iter().any(|o| o.id == c.id) {
+            err(&key("id"), format!("claim id `{}` is used twice", c.id));
         }
     }
 

@@ -2,6 +2,8 @@
 //! config struct; this type only composes them and checks cross-section constraints.
 
 use crate::config::{Checks, Violation};
+use crate::features::FeatureParams;
+use crate::slam::fastslam::FastSlamParams;
 use crate::slam::{AlgorithmKind, Sensors};
 use crate::world::laser::LaserParams;
 use crate::world::odometry::OdometryNoise;
@@ -21,6 +23,10 @@ pub struct Params {
     pub laser: LaserParams,
     /// Simulated range-bearing landmark sensor (read by point-landmark algorithms only).
     pub landmark_sensor: PointSensorParams,
+    /// Line and corner extraction from laser scans ([FT] Ch. 4).
+    pub features: FeatureParams,
+    /// FastSLAM 1.0 ([FT] Ch. 3, 6, 7).
+    pub fastslam: FastSlamParams,
 }
 
 impl Params {
@@ -32,6 +38,8 @@ impl Params {
         c.nested("odometry", self.odometry.validate());
         c.nested("laser", self.laser.validate());
         c.nested("landmark_sensor", self.landmark_sensor.validate());
+        c.nested("features", self.features.validate());
+        c.nested("fastslam", self.fastslam.validate());
         let in_use = [("laser", self.laser.rate_hz, sensors.laser), ("landmark_sensor", self.landmark_sensor.rate_hz, sensors.landmarks)];
         for (section, rate, used) in in_use {
             if used && rate > 0.0 && self.sim.dt_s > 0.0 && sensor_period_steps(rate, self.sim.dt_s).is_none() {

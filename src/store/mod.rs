@@ -9,6 +9,7 @@
 //! place, so an interrupted run never leaves a half-written study or cache entry.
 
 mod parquet;
+pub mod reference;
 pub mod tum;
 
 use crate::geom::Pose2;
@@ -144,6 +145,28 @@ pub struct TraceRows {
     pub dt_s: f64,
     pub truth: Vec<Pose2>,
     pub estimate: Vec<Pose2>,
+    /// N̂eff per step (`None` where nothing was weighted); empty when the algorithm has none.
+    pub neff: Vec<Option<f64>>,
+}
+
+impl TraceRows {
+    pub fn empty(run_id: &str) -> Self {
+        Self { run_id: run_id.to_string(), dt_s: 0.0, truth: Vec::new(), estimate: Vec::new(), neff: Vec::new() }
+    }
+}
+
+/// One landmark of a run's final map (world frame): a line (ρ, θ) or a corner (x, y).
+#[derive(Debug, Clone, PartialEq)]
+pub enum LandmarkRow {
+    Line { rho_m: f64, theta_rad: f64 },
+    Corner { x_m: f64, y_m: f64 },
+}
+
+/// A run's final map.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RunLandmarks {
+    pub run_id: String,
+    pub landmarks: Vec<LandmarkRow>,
 }
 
 /// Wall-clock time of a run (when it was computed; `cached` = taken from the cache this time).
@@ -193,6 +216,17 @@ pub struct PointRecord {
     pub assignments: toml::Table,
 }
 
+/// The sweep points (labels) a claim of the spec refers to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClaimCells {
+    pub id: String,
+    pub at: Option<String>,
+    pub than: Option<String>,
+    /// For `flat` claims: (value as written, point label) in the order given.
+    pub over: Vec<(String, String)>,
+}
+
 /// `resolved.toml`: the complete record of what a study ran.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -200,17 +234,22 @@ pub struct ResolvedStudy {
     pub spec: ExperimentSpec,
     pub groups: Vec<GroupRecord>,
     pub points: Vec<PointRecord>,
+    #[serde(default)]
+    pub claims: Vec<ClaimCells>,
 }
 
 /// Everything `write_study` puts in a study directory.
 pub struct StudyOutput<'a> {
     pub runs: &'a [RunRow],
     pub traces: &'a [TraceRows],
+    pub landmarks: &'a [RunLandmarks],
     pub timings: &'a [Timing],
     pub resolved: &'a ResolvedStudy,
     pub manifest: &'a Manifest,
     /// (map name, exact file text).
     pub maps: &'a [(String, String)],
+    /// The reference rows shown beside the results (`reference.csv`), if the study has any.
+    pub reference: Option<&'a str>,
 }
 
 /// Writes a study directory atomically (rows must already be sorted by run id).
@@ -220,12 +259,17 @@ pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> 
         parquet::write(&tmp.join("runs.parquet"), &mut runs)?;
         let mut traces = parquet::traces_frame(out.traces).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("traces.parquet"), &mut traces)?;
+        let mut landmarks = parquet::landmarks_frame(out.landmarks).map_err(|e| StoreError::format(dir, e))?;
+        parquet::write(&tmp.join("landmarks.parquet"), &mut landmarks)?;
         let mut timings = parquet::timings_frame(out.timings).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("timings.parquet"), &mut timings)?;
         let resolved = toml::to_string(out.resolved).map_err(|e| StoreError::format(dir, e))?;
         write_file(&tmp.join("resolved.toml"), resolved.as_bytes())?;
         let manifest = serde_json::to_string_pretty(out.manifest).map_err(|e| StoreError::format(dir, e))? + "\n";
         write_file(&tmp.join("manifest.json"), manifest.as_bytes())?;
+        if let Some(text) = out.reference {
+            write_file(&tmp.join("reference.csv"), text.as_bytes())?;
+        }
         let maps = tmp.join("maps");
         std::fs::create_dir(&maps).map_err(|e| StoreError::io(&maps, e))?;
         for (name, text) in out.maps {
@@ -244,6 +288,8 @@ pub struct StudyData {
     pub runs: Vec<RunRow>,
     /// (map name, file text), sorted by name.
     pub maps: Vec<(String, String)>,
+    /// Published results shown beside these (parsed `reference.csv`).
+    pub reference: Vec<reference::ReferenceRow>,
 }
 
 pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
@@ -264,12 +310,22 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
         }
     }
     maps.sort();
-    Ok(StudyData { dir: dir.to_path_buf(), resolved, manifest, runs, maps })
+    let reference_path = dir.join("reference.csv");
+    let reference = match std::fs::read_to_string(&reference_path) {
+        Ok(text) => reference::parse(&text).map_err(|e| StoreError::format(&reference_path, e))?,
+        Err(_) => Vec::new(),
+    };
+    Ok(StudyData { dir: dir.to_path_buf(), resolved, manifest, runs, maps, reference })
 }
 
 /// Reads the traces of the runs `keep` accepts.
 pub fn read_traces(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<TraceRows>, StoreError> {
     parquet::read_traces(&dir.join("traces.parquet"), keep)
+}
+
+/// Reads the final maps of the runs `keep` accepts.
+pub fn read_landmarks(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<RunLandmarks>, StoreError> {
+    parquet::read_landmarks(&dir.join("landmarks.parquet"), keep)
 }
 
 pub fn read_timings(dir: &Path) -> Result<Vec<Timing>, StoreError> {
@@ -308,6 +364,7 @@ pub struct Cache {
 pub struct CachedRun {
     pub row: RunRow,
     pub trace: TraceRows,
+    pub landmarks: RunLandmarks,
     pub wall_ms: f64,
 }
 
@@ -334,13 +391,9 @@ impl Cache {
         let mut row = rows.pop()?;
         let wall_ms = row.metric(CACHE_WALL_MS).unwrap_or(f64::NAN);
         row.metrics.retain(|(k, _)| k != CACHE_WALL_MS);
-        let trace = parquet::read_traces(&dir.join("trace.parquet"), &|_| true).ok()?.pop().unwrap_or(TraceRows {
-            run_id: row.run_id.clone(),
-            dt_s: 0.0,
-            truth: Vec::new(),
-            estimate: Vec::new(),
-        });
-        Some(CachedRun { row, trace, wall_ms })
+        let trace = parquet::read_traces(&dir.join("trace.parquet"), &|_| true).ok()?.pop().unwrap_or_else(|| TraceRows::empty(&row.run_id));
+        let landmarks = parquet::read_landmarks(&dir.join("landmarks.parquet"), &|_| true).ok()?.pop().unwrap_or_else(|| RunLandmarks { run_id: row.run_id.clone(), landmarks: Vec::new() });
+        Some(CachedRun { row, trace, landmarks, wall_ms })
     }
 
     /// Stores a run. An existing entry is kept unless `replace` (a forced recomputation, or an
@@ -355,6 +408,8 @@ impl Cache {
         write_dir_atomically(&dir, |tmp| {
             let mut df = parquet::runs_frame(std::slice::from_ref(&row)).map_err(|e| StoreError::format(&dir, e))?;
             parquet::write(&tmp.join("run.parquet"), &mut df)?;
+            let mut df = parquet::landmarks_frame(std::slice::from_ref(&run.landmarks)).map_err(|e| StoreError::format(&dir, e))?;
+            parquet::write(&tmp.join("landmarks.parquet"), &mut df)?;
             let mut df = parquet::traces_frame(std::slice::from_ref(&run.trace)).map_err(|e| StoreError::format(&dir, e))?;
             parquet::write(&tmp.join("trace.parquet"), &mut df)
         })
@@ -381,23 +436,31 @@ pub fn write_dir_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<(), S
     remove_stale(parent, &name);
     let unique = format!("{}-{}", std::process::id(), WRITE_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed));
     let tmp = parent.join(format!(".{name}.tmp-{unique}"));
-    let old = parent.join(format!(".{name}.old-{unique}"));
     std::fs::create_dir(&tmp).map_err(|e| StoreError::io(&tmp, e))?;
     if let Err(e) = fill(&tmp) {
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(e);
     }
-    let swapped = if dir.exists() { std::fs::rename(dir, &old).and_then(|()| std::fs::rename(&tmp, dir)) } else { std::fs::rename(&tmp, dir) };
-    let _ = std::fs::remove_dir_all(&old);
-    match swapped {
-        Ok(()) => Ok(()),
-        Err(e) => {
-            let _ = std::fs::remove_dir_all(&tmp);
-            // Another writer put the same content-addressed entry in place first: fine.
-            if dir.exists() { Ok(()) } else { Err(StoreError::io(dir, e)) }
+    // Move whatever is at `dir` aside, then rename ours into place. A concurrent writer of the
+    // same directory can slip in between the two renames; then try again (the last one wins —
+    // concurrent writers of one directory write the same content).
+    let mut last_error = None;
+    for attempt in 0..SWAP_ATTEMPTS {
+        let old = parent.join(format!(".{name}.old-{unique}-{attempt}"));
+        let _ = std::fs::rename(dir, &old);
+        let placed = std::fs::rename(&tmp, dir);
+        let _ = std::fs::remove_dir_all(&old);
+        match placed {
+            Ok(()) => return Ok(()),
+            Err(e) => last_error = Some(e),
         }
     }
+    let _ = std::fs::remove_dir_all(&tmp);
+    Err(StoreError::io(dir, last_error.expect("at least one attempt")))
 }
+
+/// How often a directory swap is retried when concurrent writers race for it.
+const SWAP_ATTEMPTS: usize = 100;
 
 /// Removes `.{name}.tmp-*` / `.{name}.old-*` siblings that an interrupted write left behind.
 fn remove_stale(parent: &Path, name: &str) {
@@ -453,6 +516,7 @@ mod tests {
             dt_s: 0.1,
             truth: (0..n).map(|i| Pose2::new(i as f64, 0.5, 0.1)).collect(),
             estimate: (0..n).map(|i| Pose2::new(i as f64 + 0.25, 0.0, -0.1)).collect(),
+            neff: if id == "a" { (0..n).map(|i| (i % 2 == 0).then_some(i as f64)).collect() } else { Vec::new() },
         };
         let traces = vec![t("a", 5), t("b", 3)];
         let mut df = parquet::traces_frame(&traces).unwrap();
@@ -462,6 +526,8 @@ mod tests {
         assert_eq!(back.len(), 2);
         assert_eq!(back[0].truth, traces[0].truth);
         assert_eq!(back[1].estimate, traces[1].estimate);
+        assert_eq!(back[0].neff, traces[0].neff);
+        assert!(back[1].neff.iter().all(Option::is_none));
         assert!((back[0].dt_s - 0.1).abs() < 1e-12);
         assert_eq!(parquet::read_traces(&path, &|id| id == "b").unwrap().len(), 1);
     }
@@ -471,13 +537,14 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let cache = Cache::new(dir.path());
         assert!(!cache.contains("abcdef"));
-        let run = CachedRun { row: row("a", RunStatus::Ok), trace: TraceRows { run_id: "a".into(), dt_s: 0.1, truth: vec![Pose2::IDENTITY; 2], estimate: vec![Pose2::IDENTITY; 2] }, wall_ms: 12.5 };
+        let landmarks = RunLandmarks { run_id: "a".into(), landmarks: vec![LandmarkRow::Line { rho_m: 1.0, theta_rad: -1.5 }, LandmarkRow::Corner { x_m: 2.0, y_m: 3.0 }] };
+        let run = CachedRun { row: row("a", RunStatus::Ok), trace: TraceRows { neff: vec![], ..TraceRows::empty("a") }, landmarks, wall_ms: 12.5 };
         cache.put("abcdef", &run, false).unwrap();
         assert!(cache.contains("abcdef"));
         let back = cache.get("abcdef").unwrap();
         assert_eq!(back.row, run.row);
         assert_eq!(back.wall_ms, 12.5);
-        assert_eq!(back.trace.truth.len(), 2);
+        assert_eq!(back.landmarks, run.landmarks);
         // an existing entry is kept, unless replaced (forced recomputation)
         let newer = CachedRun { wall_ms: 99.0, ..run.clone() };
         cache.put("abcdef", &newer, false).unwrap();

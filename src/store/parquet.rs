@@ -1,7 +1,7 @@
 //! Typed rows ⇄ Parquet. The only polars code in slamlab. Column names and units are documented
 //! in the README ("Results schema").
 
-use super::{ParamValue, RunRow, RunStatus, StoreError, Timing, TraceRows};
+use super::{LandmarkRow, ParamValue, RunLandmarks, RunRow, RunStatus, StoreError, Timing, TraceRows};
 use crate::geom::Pose2;
 use polars::prelude::*;
 use std::path::Path;
@@ -154,10 +154,12 @@ pub(super) fn traces_frame(traces: &[TraceRows]) -> PolarsResult<DataFrame> {
             }
         }
     }
+    let neff: Vec<Option<f64>> = traces.iter().flat_map(|t| (0..t.truth.len().min(t.estimate.len())).map(|k| t.neff.get(k).copied().flatten())).collect();
     let mut columns = vec![Column::new("run_id".into(), run_id), Column::new("step".into(), step), Column::new("t_s".into(), t_s)];
     for (name, c) in TRACE_COLUMNS.iter().zip(cols) {
         columns.push(Column::new((*name).into(), c));
     }
+    columns.push(Column::new("neff".into(), neff));
     DataFrame::new(n, columns)
 }
 
@@ -170,6 +172,7 @@ pub(super) fn read_traces(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Ve
     let t = df.column("t_s").map_err(e)?.f64().map_err(e)?;
     let f = |name: &str| -> Result<Vec<f64>, StoreError> { Ok(df.column(name).map_err(e)?.f64().map_err(e)?.iter().map(|v| v.unwrap_or(f64::NAN)).collect()) };
     let (tx, ty, tt, ex, ey, et) = (f("truth_x_m")?, f("truth_y_m")?, f("truth_theta_rad")?, f("est_x_m")?, f("est_y_m")?, f("est_theta_rad")?);
+    let neff: Vec<Option<f64>> = df.column("neff").map_err(e)?.f64().map_err(e)?.iter().collect();
     let mut out: Vec<TraceRows> = Vec::new();
     for i in 0..df.height() {
         let id = ids.get(i).unwrap_or_default();
@@ -181,11 +184,57 @@ pub(super) fn read_traces(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Ve
                 (Some(a), Some(b), Some(next)) if next == id => b - a,
                 _ => 0.0,
             };
-            out.push(TraceRows { run_id: id.to_string(), dt_s, truth: Vec::new(), estimate: Vec::new() });
+            out.push(TraceRows { dt_s, ..TraceRows::empty(id) });
         }
         let r = out.last_mut().expect("just pushed");
         r.truth.push(Pose2::new(tx[i], ty[i], tt[i]));
         r.estimate.push(Pose2::new(ex[i], ey[i], et[i]));
+        r.neff.push(neff[i]);
+    }
+    // A run without any N̂eff (no particle filter) keeps an empty series.
+    for r in &mut out {
+        if r.neff.iter().all(Option::is_none) {
+            r.neff.clear();
+        }
+    }
+    Ok(out)
+}
+
+/// Final maps: one row per landmark; lines fill `rho_m`/`theta_rad`, corners `x_m`/`y_m`.
+pub(super) fn landmarks_frame(maps: &[RunLandmarks]) -> PolarsResult<DataFrame> {
+    let rows: Vec<(&str, &LandmarkRow)> = maps.iter().flat_map(|m| m.landmarks.iter().map(move |l| (m.run_id.as_str(), l))).collect();
+    let get = |f: &dyn Fn(&LandmarkRow) -> Option<f64>| rows.iter().map(|(_, l)| f(l)).collect::<Vec<Option<f64>>>();
+    DataFrame::new(
+        rows.len(),
+        vec![
+            Column::new("run_id".into(), rows.iter().map(|(id, _)| *id).collect::<Vec<_>>()),
+            Column::new("kind".into(), rows.iter().map(|(_, l)| if matches!(l, LandmarkRow::Line { .. }) { "line" } else { "corner" }).collect::<Vec<_>>()),
+            Column::new("rho_m".into(), get(&|l| if let LandmarkRow::Line { rho_m, .. } = l { Some(*rho_m) } else { None })),
+            Column::new("theta_rad".into(), get(&|l| if let LandmarkRow::Line { theta_rad, .. } = l { Some(*theta_rad) } else { None })),
+            Column::new("x_m".into(), get(&|l| if let LandmarkRow::Corner { x_m, .. } = l { Some(*x_m) } else { None })),
+            Column::new("y_m".into(), get(&|l| if let LandmarkRow::Corner { y_m, .. } = l { Some(*y_m) } else { None })),
+        ],
+    )
+}
+
+pub(super) fn read_landmarks(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<RunLandmarks>, StoreError> {
+    let df = read(path)?;
+    let e = |x: PolarsError| err(path, x);
+    let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
+    let kind = df.column("kind").map_err(e)?.str().map_err(e)?;
+    let f = |name: &str| -> Result<Vec<f64>, StoreError> { Ok(df.column(name).map_err(e)?.f64().map_err(e)?.iter().map(|v| v.unwrap_or(f64::NAN)).collect()) };
+    let (rho, theta, x, y) = (f("rho_m")?, f("theta_rad")?, f("x_m")?, f("y_m")?);
+    let mut out: Vec<RunLandmarks> = Vec::new();
+    for i in 0..df.height() {
+        let id = ids.get(i).unwrap_or_default();
+        if !keep(id) {
+            continue;
+        }
+        if out.last().is_none_or(|m| m.run_id != id) {
+            out.push(RunLandmarks { run_id: id.to_string(), landmarks: Vec::new() });
+        }
+        let l = if kind.get(i) == Some("line") { LandmarkRow::Line { rho_m: rho[i], theta_rad: theta[i] } } else { LandmarkRow::Corner { x_m: x[i], y_m: y[i] } };
+        out.last_mut().expect("just pushed").landmarks.push(l);
     }
     Ok(out)
 }

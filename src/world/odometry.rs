@@ -10,14 +10,15 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
-/// How `k` of the proportional model is read ([FT] §3.2 says "variance equal to 10 % of the
-/// measured velocity" but writes N(0, 0.1·v): ambiguous, so the spec must say).
+/// Whether a noise parameter is a standard deviation or a variance. [FT] is ambiguous about
+/// both its odometry noise ("variance equal to 10 % of the measured velocity", written
+/// N(0, 0.1·v)) and its motion covariance, so specs say which reading they use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Spread {
-    /// σ = k·|v| — the noise standard deviation is k times the speed.
+    /// A standard deviation σ.
     Std,
-    /// σ² = k·|v| — the noise variance is k times the speed.
+    /// A variance σ².
     Variance,
 }
 

@@ -1,0 +1,401 @@
+//! FastSLAM 1.0 with line and corner landmarks: World (odometry + laser scans) → Trace, exactly
+//! the filter loop of [FT] Table 6.3.
+//!
+//! Per odometry step every particle samples its pose from the motion model ([FT] Eq. 7.18). Per
+//! scan with features:
+//! - each particle associates every feature by Maximum Likelihood with a new-landmark likelihood
+//!   P0, then updates its landmarks' 2 × 2 EKFs and multiplies its weight by the features'
+//!   likelihoods (a new landmark contributes P0);
+//! - the best particle is taken *after* weighting and *before* resampling, and its map is the
+//!   output;
+//! - systematic resampling follows when N̂eff = 1/Σw² falls below the threshold (∞ = always).
+
+pub mod association;
+pub mod models;
+pub mod particle;
+pub mod resample;
+
+use super::{LandmarkMap, SlamError, Trace};
+use crate::config::{Checks, Violation};
+use crate::features::{self, FeatureParams, ScanFeatures};
+use crate::geom::{wrap_angle, Line, Point2, Pose2};
+use crate::world::odometry::Spread;
+use crate::world::World;
+use association::{decide, resolve_shared, Ambiguity, Association};
+use models::{Model, Prediction};
+use nalgebra::{Matrix2, Vector2};
+use particle::{Landmark, Particle};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+
+pub const CODE_VERSION: &str = "fastslam1-1";
+
+/// ln(2π), the normalising constant of a bivariate Gaussian's log density.
+const LN_2PI: f64 = 1.837_877_066_409_345_5;
+
+/// `[base.fastslam]`. Defaults: [FT] Table 10.2 (the Dmax study's fixed configuration).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FastSlamParams {
+    /// M, the number of particles.
+    pub particles: u32,
+    /// P0: likelihood of the "new landmark" hypothesis (a density value, not a probability).
+    pub p0: f64,
+    /// Resample when N̂eff < this (an absolute particle count; `inf` = always, [FT]'s default;
+    /// 1 ≈ never).
+    pub neff_threshold: f64,
+    /// Per-step pose noise of the motion model ([FT] Eq. 7.18), x component: σx [m] or σx² [m²]
+    /// according to `motion_noise_is`.
+    pub motion_x: f64,
+    /// y component: σy [m] or σy² [m²].
+    pub motion_y: f64,
+    /// θ component: σθ [rad] or σθ² [rad²].
+    pub motion_theta: f64,
+    /// How `motion_*` are read. [FT] prints them as variances, diag(σx², σy², σθ²); read that
+    /// way its values (e.g. 0.007 m² per step) swamp any realistic odometry and no step rate
+    /// reproduces its results, while read as standard deviations they do — and the thesis
+    /// mixes σ and σ² up elsewhere (its erratum 5). `experiments/ft-motion-noise-reading.toml`
+    /// shows both readings.
+    pub motion_noise_is: Spread,
+    /// σρ² [m²] of line observations (and the range of corners, [FT]'s single laser covariance).
+    pub obs_var_rho_m2: f64,
+    /// σθ² [rad²] of line observations (and the bearing of corners).
+    pub obs_var_theta_rad2: f64,
+    /// Which ambiguous associations are ignored.
+    pub ambiguity: Ambiguity,
+}
+
+impl Default for FastSlamParams {
+    fn default() -> Self {
+        Self {
+            particles: 100,
+            p0: 0.005,
+            neff_threshold: f64::INFINITY,
+            motion_x: 0.007,
+            motion_y: 0.007,
+            motion_theta: 0.008,
+            motion_noise_is: Spread::Std,
+            obs_var_rho_m2: 0.04,
+            obs_var_theta_rad2: 0.00122,
+            ambiguity: Ambiguity::Both,
+        }
+    }
+}
+
+/// Most particles a run may use (memory and time bound).
+pub const MAX_PARTICLES: u32 = 100_000;
+
+impl FastSlamParams {
+    /// (σx [m], σy [m], σθ [rad]) of the per-step motion noise.
+    pub fn motion_sigmas(&self) -> [f64; 3] {
+        let sigma = |v: f64| match self.motion_noise_is {
+            Spread::Std => v,
+            Spread::Variance => v.sqrt(),
+        };
+        [sigma(self.motion_x), sigma(self.motion_y), sigma(self.motion_theta)]
+    }
+
+    pub fn validate(&self) -> Vec<Violation> {
+        let mut c = Checks::new();
+        c.require((1..=MAX_PARTICLES).contains(&self.particles), "particles", || format!("must be in [1, {MAX_PARTICLES}], got {}", self.particles));
+        c.positive("p0", self.p0);
+        c.require(self.neff_threshold >= 0.0, "neff_threshold", || format!("must be ≥ 0 (inf = always resample), got {}", self.neff_threshold));
+        for (k, v) in [("motion_x", self.motion_x), ("motion_y", self.motion_y), ("motion_theta", self.motion_theta)] {
+            c.non_negative(k, v);
+        }
+        c.positive("obs_var_rho_m2", self.obs_var_rho_m2);
+        c.positive("obs_var_theta_rad2", self.obs_var_theta_rad2);
+        c.finish()
+    }
+}
+
+/// A feature of the current scan as a measurement of its landmark type.
+#[derive(Debug, Clone, Copy)]
+struct Measurement {
+    model: Model,
+    z: Vector2<f64>,
+}
+
+fn measurements(f: &ScanFeatures) -> Vec<Measurement> {
+    let lines = f.lines.iter().map(|l| Measurement { model: Model::Line, z: Vector2::new(l.line.rho, l.line.theta) });
+    // corners as range and bearing (Eq. 7.21)
+    let corners = f.corners.iter().map(|c| Measurement { model: Model::Point, z: Vector2::new(c.x.hypot(c.y), c.y.atan2(c.x)) });
+    lines.chain(corners).collect()
+}
+
+/// One landmark's prediction for a measurement: ẑ, H, Q = H Σ Hᵀ + R, and log N(z; ẑ, Q).
+#[derive(Debug, Clone, Copy)]
+struct Match {
+    prediction: Prediction,
+    q: Matrix2<f64>,
+    innovation: Vector2<f64>,
+    log_likelihood: f64,
+}
+
+/// Gaussian log-likelihood of `m` for landmark `l`, or `None` if Q is not positive definite.
+fn evaluate(m: &Measurement, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>) -> Option<Match> {
+    let prediction = m.model.predict(&l.mean, pose);
+    let h = prediction.h;
+    let q = h * l.cov * h.transpose() + r; // Eq. (3.14), standard orientation
+    let det = q[(0, 0)] * q[(1, 1)] - q[(0, 1)] * q[(1, 0)];
+    if !(det > 0.0 && det.is_finite()) {
+        return None;
+    }
+    let nu = m.model.innovation(&m.z, &prediction.z);
+    // νᵀ Q⁻¹ ν with the closed-form 2 × 2 inverse
+    let d2 = (q[(1, 1)] * nu[0] * nu[0] - (q[(0, 1)] + q[(1, 0)]) * nu[0] * nu[1] + q[(0, 0)] * nu[1] * nu[1]) / det;
+    Some(Match { prediction, q, innovation: nu, log_likelihood: -0.5 * d2 - LN_2PI - 0.5 * det.ln() }) // Eq. (3.13)
+}
+
+/// EKF correction of one landmark (Joseph form, which keeps Σ symmetric positive semi-definite).
+fn correct(l: &mut Landmark, model: Model, m: &Match, r: &Matrix2<f64>) -> bool {
+    let Some(q_inv) = m.q.try_inverse() else { return false };
+    let h = m.prediction.h;
+    let k = l.cov * h.transpose() * q_inv; // K = Σ Hᵀ Q⁻¹
+    let i_kh = Matrix2::identity() - k * h;
+    l.mean += k * m.innovation; // μ = μ + K (z − ẑ)
+    l.cov = i_kh * l.cov * i_kh.transpose() + k * r * k.transpose(); // (I − KH) Σ (I − KH)ᵀ + K R Kᵀ
+    l.cov = 0.5 * (l.cov + l.cov.transpose());
+    model.normalise(&mut l.mean, &mut l.cov);
+    l.mean.iter().all(|v| v.is_finite())
+}
+
+/// A new landmark from the inverse model, with Σ = H⁻¹ R H⁻ᵀ ([FT] Table 3.2).
+fn initialise(m: &Measurement, pose: &Pose2, r: &Matrix2<f64>) -> Option<Landmark> {
+    let mean = m.model.inverse(&m.z, pose);
+    let h_inv = m.model.predict(&mean, pose).h.try_inverse()?;
+    let cov = h_inv * r * h_inv.transpose();
+    Some(Landmark { mean, cov: 0.5 * (cov + cov.transpose()) })
+}
+
+/// The filter state.
+pub struct FastSlam1<'a> {
+    params: &'a FastSlamParams,
+    particles: Vec<Particle>,
+    /// Index of the best particle (after the last weighting, followed through resampling).
+    best: usize,
+    r: Matrix2<f64>,
+    ln_p0: f64,
+    motion_sigma: [f64; 3],
+    pub numerical_failures: u64,
+    pub resamples: u64,
+    pub weighted_steps: u64,
+}
+
+impl<'a> FastSlam1<'a> {
+    pub fn new(params: &'a FastSlamParams, start: Pose2) -> Self {
+        Self {
+            params,
+            particles: vec![Particle::new(start); params.particles as usize],
+            best: 0,
+            r: Matrix2::new(params.obs_var_rho_m2, 0.0, 0.0, params.obs_var_theta_rad2),
+            ln_p0: params.p0.ln(),
+            motion_sigma: params.motion_sigmas(),
+            numerical_failures: 0,
+            resamples: 0,
+            weighted_steps: 0,
+        }
+    }
+
+    /// One step of [FT] Table 6.3. Returns N̂eff when the step weighted the particles.
+    pub fn step(&mut self, control: Option<&Pose2>, observation: Option<&ScanFeatures>, rng: &mut ChaCha8Rng) -> Option<f64> {
+        if let Some(u) = control {
+            self.predict(u, rng); // 1: sample every particle's pose
+        }
+        let z = measurements(observation.filter(|o| !o.is_empty())?); // 4: no observation: stop
+        for i in 0..self.particles.len() {
+            self.weigh_and_update(i, &z); // 5–13: associate, update, weight
+        }
+        self.weighted_steps += 1;
+        let weights = self.normalised_weights();
+        self.best = argmax(&weights); // 15: best particle, before resampling
+        let neff = resample::effective_sample_size(&weights);
+        if neff < self.params.neff_threshold {
+            self.resample(&weights, rng); // 16–17: resample, weights back to uniform
+        }
+        Some(neff)
+    }
+
+    /// [FT] Eq. 7.18: x' = x ⊕ u + ε, ε ~ N(0, diag(σx², σy², σθ²)) in the world frame, per step.
+    fn predict(&mut self, u: &Pose2, rng: &mut ChaCha8Rng) {
+        let [sx, sy, st] = self.motion_sigma;
+        for p in &mut self.particles {
+            let (zx, zy, zt): (f64, f64, f64) = (rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
+            let q = p.pose.compose(*u);
+            p.pose = Pose2::new(q.x + sx * zx, q.y + sy * zy, wrap_angle(q.theta + st * zt));
+        }
+    }
+
+    /// Associates all features of the scan against the particle's map (as it was before this
+    /// scan), then applies the updates and multiplies the weight ([FT] Table 6.3 lines 6–13).
+    fn weigh_and_update(&mut self, i: usize, z: &[Measurement]) {
+        let (r, ln_p0, rule) = (self.r, self.ln_p0, self.params.ambiguity);
+        let p = &self.particles[i];
+        let pose = p.pose;
+        let mut failures = 0;
+        let mut decisions: Vec<(Association, Option<Match>)> = z
+            .iter()
+            .map(|m| {
+                let matches: Vec<Option<Match>> = p.map.of(m.model).iter().map(|l| evaluate(m, l, &pose, &r)).collect();
+                failures += matches.iter().filter(|x| x.is_none()).count();
+                let d = decide(matches.iter().map(|x| x.map_or(f64::NEG_INFINITY, |x| x.log_likelihood)), ln_p0, rule);
+                let matched = if let Association::Known { landmark, .. } = d { matches[landmark] } else { None };
+                (d, matched)
+            })
+            .collect();
+        // The shared-landmark rule compares features of the same landmark type.
+        for model in [Model::Line, Model::Point] {
+            let idx: Vec<usize> = (0..z.len()).filter(|&k| z[k].model == model).collect();
+            let mut ds: Vec<Association> = idx.iter().map(|&k| decisions[k].0).collect();
+            resolve_shared(&mut ds, rule);
+            for (&k, d) in idx.iter().zip(ds) {
+                decisions[k].0 = d;
+            }
+        }
+
+        let mut log_weight = 0.0;
+        let needs_write = decisions.iter().any(|(d, _)| !matches!(d, Association::Ignored));
+        let p = &mut self.particles[i];
+        if needs_write {
+            let map = p.map_mut();
+            for (m, (d, matched)) in z.iter().zip(&decisions) {
+                match (d, matched) {
+                    (Association::Known { landmark, log_likelihood }, Some(mt)) => {
+                        if correct(&mut map.of_mut(m.model)[*landmark], m.model, mt, &r) {
+                            log_weight += log_likelihood;
+                        } else {
+                            failures += 1;
+                        }
+                    }
+                    (Association::New, _) => match initialise(m, &pose, &r) {
+                        Some(l) => {
+                            map.of_mut(m.model).push(l);
+                            log_weight += ln_p0;
+                        }
+                        None => failures += 1,
+                    },
+                    _ => {} // ignored: weight factor 1
+                }
+            }
+        }
+        p.log_weight += log_weight; // 13: multiplicative across steps
+        self.numerical_failures += failures as u64;
+    }
+
+    /// Normalised weights from the log weights (max-shifted, so the largest is 1 before
+    /// normalising). All weights zero is a numerical failure: counted, and the weights made
+    /// uniform so that the filter can go on.
+    fn normalised_weights(&mut self) -> Vec<f64> {
+        let max = self.particles.iter().map(|p| p.log_weight).fold(f64::NEG_INFINITY, f64::max);
+        if !max.is_finite() {
+            self.numerical_failures += 1;
+            for p in &mut self.particles {
+                p.log_weight = 0.0;
+            }
+            return vec![1.0 / self.particles.len() as f64; self.particles.len()];
+        }
+        for p in &mut self.particles {
+            p.log_weight -= max; // keeps the logs bounded; ratios unchanged
+        }
+        let w: Vec<f64> = self.particles.iter().map(|p| p.log_weight.exp()).collect();
+        let sum: f64 = w.iter().sum();
+        w.into_iter().map(|x| x / sum).collect()
+    }
+
+    fn resample(&mut self, weights: &[f64], rng: &mut ChaCha8Rng) {
+        let ancestors = resample::low_variance(weights, rng);
+        // Follow the best particle: systematic resampling keeps ≥ 1 copy of any w ≥ 1/M.
+        self.best = ancestors.iter().position(|&a| a == self.best).unwrap_or(0);
+        self.particles = ancestors.iter().map(|&a| Particle { log_weight: 0.0, ..self.particles[a].clone() }).collect();
+        self.resamples += 1;
+    }
+
+    pub fn best(&self) -> &Particle {
+        &self.particles[self.best]
+    }
+}
+
+fn argmax(w: &[f64]) -> usize {
+    w.iter().enumerate().fold(0, |best, (i, &x)| if x > w[best] { i } else { best })
+}
+
+/// Runs FastSLAM 1.0 over a world's odometry and scans.
+pub fn run(world: &World, params: &FastSlamParams, feature_params: &FeatureParams, rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+    let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
+    let mut filter = FastSlam1::new(params, world.truth[0]);
+    let mut scans = world.scans.iter().peekable();
+    let steps = world.odometry.len();
+    let mut estimate = Vec::with_capacity(steps + 1);
+    let mut neff = Vec::with_capacity(steps + 1);
+    for k in 0..=steps {
+        let control = k.checked_sub(1).map(|j| &world.odometry[j]);
+        let features = match scans.peek() {
+            Some(s) if s.step == k => Some(features::extract(scans.next().expect("peeked"), &geometry, feature_params)),
+            _ => None,
+        };
+        neff.push(filter.step(control, features.as_ref(), rng));
+        estimate.push(filter.best().pose);
+    }
+    Ok(Trace {
+        estimate,
+        numerical_failures: filter.numerical_failures,
+        map: Some(landmark_map(&filter.best().map)),
+        neff,
+        resamples: filter.resamples,
+        weighted_steps: filter.weighted_steps,
+    })
+}
+
+fn landmark_map(m: &particle::Map) -> LandmarkMap {
+    LandmarkMap {
+        lines: m.lines.iter().map(|l| Line::normalised(l.mean[0], l.mean[1])).collect(),
+        corners: m.corners.iter().map(|l| Point2::new(l.mean[0], l.mean[1])).collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn joseph_update_shrinks_and_keeps_covariance_symmetric_psd() {
+        let r = Matrix2::new(0.04, 0.0, 0.0, 0.00122);
+        let pose = Pose2::new(1.0, 0.5, 0.2);
+        let truth = Vector2::new(9.0, std::f64::consts::FRAC_PI_2);
+        let z = models::line_predict(&truth, &pose).z;
+        let m = Measurement { model: Model::Line, z };
+        let mut l = initialise(&m, &pose, &r).unwrap();
+        for k in 0..50 {
+            let pose_k = Pose2::new(1.0 + 0.1 * k as f64, 0.5, 0.2);
+            let mk = Measurement { model: Model::Line, z: models::line_predict(&truth, &pose_k).z };
+            let before = l.cov.trace();
+            let mt = evaluate(&mk, &l, &pose_k, &r).unwrap();
+            assert!(correct(&mut l, Model::Line, &mt, &r));
+            assert!(l.cov.trace() <= before + 1e-15);
+            assert_eq!(l.cov[(0, 1)], l.cov[(1, 0)]);
+            let eig = l.cov.symmetric_eigenvalues();
+            assert!(eig.iter().all(|&e| e >= 0.0), "{eig}");
+        }
+        assert!((l.mean - truth).norm() < 1e-9, "{:?}", l.mean);
+    }
+
+    #[test]
+    fn likelihood_is_a_normalised_gaussian() {
+        // ∫ N(z; ẑ, Q) dz = 1: Riemann sum over the measurement plane around a corner landmark
+        let r = Matrix2::new(0.04, 0.0, 0.0, 0.01);
+        let l = Landmark { mean: Vector2::new(3.0, 4.0), cov: Matrix2::new(0.02, 0.005, 0.005, 0.03) };
+        let pose = Pose2::IDENTITY;
+        let zc = models::point_predict(&l.mean, &pose).z;
+        let (n, h) = (400, 0.01);
+        let mut total = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let z = zc + Vector2::new((i as f64 - n as f64 / 2.0) * h * 4.0, (j as f64 - n as f64 / 2.0) * h * 2.0);
+                total += evaluate(&Measurement { model: Model::Point, z }, &l, &pose, &r).unwrap().log_likelihood.exp() * h * 4.0 * h * 2.0;
+            }
+        }
+        assert!((total - 1.0).abs() < 0.01, "{total}");
+    }
+}

@@ -1,0 +1,79 @@
+//! A FastSLAM particle: a pose hypothesis and its own landmark map — one 2 × 2 EKF per landmark
+//! ([FT] Eq. 3.7). Maps are shared copy-on-write between particles (`Arc`): resampling copies
+//! pointers, and a particle copies a map only when it changes a map it shares.
+
+use super::models::Model;
+use crate::geom::Pose2;
+use nalgebra::{Matrix2, Vector2};
+use std::sync::Arc;
+
+/// One landmark's Gaussian estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Landmark {
+    pub mean: Vector2<f64>,
+    pub cov: Matrix2<f64>,
+}
+
+/// A particle's map: lines and corners kept apart (association only compares like with like).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Map {
+    pub lines: Vec<Landmark>,
+    pub corners: Vec<Landmark>,
+}
+
+impl Map {
+    pub fn of(&self, model: Model) -> &[Landmark] {
+        match model {
+            Model::Line => &self.lines,
+            Model::Point => &self.corners,
+        }
+    }
+    pub fn of_mut(&mut self, model: Model) -> &mut Vec<Landmark> {
+        match model {
+            Model::Line => &mut self.lines,
+            Model::Point => &mut self.corners,
+        }
+    }
+    pub fn len(&self) -> usize {
+        self.lines.len() + self.corners.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct Particle {
+    pub pose: Pose2,
+    /// log of the importance weight, accumulated multiplicatively across steps ([FT] Table 6.3
+    /// line 13) — logs so that long products of small likelihoods do not underflow.
+    pub log_weight: f64,
+    pub map: Arc<Map>,
+}
+
+impl Particle {
+    pub fn new(pose: Pose2) -> Self {
+        Self { pose, log_weight: 0.0, map: Arc::new(Map::default()) }
+    }
+
+    /// The map for writing: copied first if another particle shares it.
+    pub fn map_mut(&mut self) -> &mut Map {
+        Arc::make_mut(&mut self.map)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resampled_copies_share_their_map_until_one_writes() {
+        let mut a = Particle::new(Pose2::IDENTITY);
+        a.map_mut().lines.push(Landmark { mean: Vector2::new(1.0, 0.0), cov: Matrix2::identity() });
+        let mut b = a.clone();
+        assert!(Arc::ptr_eq(&a.map, &b.map), "a copy shares the map");
+        b.map_mut().lines[0].mean[0] = 2.0;
+        assert!(!Arc::ptr_eq(&a.map, &b.map));
+        assert_eq!(a.map.lines[0].mean[0], 1.0, "the original is untouched");
+    }
+}

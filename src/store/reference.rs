@@ -1,0 +1,120 @@
+//! Published reference results (`data/reference/*.csv`, format in data/reference/README.md):
+//! text → rows. Key columns `experiment, table, map, parameter, value`; a column named after a
+//! slamlab metric holds the published mean, `<metric>_var` its published variance; other
+//! columns document provenance.
+
+use crate::metrics::metric_def;
+
+/// One published cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReferenceRow {
+    pub experiment: String,
+    pub table: String,
+    pub map: String,
+    pub parameter: String,
+    pub value: f64,
+    /// (metric or `<metric>_var`, value), in column order.
+    pub metrics: Vec<(String, f64)>,
+}
+
+impl ReferenceRow {
+    pub fn metric(&self, name: &str) -> Option<f64> {
+        self.metrics.iter().find(|(k, _)| k == name).map(|(_, v)| *v)
+    }
+}
+
+const KEYS: [&str; 5] = ["experiment", "table", "map", "parameter", "value"];
+
+fn number(field: &str) -> Option<f64> {
+    match field {
+        "inf" => Some(f64::INFINITY),
+        f => f.parse().ok(),
+    }
+}
+
+/// Parses a reference file; errors name the line (1-based) and column.
+pub fn parse(text: &str) -> Result<Vec<ReferenceRow>, String> {
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines.next().ok_or("the file is empty")?;
+    let columns: Vec<&str> = header.split(',').map(str::trim).collect();
+    let index = |name: &str| columns.iter().position(|c| *c == name).ok_or_else(|| format!("line 1: missing column `{name}`"));
+    let keys: Vec<usize> = KEYS.iter().map(|k| index(k)).collect::<Result<_, _>>()?;
+    let metric_columns: Vec<(usize, &str)> =
+        columns.iter().enumerate().filter(|(_, c)| metric_def(c).is_some() || c.strip_suffix("_var").is_some_and(|m| metric_def(m).is_some())).map(|(i, c)| (i, *c)).collect();
+    let mut rows = Vec::new();
+    for (n, line) in lines {
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != columns.len() {
+            return Err(format!("line {}: {} fields, the header has {}", n + 1, fields.len(), columns.len()));
+        }
+        let value = number(fields[keys[4]]).ok_or_else(|| format!("line {}: column `value` is not a number: {:?}", n + 1, fields[keys[4]]))?;
+        let metrics = metric_columns
+            .iter()
+            .map(|&(i, name)| number(fields[i]).map(|v| (name.to_string(), v)).ok_or_else(|| format!("line {}: column `{name}` is not a number: {:?}", n + 1, fields[i])))
+            .collect::<Result<_, _>>()?;
+        rows.push(ReferenceRow {
+            experiment: fields[keys[0]].to_string(),
+            table: fields[keys[1]].to_string(),
+            map: fields[keys[2]].to_string(),
+            parameter: fields[keys[3]].to_string(),
+            value,
+            metrics,
+        });
+    }
+    Ok(rows)
+}
+
+/// The header and the lines of one experiment, verbatim (what a study's results keep).
+pub fn select(text: &str, experiment: &str) -> String {
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or_default();
+    let at = header.split(',').position(|c| c.trim() == "experiment").unwrap_or(0);
+    let mut out = format!("{header}\n");
+    for l in lines.filter(|l| l.split(',').nth(at).map(str::trim) == Some(experiment)) {
+        out.push_str(l);
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TEXT: &str = "experiment,table,map,parameter,value,landmark_error_m,landmark_error_m_var,landmarks_detected,source_lines\n\
+        dmax,10.2,bigloop2,features.dmax_m,0.001,0.12,0.0015,13.0,L1-2\n\
+        lmin,10.4,bigloop,features.lmin_m,10,inf,0,0,L3-4\n";
+
+    #[test]
+    fn parses_metrics_variances_and_infinity() {
+        let rows = parse(TEXT).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[0].metric("landmark_error_m"), Some(0.12));
+        assert_eq!(rows[0].metric("landmark_error_m_var"), Some(0.0015));
+        assert_eq!(rows[1].metric("landmark_error_m"), Some(f64::INFINITY));
+        assert_eq!(rows[1].value, 10.0);
+        assert!(rows[0].metric("source_lines").is_none());
+    }
+
+    #[test]
+    fn bad_fields_name_their_line() {
+        let bad = TEXT.replace("0.0015", "lots");
+        assert_eq!(parse(&bad).unwrap_err(), "line 2: column `landmark_error_m_var` is not a number: \"lots\"");
+        assert!(parse(&TEXT.replace(",L3-4", "")).unwrap_err().starts_with("line 3:"));
+    }
+
+    #[test]
+    fn select_keeps_one_experiment_verbatim() {
+        let s = select(TEXT, "lmin");
+        assert_eq!(s.lines().count(), 2);
+        assert!(s.ends_with("lmin,10.4,bigloop,features.lmin_m,10,inf,0,0,L3-4\n"));
+    }
+
+    #[test]
+    fn the_thesis_tables_parse() {
+        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/data/reference/fastslam-thesis.csv")).unwrap();
+        let rows = parse(&text).unwrap();
+        assert_eq!(rows.len(), 183);
+        assert!(rows.iter().all(|r| r.metric("landmark_error_m").is_some() && r.metric("landmarks_detected").is_some()));
+    }
+}
