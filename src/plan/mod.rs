@@ -306,20 +306,18 @@ fn claim_cells(spec: &LoadedSpec, points: &[SweepPoint]) -> Result<Vec<ClaimCell
     let mut out = Vec::new();
     let mut errors = Vec::new();
     for (i, c) in spec.spec.claims.iter().enumerate() {
-        let mut cell = |t: &toml::Table, k: &str| -> Option<String> {
-            if t.is_empty() {
-                return Some(points.iter().find(|p| p.params == spec.spec.base).map_or_else(|| points[0].label.clone(), |p| p.label.clone())).filter(|_| k == "at");
-            }
-            match find_point(spec, points, t, &format!("claims[{i}].{k}")) {
-                Ok(p) => Some(points[p].label.clone()),
-                Err(e) => {
-                    errors.push(e);
-                    None
-                }
+        // An empty table means the base configuration.
+        let mut cell = |t: &toml::Table, k: &str| match find_point(spec, points, t, &format!("claims[{i}].{k}")) {
+            Ok(p) => Some(points[p].label.clone()),
+            Err(e) => {
+                errors.push(e);
+                None
             }
         };
-        let at = cell(&c.at, "at");
-        let than = if c.than.is_empty() { None } else { cell(&c.than, "than") };
+        // A flat claim is about its `over` cells only.
+        let at = if c.test == crate::spec::ClaimTest::Flat && c.at.is_empty() { None } else { cell(&c.at, "at") };
+        // Comparing algorithms without a `than` cell: the same cell.
+        let than = if c.than.is_empty() { c.than_algorithm.and(at.clone()) } else { cell(&c.than, "than") };
         let mut over = Vec::new();
         if let Some((param, values)) = c.over.iter().next() {
             for (j, v) in values.as_array().map(Vec::as_slice).unwrap_or_default().iter().enumerate() {

@@ -97,6 +97,7 @@ fn positive(d: &[f64]) -> Verdict {
 /// Evaluates one claim on one map.
 fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, algorithm: &str) -> (Verdict, String) {
     let values = |point: &Option<String>| point.as_deref().map(|p| cell_values(data, map, algorithm, p, &claim.metric)).unwrap_or_default();
+    let than_algorithm = claim.than_algorithm.map_or(algorithm, |a| a.name());
     let at = values(&cells.at);
     let s_at = stats::summarize(&at.values().copied().collect::<Vec<_>>());
     match claim.test {
@@ -119,7 +120,7 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
             (v, describe(&s_at))
         }
         ClaimTest::Greater | ClaimTest::Less => {
-            let than = values(&cells.than);
+            let than = cells.than.as_deref().map(|p| cell_values(data, map, than_algorithm, p, &claim.metric)).unwrap_or_default();
             let s_than = stats::summarize(&than.values().copied().collect::<Vec<_>>());
             let mut d = paired(&at, &than);
             if claim.test == ClaimTest::Less {
@@ -222,8 +223,16 @@ fn test_text(c: &ClaimSpec, cells: &ClaimCells) -> String {
         ClaimTest::Above => format!("{metric} at {at} above {} (95 % CI)", v(c.value)),
         ClaimTest::Below => format!("{metric} at {at} below {} (95 % CI)", v(c.value)),
         ClaimTest::Between => format!("{metric} at {at} within [{}, {}] (95 % CI)", v(c.value), v(c.upper)),
-        ClaimTest::Greater => format!("{metric} at {at} greater than at {} (paired 95 % CI)", cells.than.clone().unwrap_or_default()),
-        ClaimTest::Less => format!("{metric} at {at} less than at {} (paired 95 % CI)", cells.than.clone().unwrap_or_default()),
+        ClaimTest::Greater | ClaimTest::Less => {
+            let than = match c.than_algorithm {
+                Some(a) if cells.than == cells.at => format!("that of {}", a.title()),
+                Some(a) => format!("{} at {}", a.title(), cells.than.clone().unwrap_or_default()),
+                None => format!("at {}", cells.than.clone().unwrap_or_default()),
+            };
+            let who = c.algorithm.map_or(String::new(), |a| format!(" of {}", a.title()));
+            let word = if c.test == ClaimTest::Greater { "greater" } else { "less" };
+            format!("{metric}{who} at {at} {word} than {than} (paired 95 % CI)")
+        }
         ClaimTest::Flat => {
             let over: Vec<&str> = cells.over.iter().map(|(v, _)| v.as_str()).collect();
             format!("{metric} flat within {} over {} ∈ {{{}}}", v(c.tolerance), c.over.keys().next().cloned().unwrap_or_default(), over.join(", "))

@@ -81,6 +81,9 @@ pub struct ClaimSpec {
     /// Algorithm the claim is about (default: the study's first).
     #[serde(default)]
     pub algorithm: Option<AlgorithmKind>,
+    /// For `greater` / `less`: compare with this algorithm (at `than`, or at the same cell).
+    #[serde(default)]
+    pub than_algorithm: Option<AlgorithmKind>,
     /// How many maps must confirm: all (default), most, or any.
     #[serde(default)]
     pub require: Require,
@@ -358,7 +361,7 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         let missing = match c.test {
             ClaimTest::Above | ClaimTest::Below => c.value.is_none().then_some("a threshold `value`"),
             ClaimTest::Between => (c.value.is_none() || c.upper.is_none()).then_some("bounds `value` and `upper`"),
-            ClaimTest::Greater | ClaimTest::Less => c.than.is_empty().then_some("a cell to compare with, `than`"),
+            ClaimTest::Greater | ClaimTest::Less => (c.than.is_empty() && c.than_algorithm.is_none()).then_some("a cell (`than`) or an algorithm (`than_algorithm`) to compare with"),
             ClaimTest::Flat => (c.over.len() != 1 || c.tolerance.is_none()).then_some("one parameter's values in `over` and a `tolerance`"),
         };
         if let Some(what) = missing {
@@ -369,10 +372,12 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
                 err(&key("maps"), format!("map `{m}` is not one of the study's maps"));
             }
         }
-        if let Some(a) = c.algorithm
-            && !spec.algorithms.contains(&a)
-        {
-            err(&key("algorithm"), format!("`{}` is not one of the study's algorithms", a.name()));
+        for (k, a) in [("algorithm", c.algorithm), ("than_algorithm", c.than_algorithm)] {
+            if let Some(a) = a
+                && !spec.algorithms.contains(&a)
+            {
+                err(&key(k), format!("`{}` is not one of the study's algorithms", a.name()));
+            }
         }
         if spec.claims[..i].iter().any(|o| o.id == c.id) {
             err(&key("id"), format!("claim id `{}` is used twice", c.id));

@@ -4,7 +4,7 @@
 
 use super::RangeNoise;
 use crate::config::{Checks, Violation};
-use crate::geom::{cast_ray, Pose2, Segment};
+use crate::geom::{cast_ray, Point2, Pose2, Segment};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -26,11 +26,18 @@ pub struct LaserParams {
     pub range_noise: RangeNoise,
     /// σ [m] for `constant`; σ at 1 m [m/m] for `proportional`.
     pub range_sigma_m: f64,
+    /// Thickness [m] of the walls as the laser sees them: solid bars around the map's (zero-width)
+    /// centrelines. [FT]'s Stage maps were bitmaps with walls 2–3 px thick (≈ 5 cm), while its
+    /// reference landmarks are the centrelines — a bias the thesis puts at 7–14 cm. 0 = exact.
+    pub wall_thickness_m: f64,
+    /// Ranges are rounded to multiples of this [m] before noise: the raster of a grid ray tracer
+    /// (Stage: 2 cm). 0 = exact.
+    pub range_quantum_m: f64,
 }
 
 impl Default for LaserParams {
     fn default() -> Self {
-        Self { fov_deg: 180.0, resolution_deg: 1.0, max_range_m: 8.0, rate_hz: 5.0, range_noise: RangeNoise::Constant, range_sigma_m: 0.01 }
+        Self { fov_deg: 180.0, resolution_deg: 1.0, max_range_m: 8.0, rate_hz: 5.0, range_noise: RangeNoise::Constant, range_sigma_m: 0.01, wall_thickness_m: 0.0, range_quantum_m: 0.0 }
     }
 }
 
@@ -60,6 +67,10 @@ pub struct Scan {
 /// near 0.1°): bounds the memory of a scan.
 const MIN_RESOLUTION_DEG: f64 = 0.01;
 
+/// Thickest walls [m] and coarsest range raster [m] accepted (beyond, a map is no longer the map).
+const MAX_WALL_THICKNESS_M: f64 = 0.5;
+const MAX_RANGE_QUANTUM_M: f64 = 0.5;
+
 /// Relative tolerance for "a whole number" in FOV/resolution and scan-period checks.
 const WHOLE_NUMBER_TOL: f64 = 1e-9;
 
@@ -71,6 +82,8 @@ impl LaserParams {
         c.positive("max_range_m", self.max_range_m);
         c.positive("rate_hz", self.rate_hz);
         c.non_negative("range_sigma_m", self.range_sigma_m);
+        c.in_range("wall_thickness_m", self.wall_thickness_m, 0.0, MAX_WALL_THICKNESS_M);
+        c.in_range("range_quantum_m", self.range_quantum_m, 0.0, MAX_RANGE_QUANTUM_M);
         if self.fov_deg > 0.0 && self.resolution_deg > 0.0 {
             let n = self.fov_deg / self.resolution_deg;
             c.require((n - n.round()).abs() < WHOLE_NUMBER_TOL * n.max(1.0), "resolution_deg", || {
@@ -78,6 +91,26 @@ impl LaserParams {
             });
         }
         c.finish()
+    }
+
+    /// The surfaces the laser sees: the walls themselves, or, with a thickness, the outlines of
+    /// bars around them (extended by half the thickness at both ends, so corners close).
+    pub fn surfaces(&self, walls: &[Segment]) -> Vec<Segment> {
+        if self.wall_thickness_m <= 0.0 {
+            return walls.to_vec();
+        }
+        let h = self.wall_thickness_m / 2.0;
+        walls
+            .iter()
+            .flat_map(|w| {
+                let (dx, dy) = w.direction();
+                let (nx, ny) = (-dy * h, dx * h);
+                let a = Point2::new(w.a.x - dx * h, w.a.y - dy * h);
+                let b = Point2::new(w.b.x + dx * h, w.b.y + dy * h);
+                let c = [Point2::new(a.x + nx, a.y + ny), Point2::new(b.x + nx, b.y + ny), Point2::new(b.x - nx, b.y - ny), Point2::new(a.x - nx, a.y - ny)];
+                [Segment::new(c[0], c[1]), Segment::new(c[1], c[2]), Segment::new(c[2], c[3]), Segment::new(c[3], c[0])]
+            })
+            .collect()
     }
 
     pub fn geometry(&self) -> LaserGeometry {
@@ -102,6 +135,7 @@ impl LaserParams {
             .map(|i| {
                 let z: f64 = rng.sample(StandardNormal);
                 cast_ray(walls, pose.position(), pose.theta + geometry.bearing(i), geometry.max_range_m)
+                    .map(|r| if self.range_quantum_m > 0.0 { (r / self.range_quantum_m).round() * self.range_quantum_m } else { r })
                     .map(|r| (r + self.range_noise.sigma(self.range_sigma_m, r) * z).max(0.0))
             })
             .collect();
@@ -163,6 +197,21 @@ mod tests {
         let (sn, sf) = ((near / n as f64).sqrt(), (far / n as f64).sqrt());
         assert!((sn - 0.01).abs() < 0.0008, "{sn}");
         assert!((sf - 0.19).abs() < 0.015, "{sf}");
+    }
+
+    #[test]
+    fn thick_walls_are_seen_half_a_thickness_closer_and_ranges_can_be_quantised() {
+        let thick = LaserParams { range_sigma_m: 0.0, max_range_m: 30.0, wall_thickness_m: 0.1, ..LaserParams::default() };
+        let g = thick.geometry();
+        let surfaces = thick.surfaces(&room());
+        assert_eq!(surfaces.len(), 16);
+        let scan = thick.scan(&g, &surfaces, Pose2::IDENTITY, 0, &mut ChaCha8Rng::seed_from_u64(1));
+        assert!((scan.ranges_m[0].unwrap() - 0.95).abs() < 1e-12);
+        assert!((scan.ranges_m[90].unwrap() - 18.95).abs() < 1e-12);
+        let quantised = LaserParams { range_quantum_m: 0.02, ..thick.clone() };
+        let q = quantised.scan(&g, &surfaces, Pose2::new(0.0, 0.003, 0.0), 0, &mut ChaCha8Rng::seed_from_u64(1));
+        let r = q.ranges_m[0].unwrap(); // true 0.953
+        assert!((r / 0.02 - (r / 0.02).round()).abs() < 1e-9 && (r - 0.96).abs() < 1e-9, "{r}");
     }
 
     #[test]

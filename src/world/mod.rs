@@ -139,10 +139,11 @@ pub fn generate(spec: &WorldSpec<'_>, world_seed: u64) -> Result<World, WorldErr
         Some(params) => {
             let period = sensor_period_steps(params.rate_hz, dt).ok_or(WorldError::SensorRate { sensor: "laser" })?;
             let geometry = params.geometry();
+            let surfaces = params.surfaces(&spec.map.walls);
             let mut rng = stream(LASER_STREAM);
             let scans = (0..truth.poses.len())
                 .step_by(period)
-                .map(|k| params.scan(&geometry, &spec.map.walls, truth.poses[k], k, &mut rng))
+                .map(|k| params.scan(&geometry, &surfaces, truth.poses[k], k, &mut rng))
                 .collect();
             (Some(geometry), scans)
         }
