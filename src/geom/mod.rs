@@ -2,15 +2,15 @@
 //! lines in Hessian normal form (ρ, θ) and ray casting. Pure: no IO, no randomness.
 
 use serde::{Deserialize, Serialize};
-use std::f64::consts::PI;
+use std::f64::consts::{PI, TAU};
 
-/// Wraps an angle to (−π, π].
+/// Wraps an angle to (−π, π]. Angles already in range (nearly all of them) pass untouched.
 pub fn wrap_angle(a: f64) -> f64 {
-    let mut w = a.rem_euclid(2.0 * PI); // [0, 2π)
-    if w > PI {
-        w -= 2.0 * PI;
+    if a > -PI && a <= PI {
+        return a;
     }
-    w
+    let w = a - TAU * (a / TAU).round(); // now in [−π, π]
+    if w <= -PI { w + TAU } else if w > PI { w - TAU } else { w }
 }
 
 /// A 2-D point [m].

@@ -201,12 +201,11 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimView> {
                 test: test_text(claim, cells),
                 verdict: verdict.as_str().to_string(),
                 summary: format!(
-                    "{} on {require}: confirmed on {}, refuted on {}, inconclusive on {} of {} maps",
-                    verdict.as_str(),
+                    "Required on {require}; of {} maps: {} confirmed, {} refuted, {} inconclusive",
+                    verdicts.len(),
                     count(Verdict::Confirmed),
                     count(Verdict::Refuted),
-                    count(Verdict::Inconclusive),
-                    verdicts.len()
+                    count(Verdict::Inconclusive)
                 ),
                 evidence: maps.iter().zip(&per_map).map(|(m, (v, e))| format!("{m}: {} — {e}", v.as_str())).collect(),
             })
@@ -214,9 +213,19 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimView> {
         .collect()
 }
 
+/// A cell as the claim wrote it: `a.b = 1, c.d = 2`, or "base".
+fn cell_text(t: &toml::Table) -> String {
+    let mut leaves = Vec::new();
+    crate::spec::params::flatten("", &toml::Value::Table(t.clone()), &mut leaves);
+    if leaves.is_empty() {
+        return "base".into();
+    }
+    leaves.iter().map(|(k, v)| format!("{k} = {}", crate::plan::format_value(v))).collect::<Vec<_>>().join(", ")
+}
+
 /// The test in words.
 fn test_text(c: &ClaimSpec, cells: &ClaimCells) -> String {
-    let at = cells.at.clone().unwrap_or_default();
+    let at = cell_text(&c.at);
     let metric = &c.metric;
     let v = |x: Option<f64>| x.map_or("?".into(), |x| sig(x, 3));
     match c.test {
@@ -225,10 +234,11 @@ fn test_text(c: &ClaimSpec, cells: &ClaimCells) -> String {
         ClaimTest::Between => format!("{metric} at {at} within [{}, {}] (95 % CI)", v(c.value), v(c.upper)),
         ClaimTest::Greater | ClaimTest::Less => {
             let than = match c.than_algorithm {
-                Some(a) if cells.than == cells.at => format!("that of {}", a.title()),
-                Some(a) => format!("{} at {}", a.title(), cells.than.clone().unwrap_or_default()),
-                None => format!("at {}", cells.than.clone().unwrap_or_default()),
+                Some(a) if c.than.is_empty() => format!("that of {}", a.title()),
+                Some(a) => format!("{} at {}", a.title(), cell_text(&c.than)),
+                None => format!("at {}", cell_text(&c.than)),
             };
+            let _ = cells;
             let who = c.algorithm.map_or(String::new(), |a| format!(" of {}", a.title()));
             let word = if c.test == ClaimTest::Greater { "greater" } else { "less" };
             format!("{metric}{who} at {at} {word} than {than} (paired 95 % CI)")

@@ -4,7 +4,8 @@
 
 use super::RangeNoise;
 use crate::config::{Checks, Violation};
-use crate::geom::{cast_ray, Point2, Pose2, Segment};
+use crate::geom::{wrap_angle, Point2, Pose2, Segment};
+use std::f64::consts::TAU;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -128,19 +129,53 @@ impl LaserParams {
     /// One scan from `pose`. A standard normal is drawn for every beam, hit or not, so the
     /// noise of beam i is the same draw at every sweep point.
     pub fn scan(&self, geometry: &LaserGeometry, walls: &[Segment], pose: Pose2, step: usize, rng: &mut ChaCha8Rng) -> Scan {
-        // Walls entirely out of range cannot be hit: cast only against the others.
-        let near: Vec<Segment> = walls.iter().filter(|w| w.distance_to_point(pose.position()) <= geometry.max_range_m).copied().collect();
-        let walls = &near;
-        let ranges_m = (0..geometry.beams)
-            .map(|i| {
+        let hits = cast_beams(geometry, walls, pose);
+        let ranges_m = hits
+            .into_iter()
+            .map(|hit| {
                 let z: f64 = rng.sample(StandardNormal);
-                cast_ray(walls, pose.position(), pose.theta + geometry.bearing(i), geometry.max_range_m)
-                    .map(|r| if self.range_quantum_m > 0.0 { (r / self.range_quantum_m).round() * self.range_quantum_m } else { r })
+                hit.map(|r| if self.range_quantum_m > 0.0 { (r / self.range_quantum_m).round() * self.range_quantum_m } else { r })
                     .map(|r| (r + self.range_noise.sigma(self.range_sigma_m, r) * z).max(0.0))
             })
             .collect();
         Scan { step, ranges_m }
     }
+}
+
+/// The nearest hit within range of every beam (no noise): the same as casting every beam
+/// against every wall ([`cast_ray`]), but each wall in range is tested only against the beams
+/// inside the angle it spans from the pose (plus one beam of margin) — identical results.
+pub fn cast_beams(geometry: &LaserGeometry, walls: &[Segment], pose: Pose2) -> Vec<Option<f64>> {
+    let origin = pose.position();
+    let trig: Vec<(f64, f64)> = (0..geometry.beams).map(|i| (pose.theta + geometry.bearing(i)).sin_cos()).collect();
+    let mut best = vec![f64::INFINITY; geometry.beams];
+    let inc = geometry.angle_increment_rad;
+    for w in walls.iter().filter(|w| w.distance_to_point(origin) <= geometry.max_range_m) {
+        // Bearings of the end points relative to the heading; the wall spans the shorter arc.
+        let bearing = |p: Point2| wrap_angle((p.y - origin.y).atan2(p.x - origin.x) - pose.theta);
+        let (ba, bb) = (bearing(w.a), bearing(w.b));
+        let span = wrap_angle(bb - ba);
+        let (lo, hi) = if span >= 0.0 { (ba, ba + span) } else { (bb, bb - span) };
+        // The arc can cross ±π: try it shifted by a turn either way.
+        for shift in [-TAU, 0.0, TAU] {
+            let first = ((lo + shift - geometry.angle_min_rad) / inc).floor() - 1.0;
+            let last = ((hi + shift - geometry.angle_min_rad) / inc).ceil() + 1.0;
+            if last < 0.0 || first >= geometry.beams as f64 {
+                continue;
+            }
+            let (i0, i1) = (first.max(0.0) as usize, (last as usize).min(geometry.beams - 1));
+            for i in i0..=i1 {
+                let (sin_phi, cos_phi) = trig[i];
+                if let Some(t) = w.ray_intersection(origin, cos_phi, sin_phi)
+                    && t <= geometry.max_range_m
+                    && t < best[i]
+                {
+                    best[i] = t;
+                }
+            }
+        }
+    }
+    best.into_iter().map(|t| t.is_finite().then_some(t)).collect()
 }
 
 #[cfg(test)]
@@ -212,6 +247,26 @@ mod tests {
         let q = quantised.scan(&g, &surfaces, Pose2::new(0.0, 0.003, 0.0), 0, &mut ChaCha8Rng::seed_from_u64(1));
         let r = q.ranges_m[0].unwrap(); // true 0.953
         assert!((r / 0.02 - (r / 0.02).round()).abs() < 1e-9 && (r - 0.96).abs() < 1e-9, "{r}");
+    }
+
+    #[test]
+    fn wall_major_casting_equals_casting_every_beam() {
+        use crate::geom::cast_ray;
+        let p = |x, y| Point2::new(x, y);
+        let mut walls = LaserParams { wall_thickness_m: 0.05, ..LaserParams::default() }.surfaces(&room());
+        walls.push(Segment::new(p(2.0, 2.0), p(8.0, 2.0)));
+        walls.push(Segment::new(p(4.0, -0.5), p(4.0, 6.0)));
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for fov in [180.0, 270.0, 360.0] {
+            let g = LaserParams { fov_deg: fov, resolution_deg: 0.5, max_range_m: 12.0, ..LaserParams::default() }.geometry();
+            for _ in 0..300 {
+                let pose = Pose2::new(rng.random_range(-0.8..18.8), rng.random_range(-0.8..8.8), rng.random_range(-3.2..3.2));
+                let fast = cast_beams(&g, &walls, pose);
+                for (i, f) in fast.iter().enumerate() {
+                    assert_eq!(*f, cast_ray(&walls, pose.position(), pose.theta + g.bearing(i), g.max_range_m), "fov {fov} beam {i} pose {pose:?}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 
 /// Bump when world generation changes what it produces for the same inputs: it is part of every
 /// run's content hash, so cached runs are recomputed.
-pub const WORLD_CODE_VERSION: &str = "world-1";
+pub const WORLD_CODE_VERSION: &str = "world-2";
 
 /// ChaCha8 stream numbers of the noise sources.
 const ODOMETRY_STREAM: u64 = 1;

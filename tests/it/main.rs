@@ -4,6 +4,7 @@ mod bad_input;
 mod code_versions;
 mod determinism;
 mod export_tum;
+mod fastslam;
 mod ft_maps;
 mod layering;
 mod pipeline;

@@ -32,23 +32,45 @@ pub enum Ambiguity {
     Both,
 }
 
-/// The ML decision for one feature from its log-likelihoods against every landmark of its type.
-pub fn decide(log_likelihoods: impl Iterator<Item = f64>, ln_p0: f64, rule: Ambiguity) -> Association {
-    let mut best: Option<(usize, f64)> = None;
-    let mut candidates = 0;
-    for (j, ll) in log_likelihoods.enumerate() {
-        if ll > ln_p0 {
-            candidates += 1;
-            if best.is_none_or(|(_, b)| ll > b) {
-                best = Some((j, ll));
+/// Accumulates the landmarks offered for one feature — those more likely than P0 — and keeps the
+/// most likely with its payload (e.g. the EKF quantities needed to update it).
+pub struct Candidates<T> {
+    ln_p0: f64,
+    best: Option<(usize, f64, T)>,
+    count: usize,
+}
+
+impl<T> Candidates<T> {
+    pub fn new(ln_p0: f64) -> Self {
+        Self { ln_p0, best: None, count: 0 }
+    }
+
+    pub fn offer(&mut self, landmark: usize, log_likelihood: f64, payload: T) {
+        if log_likelihood > self.ln_p0 {
+            self.count += 1;
+            if self.best.as_ref().is_none_or(|(_, b, _)| log_likelihood > *b) {
+                self.best = Some((landmark, log_likelihood, payload));
             }
         }
     }
-    match best {
-        None => Association::New, // argmax is the "new landmark" hypothesis, w = P0
-        Some(_) if candidates > 1 && matches!(rule, Ambiguity::MultipleCandidates | Ambiguity::Both) => Association::Ignored,
-        Some((landmark, log_likelihood)) => Association::Known { landmark, log_likelihood },
+
+    /// The ML decision (argmax over the landmarks and the "new" hypothesis, likelihood P0).
+    pub fn decide(self, rule: Ambiguity) -> (Association, Option<T>) {
+        match self.best {
+            None => (Association::New, None),
+            Some(_) if self.count > 1 && matches!(rule, Ambiguity::MultipleCandidates | Ambiguity::Both) => (Association::Ignored, None),
+            Some((landmark, log_likelihood, payload)) => (Association::Known { landmark, log_likelihood }, Some(payload)),
+        }
     }
+}
+
+/// The ML decision for one feature from its log-likelihoods against every landmark of its type.
+pub fn decide(log_likelihoods: impl Iterator<Item = f64>, ln_p0: f64, rule: Ambiguity) -> Association {
+    let mut c = Candidates::new(ln_p0);
+    for (j, ll) in log_likelihoods.enumerate() {
+        c.offer(j, ll, ());
+    }
+    c.decide(rule).0
 }
 
 /// Applies the shared-landmark rule to the decisions of one scan's features (of one type).

@@ -21,7 +21,7 @@ use crate::features::{self, FeatureParams, ScanFeatures};
 use crate::geom::{wrap_angle, Line, Point2, Pose2};
 use crate::world::odometry::Spread;
 use crate::world::World;
-use association::{decide, resolve_shared, Ambiguity, Association};
+use association::{resolve_shared, Ambiguity, Association, Candidates};
 use models::{Model, Prediction};
 use nalgebra::{Matrix2, Vector2};
 use particle::{Landmark, Particle};
@@ -30,7 +30,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
-pub const CODE_VERSION: &str = "fastslam1-1";
+pub const CODE_VERSION: &str = "fastslam1-2";
 
 /// ln(2π), the normalising constant of a bivariate Gaussian's log density.
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -134,9 +134,24 @@ struct Match {
     log_likelihood: f64,
 }
 
+
+
+/// An upper bound on a line landmark's log-likelihood from the angle alone, without trigonometry:
+/// the θ row of H is (0, 1), so Q_θθ = Σ_θθ + R_θθ; the marginal Mahalanobis distance bounds
+/// the joint one from below, and det Q ≥ det R since Q = H Σ Hᵀ + R ⪰ R. A landmark whose bound
+/// is below ln P0 can never be chosen, nor count as a plausible candidate: skipping it changes
+/// no decision.
+fn line_bound(m: &Measurement, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>, ln_det_r: f64) -> f64 {
+    let mut nu = wrap_angle(m.z[1] - (l.mean[1] - pose.theta));
+    // the prediction may be flipped to (−ρ', θ' + π): take the nearer of the two angles
+    nu = nu.abs().min((std::f64::consts::PI - nu.abs()).abs());
+    let q = l.cov[(1, 1)] + r[(1, 1)];
+    -0.5 * nu * nu / q - LN_2PI - 0.5 * ln_det_r
+}
+
 /// Gaussian log-likelihood of `m` for landmark `l`, or `None` if Q is not positive definite.
 fn evaluate(m: &Measurement, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>) -> Option<Match> {
-    let prediction = m.model.predict(&l.mean, pose);
+    let prediction = l.predict(m.model, pose);
     let h = prediction.h;
     let q = h * l.cov * h.transpose() + r; // Eq. (3.14), standard orientation
     let det = q[(0, 0)] * q[(1, 1)] - q[(0, 1)] * q[(1, 0)];
@@ -159,6 +174,7 @@ fn correct(l: &mut Landmark, model: Model, m: &Match, r: &Matrix2<f64>) -> bool 
     l.cov = i_kh * l.cov * i_kh.transpose() + k * r * k.transpose(); // (I − KH) Σ (I − KH)ᵀ + K R Kᵀ
     l.cov = 0.5 * (l.cov + l.cov.transpose());
     model.normalise(&mut l.mean, &mut l.cov);
+    l.refresh();
     l.mean.iter().all(|v| v.is_finite())
 }
 
@@ -167,10 +183,11 @@ fn initialise(m: &Measurement, pose: &Pose2, r: &Matrix2<f64>) -> Option<Landmar
     let mean = m.model.inverse(&m.z, pose);
     let h_inv = m.model.predict(&mean, pose).h.try_inverse()?;
     let cov = h_inv * r * h_inv.transpose();
-    Some(Landmark { mean, cov: 0.5 * (cov + cov.transpose()) })
+    Some(Landmark::new(mean, 0.5 * (cov + cov.transpose())))
 }
 
-/// The filter state.
+/// The filter state (cloning it is cheap: particle maps are shared copy-on-write).
+#[derive(Clone)]
 pub struct FastSlam1<'a> {
     params: &'a FastSlamParams,
     particles: Vec<Particle>,
@@ -232,17 +249,24 @@ impl<'a> FastSlam1<'a> {
     /// scan), then applies the updates and multiplies the weight ([FT] Table 6.3 lines 6–13).
     fn weigh_and_update(&mut self, i: usize, z: &[Measurement]) {
         let (r, ln_p0, rule) = (self.r, self.ln_p0, self.params.ambiguity);
+        let ln_det_r = (r[(0, 0)] * r[(1, 1)]).ln();
         let p = &self.particles[i];
         let pose = p.pose;
         let mut failures = 0;
         let mut decisions: Vec<(Association, Option<Match>)> = z
             .iter()
             .map(|m| {
-                let matches: Vec<Option<Match>> = p.map.of(m.model).iter().map(|l| evaluate(m, l, &pose, &r)).collect();
-                failures += matches.iter().filter(|x| x.is_none()).count();
-                let d = decide(matches.iter().map(|x| x.map_or(f64::NEG_INFINITY, |x| x.log_likelihood)), ln_p0, rule);
-                let matched = if let Association::Known { landmark, .. } = d { matches[landmark] } else { None };
-                (d, matched)
+                let mut candidates = Candidates::new(ln_p0);
+                for (j, l) in p.map.of(m.model).iter().enumerate() {
+                    if m.model == Model::Line && line_bound(m, l, &pose, &r, ln_det_r) < ln_p0 {
+                        continue; // cannot beat P0: not a candidate
+                    }
+                    match evaluate(m, l, &pose, &r) {
+                        Some(mt) => candidates.offer(j, mt.log_likelihood, mt),
+                        None => failures += 1,
+                    }
+                }
+                candidates.decide(rule)
             })
             .collect();
         // The shared-landmark rule compares features of the same landmark type.
@@ -315,6 +339,11 @@ impl<'a> FastSlam1<'a> {
     pub fn best(&self) -> &Particle {
         &self.particles[self.best]
     }
+
+    /// Landmarks in the best particle's map.
+    pub fn map_size(&self) -> usize {
+        self.best().map.len()
+    }
 }
 
 fn argmax(w: &[f64]) -> usize {
@@ -382,10 +411,26 @@ mod tests {
     }
 
     #[test]
+    fn the_angle_bound_never_underestimates_the_likelihood() {
+        let r = Matrix2::new(0.04, 0.0, 0.0, 0.00122);
+        let ln_det_r = (0.04f64 * 0.00122).ln();
+        let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(11);
+        for _ in 0..2000 {
+            let u = |rng: &mut ChaCha8Rng, a: f64, b: f64| rng.random_range(a..b);
+            let pose = Pose2::new(u(&mut rng, -5.0, 5.0), u(&mut rng, -5.0, 5.0), u(&mut rng, -3.1, 3.1));
+            let a = u(&mut rng, 0.0, 0.05);
+            let l = Landmark::new(Vector2::new(u(&mut rng, 0.5, 20.0), u(&mut rng, -3.1, 3.1)), Matrix2::new(a, 0.3 * a.sqrt() * 0.01, 0.3 * a.sqrt() * 0.01, u(&mut rng, 0.0, 0.01)));
+            let m = Measurement { model: Model::Line, z: Vector2::new(u(&mut rng, 0.0, 10.0), u(&mut rng, -3.1, 3.1)) };
+            let exact = evaluate(&m, &l, &pose, &r).unwrap().log_likelihood;
+            assert!(line_bound(&m, &l, &pose, &r, ln_det_r) >= exact - 1e-9);
+        }
+    }
+
+    #[test]
     fn likelihood_is_a_normalised_gaussian() {
         // ∫ N(z; ẑ, Q) dz = 1: Riemann sum over the measurement plane around a corner landmark
         let r = Matrix2::new(0.04, 0.0, 0.0, 0.01);
-        let l = Landmark { mean: Vector2::new(3.0, 4.0), cov: Matrix2::new(0.02, 0.005, 0.005, 0.03) };
+        let l = Landmark::new(Vector2::new(3.0, 4.0), Matrix2::new(0.02, 0.005, 0.005, 0.03));
         let pose = Pose2::IDENTITY;
         let zc = models::point_predict(&l.mean, &pose).z;
         let (n, h) = (400, 0.01);

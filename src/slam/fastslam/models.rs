@@ -68,7 +68,11 @@ impl Model {
 /// [FT] Eq. 7.25: ρ' = ρ − (x cos θ + y sin θ), θ' = θ − θr; Jacobian with the errata's
 /// correction (Eq. 7.26 printed its entries misplaced): H = [[1, x sin θ − y cos θ], [0, 1]].
 pub fn line_predict(m: &Vector2<f64>, pose: &Pose2) -> Prediction {
-    let (s, c) = m[1].sin_cos();
+    line_predict_trig(m, m[1].sin_cos(), pose)
+}
+
+/// [`line_predict`] with (sin θ, cos θ) of the landmark supplied (filters cache them).
+pub fn line_predict_trig(m: &Vector2<f64>, (s, c): (f64, f64), pose: &Pose2) -> Prediction {
     let rho = m[0] - (pose.x * c + pose.y * s); // Eq. (7.25)
     let theta = wrap_angle(m[1] - pose.theta);
     let d = pose.x * s - pose.y * c; // ∂ρ'/∂θ — corrected Eq. (7.26)

@@ -12,6 +12,27 @@ use std::sync::Arc;
 pub struct Landmark {
     pub mean: Vector2<f64>,
     pub cov: Matrix2<f64>,
+    /// (sin, cos) of `mean[1]`, kept for line landmarks (their θ), so that predictions need no
+    /// trigonometry; refresh with [`Landmark::refresh`] after changing the mean.
+    pub trig: (f64, f64),
+}
+
+impl Landmark {
+    pub fn new(mean: Vector2<f64>, cov: Matrix2<f64>) -> Self {
+        Self { mean, cov, trig: mean[1].sin_cos() }
+    }
+
+    pub fn refresh(&mut self) {
+        self.trig = self.mean[1].sin_cos();
+    }
+
+    /// The predicted measurement of this landmark from `pose`.
+    pub fn predict(&self, model: Model, pose: &Pose2) -> super::models::Prediction {
+        match model {
+            Model::Line => super::models::line_predict_trig(&self.mean, self.trig, pose),
+            Model::Point => super::models::point_predict(&self.mean, pose),
+        }
+    }
 }
 
 /// A particle's map: lines and corners kept apart (association only compares like with like).
@@ -69,7 +90,7 @@ mod tests {
     #[test]
     fn resampled_copies_share_their_map_until_one_writes() {
         let mut a = Particle::new(Pose2::IDENTITY);
-        a.map_mut().lines.push(Landmark { mean: Vector2::new(1.0, 0.0), cov: Matrix2::identity() });
+        a.map_mut().lines.push(Landmark::new(Vector2::new(1.0, 0.0), Matrix2::identity()));
         let mut b = a.clone();
         assert!(Arc::ptr_eq(&a.map, &b.map), "a copy shares the map");
         b.map_mut().lines[0].mean[0] = 2.0;
