@@ -14,8 +14,8 @@ use slamlab::world::point_sensor::PointSensorParams;
 use slamlab::world::{generate, RangeNoise, SimParams, WorldSpec, WORLD_CODE_VERSION};
 
 /// The code versions the fingerprint below was taken with.
-const VERSIONS: &str = "world-1+metrics-1+odometry-1";
-const FINGERPRINT: &str = "7f07746280d4a4e588a6838ea96cf05bf22e3a83af4f989ae77edba9e51665d6";
+const VERSIONS: &str = "world-2+metrics-1+odometry-1";
+const FINGERPRINT: &str = "d0bf5e3bf8b07abc2d926066b979e5eb0297d78bf5c6e1f587ad54710bf6899d";
 
 fn fingerprint() -> String {
     let text = std::fs::read_to_string(repo().join("data/maps/bigloop2.toml")).unwrap();
