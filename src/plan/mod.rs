@@ -344,15 +344,18 @@ fn reference(spec: &LoadedSpec) -> Result<Option<String>, SpecError> {
     let fail = |key: &str, msg: String| SpecError::new(&spec.path, vec![spec.error_at(key, msg)]);
     let text = std::fs::read_to_string(&r.file).map_err(|e| fail("report.reference.file", format!("cannot read {}: {e}", r.file)))?;
     let rows = reference_file::parse(&text).map_err(|e| fail("report.reference.file", format!("{}: {e}", r.file)))?;
-    let rows: Vec<_> = rows.into_iter().filter(|row| row.experiment == r.experiment).collect();
-    if rows.is_empty() {
-        return Err(fail("report.reference.experiment", format!("{} has no rows of experiment `{}`", r.file, r.experiment)));
-    }
     let swept: Vec<&str> = spec.sweeps.iter().flat_map(|b| &b.params).map(|p| p.path.as_str()).collect();
-    if let Some(row) = rows.iter().find(|row| !swept.contains(&row.parameter.as_str())) {
-        return Err(fail("report.reference.experiment", format!("its rows sweep `{}`, which this study does not sweep", row.parameter)));
+    for (i, e) in r.experiments.iter().enumerate() {
+        let key = format!("report.reference.experiments[{i}]");
+        let mine: Vec<_> = rows.iter().filter(|row| &row.experiment == e).collect();
+        if mine.is_empty() {
+            return Err(fail(&key, format!("{} has no rows of experiment `{e}`", r.file)));
+        }
+        if let Some(row) = mine.iter().find(|row| !swept.contains(&row.parameter.as_str())) {
+            return Err(fail(&key, format!("its rows sweep `{}`, which this study does not sweep", row.parameter)));
+        }
     }
-    Ok(Some(reference_file::select(&text, &r.experiment)))
+    Ok(Some(reference_file::select(&text, &r.experiments)))
 }
 
 /// Sets `a.b.c = value`, creating intermediate tables.

@@ -176,6 +176,44 @@ fn combine(verdicts: &[Verdict], require: Require) -> Verdict {
     }
 }
 
+/// The pooled verdict: one test over the runs of all maps (paired differences, or cell values).
+fn pooled(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, maps: &[&String], algorithm: &str) -> (Verdict, String) {
+    let values = |point: &Option<String>, alg: &str| -> Vec<BTreeMap<u32, f64>> {
+        maps.iter().map(|m| point.as_deref().map(|p| cell_values(data, m, alg, p, &claim.metric)).unwrap_or_default()).collect()
+    };
+    let at = values(&cells.at, algorithm);
+    match claim.test {
+        ClaimTest::Greater | ClaimTest::Less => {
+            let than = values(&cells.than, claim.than_algorithm.map_or(algorithm, |a| a.name()));
+            let mut d: Vec<f64> = at.iter().zip(&than).flat_map(|(a, b)| paired(a, b)).collect();
+            if claim.test == ClaimTest::Less {
+                d.iter_mut().for_each(|x| *x = -*x);
+            }
+            (positive(&d), format!("all maps pooled: paired difference {}", describe(&stats::summarize(&d))))
+        }
+        _ => {
+            let all: Vec<f64> = at.iter().flat_map(|m| m.values().copied()).collect();
+            let s = stats::summarize(&all);
+            let (lo, hi) = bounds(&s);
+            let (a, b) = match claim.test {
+                ClaimTest::Above => (claim.value.unwrap_or(f64::NAN), f64::INFINITY),
+                ClaimTest::Below => (f64::NEG_INFINITY, claim.value.unwrap_or(f64::NAN)),
+                _ => (claim.value.unwrap_or(f64::NAN), claim.upper.unwrap_or(f64::NAN)),
+            };
+            let v = if s.n == 0 {
+                Verdict::Inconclusive
+            } else if lo >= a && hi <= b {
+                Verdict::Confirmed
+            } else if hi < a || lo > b {
+                Verdict::Refuted
+            } else {
+                Verdict::Inconclusive
+            };
+            (v, format!("all maps pooled: {}", describe(&s)))
+        }
+    }
+}
+
 /// Evaluates every claim of a study.
 pub fn evaluate(data: &StudyData) -> Vec<ClaimView> {
     let spec = &data.resolved.spec;
@@ -187,13 +225,23 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimView> {
             let algorithm = claim.algorithm.or(spec.algorithms.first().copied())?;
             let per_map: Vec<(Verdict, String)> = maps.iter().map(|m| on_map(data, claim, cells, m, algorithm.name())).collect();
             let verdicts: Vec<Verdict> = per_map.iter().map(|(v, _)| *v).collect();
-            let verdict = combine(&verdicts, claim.require);
+            let pooled = (claim.require == Require::Pooled && claim.test != ClaimTest::Flat).then(|| pooled(data, claim, cells, &maps, algorithm.name()));
+            let verdict = match &pooled {
+                Some((v, _)) => *v,
+                None => combine(&verdicts, if claim.require == Require::Pooled { Require::All } else { claim.require }),
+            };
             let count = |v: Verdict| verdicts.iter().filter(|x| **x == v).count();
             let require = match claim.require {
                 Require::All => "all maps",
                 Require::Most => "most maps",
                 Require::Any => "any map",
+                Require::Pooled if claim.test == ClaimTest::Flat => "all maps",
+                Require::Pooled => "all maps pooled",
             };
+            let mut evidence: Vec<String> = maps.iter().zip(&per_map).map(|(m, (v, e))| format!("{m}: {} — {e}", v.as_str())).collect();
+            if let Some((v, e)) = &pooled {
+                evidence.push(format!("{} — {e}", v.as_str()));
+            }
             Some(ClaimView {
                 id: claim.id.clone(),
                 source: claim.source.clone(),
@@ -207,7 +255,7 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimView> {
                     count(Verdict::Refuted),
                     count(Verdict::Inconclusive)
                 ),
-                evidence: maps.iter().zip(&per_map).map(|(m, (v, e))| format!("{m}: {} — {e}", v.as_str())).collect(),
+                evidence,
             })
         })
         .collect()

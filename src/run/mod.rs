@@ -123,6 +123,21 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         .map_err(|e| RunError::Threads { threads: opts.threads, message: e.to_string() })?;
     let reasons = reasons(plan, opts);
     let to_compute = reasons.iter().filter(|r| **r != Reason::Cached).count();
+    let dir = opts.results_dir.join(plan.id());
+    let maps: Vec<(String, String)> = plan.maps.iter().map(|m| (m.name.clone(), m.text.clone())).collect();
+    let resolved = resolved(plan);
+
+    // Nothing to compute and the stored study is exactly this one: leave it as it is.
+    if to_compute == 0 {
+        let ids: Vec<(String, String)> = plan.runs.iter().map(|r| (r.run_id.clone(), r.hash.clone())).collect();
+        let stored = store::read_runs(&dir).unwrap_or_default();
+        let bad = stored.iter().filter(|r| r.status != RunStatus::Ok).count();
+        let manifest = manifest(plan, provenance, plan.runs.len(), bad);
+        if store::is_up_to_date(&dir, &ids, &resolved, &manifest, &maps, plan.reference.as_deref()) {
+            let count = |s: RunStatus| stored.iter().filter(|r| r.status == s).count();
+            return Ok(StudySummary { study: plan.id().to_string(), dir, runs: plan.runs.len(), computed: 0, failed: count(RunStatus::Failed), diverged: count(RunStatus::Diverged) });
+        }
+    }
     // Each distinct content hash is computed (or read) once, even when two runs share it.
     let mut unique: Vec<usize> = Vec::new();
     let mut seen = std::collections::BTreeSet::new();
@@ -177,9 +192,6 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     let diverged = rows.iter().filter(|r| r.status == RunStatus::Diverged).count();
 
     let manifest = manifest(plan, provenance, rows.len(), failed + diverged);
-    let resolved = resolved(plan);
-    let maps: Vec<(String, String)> = plan.maps.iter().map(|m| (m.name.clone(), m.text.clone())).collect();
-    let dir = opts.results_dir.join(plan.id());
     store::write_study(&dir, &StudyOutput { runs: &rows, traces: &traces, landmarks: &landmarks, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps, reference: plan.reference.as_deref() })?;
     Ok(StudySummary { study: plan.id().to_string(), dir, runs: rows.len(), computed: to_compute, failed, diverged })
 }

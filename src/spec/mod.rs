@@ -110,10 +110,16 @@ pub enum ClaimTest {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Require {
+    /// Confirmed on every map.
     #[default]
     All,
+    /// Confirmed on more than half of the maps.
     Most,
+    /// Confirmed on at least one map.
     Any,
+    /// One test on the runs of all maps together (a general claim, tested with the power of all
+    /// replicates; `flat` claims are checked per map as for `all`).
+    Pooled,
 }
 
 /// A reference work's published results to show beside this study's.
@@ -122,8 +128,8 @@ pub enum Require {
 pub struct ReferenceSpec {
     /// CSV file of published results (see data/reference/README.md).
     pub file: String,
-    /// Rows of this experiment are used.
-    pub experiment: String,
+    /// Rows of these experiments are used.
+    pub experiments: Vec<String>,
     /// How the published values are labelled, e.g. "[FT] Table 10.3".
     pub label: String,
 }

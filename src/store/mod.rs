@@ -279,6 +279,30 @@ pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> 
     })
 }
 
+/// Whether `dir` already holds exactly this study: the same runs (by id and content hash), and
+/// byte-identical resolved spec, manifest, maps and reference rows. Then rewriting it would
+/// change nothing.
+pub fn is_up_to_date(dir: &Path, runs: &[(String, String)], resolved: &ResolvedStudy, manifest: &Manifest, maps: &[(String, String)], reference: Option<&str>) -> bool {
+    let same_text = |name: &str, text: &str| std::fs::read_to_string(dir.join(name)).is_ok_and(|t| t == text);
+    let resolved_ok = toml::to_string(resolved).is_ok_and(|t| same_text("resolved.toml", &t));
+    let manifest_ok = serde_json::to_string_pretty(manifest).is_ok_and(|t| same_text("manifest.json", &(t + "\n")));
+    let maps_ok = maps.iter().all(|(name, text)| same_text(&format!("maps/{name}.toml"), text))
+        && std::fs::read_dir(dir.join("maps")).map(|d| d.count()).unwrap_or(0) == maps.len();
+    let reference_ok = match reference {
+        Some(text) => same_text("reference.csv", text),
+        None => !dir.join("reference.csv").exists(),
+    };
+    if !(resolved_ok && manifest_ok && maps_ok && reference_ok && dir.join("traces.parquet").is_file() && dir.join("landmarks.parquet").is_file()) {
+        return false;
+    }
+    let Ok(stored) = read_runs(dir) else { return false };
+    let mut stored: Vec<(String, String)> = stored.into_iter().map(|r| (r.run_id, r.run_hash)).collect();
+    let mut wanted = runs.to_vec();
+    stored.sort();
+    wanted.sort();
+    stored == wanted
+}
+
 /// A study read back for reporting (traces are read separately, on demand).
 #[derive(Debug, Clone)]
 pub struct StudyData {

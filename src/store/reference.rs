@@ -64,13 +64,13 @@ pub fn parse(text: &str) -> Result<Vec<ReferenceRow>, String> {
     Ok(rows)
 }
 
-/// The header and the lines of one experiment, verbatim (what a study's results keep).
-pub fn select(text: &str, experiment: &str) -> String {
+/// The header and the lines of the given experiments, verbatim (what a study's results keep).
+pub fn select(text: &str, experiments: &[String]) -> String {
     let mut lines = text.lines();
     let header = lines.next().unwrap_or_default();
     let at = header.split(',').position(|c| c.trim() == "experiment").unwrap_or(0);
     let mut out = format!("{header}\n");
-    for l in lines.filter(|l| l.split(',').nth(at).map(str::trim) == Some(experiment)) {
+    for l in lines.filter(|l| l.split(',').nth(at).map(str::trim).is_some_and(|e| experiments.iter().any(|x| x == e))) {
         out.push_str(l);
         out.push('\n');
     }
@@ -105,7 +105,7 @@ mod tests {
 
     #[test]
     fn select_keeps_one_experiment_verbatim() {
-        let s = select(TEXT, "lmin");
+        let s = select(TEXT, &["lmin".to_string()]);
         assert_eq!(s.lines().count(), 2);
         assert!(s.ends_with("lmin,10.4,bigloop,features.lmin_m,10,inf,0,0,L3-4\n"));
     }

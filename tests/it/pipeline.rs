@@ -87,14 +87,21 @@ fn smoke_study_end_to_end_then_fully_cached() {
         assert!(!text.contains(s(&repo())), "{name} contains an absolute path");
     }
 
-    // second run: everything cached, results and reports identical
+    // second run: nothing to compute, the results are left untouched, reports identical
     let before = tree(&reports);
-    let runs_before = study.runs;
+    let results_before = tree(&results);
+    run_and_report("experiments/smoke.toml", work.path(), "2");
+    assert!(tree(&results) == results_before, "the second run rewrote results although nothing changed");
+    assert!(tree(&reports) == before, "reports changed although nothing did");
+
+    // a study rebuilt from the cache alone (results deleted) has the same runs, all cached
+    let runs_before = store::read_runs(&results.join("smoke")).unwrap();
+    std::fs::remove_dir_all(results.join("smoke")).unwrap();
     run_and_report("experiments/smoke.toml", work.path(), "2");
     let timings = store::read_timings(&results.join("smoke")).unwrap();
-    assert!(timings.iter().all(|t| t.cached), "second run recomputed something");
+    assert!(timings.iter().all(|t| t.cached), "the rebuilt study recomputed something");
     assert_eq!(store::read_runs(&results.join("smoke")).unwrap(), runs_before);
-    assert!(tree(&reports) == before, "reports changed although nothing did");
+    assert!(tree(&reports) == before, "reports from cached runs differ");
 }
 
 #[test]
