@@ -223,13 +223,43 @@ pub struct PathSeries {
     pub points: Vec<(f64, f64)>,
 }
 
-/// A map with walls, ground-truth corners and trajectories, drawn to scale.
+/// A map with walls, ground-truth corners and trajectories, drawn to scale, with the final
+/// landmark maps of the algorithms that build one (colour index as their path).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrajectoryFigure {
     pub walls: Vec<((f64, f64), (f64, f64))>,
     pub corners: Vec<(f64, f64)>,
     pub paths: Vec<PathSeries>,
     pub start: (f64, f64),
+    /// Estimated corners: (colour, point).
+    pub est_corners: Vec<(usize, (f64, f64))>,
+    /// Estimated infinite lines: (colour, ρ, θ).
+    pub est_lines: Vec<(usize, f64, f64)>,
+}
+
+/// The part of the line ρ = x cos θ + y sin θ inside a rectangle, if any.
+pub fn clip_line(rho: f64, theta: f64, ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64))) -> Option<((f64, f64), (f64, f64))> {
+    let (s, c) = theta.sin_cos();
+    let mut pts: Vec<(f64, f64)> = Vec::new();
+    if s.abs() > 1e-12 {
+        for x in [x0, x1] {
+            let y = (rho - x * c) / s;
+            if (y0..=y1).contains(&y) {
+                pts.push((x, y));
+            }
+        }
+    }
+    if c.abs() > 1e-12 {
+        for y in [y0, y1] {
+            let x = (rho - y * s) / c;
+            if (x0..=x1).contains(&x) {
+                pts.push((x, y));
+            }
+        }
+    }
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    pts.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-9 && (a.1 - b.1).abs() < 1e-9);
+    (pts.len() >= 2).then(|| (pts[0], pts[pts.len() - 1]))
 }
 
 impl TrajectoryFigure {
@@ -271,6 +301,9 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
     if !fig.corners.is_empty() {
         entries.push(LegendEntry { label: "true corners", color: CORNER, dot: true, dashed: false });
     }
+    if !fig.est_lines.is_empty() || !fig.est_corners.is_empty() {
+        entries.push(LegendEntry { label: "mapped lines (dashed) and corners (×)", color: RGBColor(100, 100, 100), dot: false, dashed: true });
+    }
     let (_, legend_px) = legend_layout(&entries, width, label_y + margin);
     let mut svg = String::new();
     {
@@ -298,7 +331,13 @@ fn draw_trajectory(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &TrajectoryFi
         };
         chart.draw_series(std::iter::once(PathElement::new(decimate(&p.points, SVG_PATH_POINTS), color.stroke_width(width)))).map_err(e)?;
     }
+    for &(color, rho, theta) in &fig.est_lines {
+        if let Some((a, b)) = clip_line(rho, theta, ((x0, x1), (y0, y1))) {
+            chart.draw_series(plotters::series::DashedLineSeries::new([a, b], 3, 5, rgb(color).mix(0.6).stroke_width(1))).map_err(e)?;
+        }
+    }
     chart.draw_series(fig.corners.iter().map(|c| Circle::new(*c, 4, CORNER.filled()))).map_err(e)?;
+    chart.draw_series(fig.est_corners.iter().map(|(color, c)| Cross::new(*c, 4, rgb(*color).stroke_width(2)))).map_err(e)?;
     chart.draw_series(std::iter::once(TriangleMarker::new(fig.start, 7, BLACK.filled()))).map_err(e)?;
     Ok(())
 }

@@ -98,11 +98,14 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path) -> Result<ReportSummar
     for dir in store::list_studies(results_dir)? {
         let data = store::read_study(&dir)?;
         let trace_error = std::cell::RefCell::new(None);
-        let traces = |ids: &[String]| match store::read_traces(&dir, &|id| ids.iter().any(|i| i == id)) {
-            Ok(t) => t,
-            Err(e) => {
-                trace_error.borrow_mut().get_or_insert(e);
-                Vec::new()
+        let traces = |ids: &[String]| {
+            let keep = |id: &str| ids.iter().any(|i| i == id);
+            match store::read_traces(&dir, &keep).and_then(|t| Ok((t, store::read_landmarks(&dir, &keep)?))) {
+                Ok(x) => x,
+                Err(e) => {
+                    trace_error.borrow_mut().get_or_insert(e);
+                    (Vec::new(), Vec::new())
+                }
             }
         };
         let built = view::build(&data, &traces);

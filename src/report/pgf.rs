@@ -98,6 +98,17 @@ pub fn trajectory_pgf(fig: &TrajectoryFigure) -> String {
         let _ = writeln!(s, "\\addplot[{style}] coordinates {{{}}};", coords.join(" "));
         let _ = writeln!(s, "\\addlegendentry{{{}}}", escape(&p.label));
     }
+    for &(color, rho, theta) in &fig.est_lines {
+        if let Some((a, b)) = super::figure::clip_line(rho, theta, ((x0, x1), (y0, y1))) {
+            let _ = writeln!(s, "\\addplot[color=slamlab{}, densely dashed, thin, forget plot] coordinates {{({},{}) ({},{})}};", color % PALETTE.len(), num(a.0), num(a.1), num(b.0), num(b.1));
+        }
+    }
+    if !fig.est_corners.is_empty() {
+        for color in fig.est_corners.iter().map(|(c, _)| *c).collect::<std::collections::BTreeSet<_>>() {
+            let coords: Vec<String> = fig.est_corners.iter().filter(|(c, _)| *c == color).map(|(_, (x, y))| format!("({},{})", num(*x), num(*y))).collect();
+            let _ = writeln!(s, "\\addplot[only marks, mark=x, mark size=2pt, color=slamlab{}, forget plot] coordinates {{{}}};", color % PALETTE.len(), coords.join(" "));
+        }
+    }
     if !fig.corners.is_empty() {
         let coords: Vec<String> = fig.corners.iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
         let _ = writeln!(s, "\\addplot[only marks, mark=*, mark size=1.5pt, red!80!black] coordinates {{{}}};", coords.join(" "));

@@ -7,7 +7,7 @@ use crate::metrics::{metric_def, MetricDef};
 use crate::spec::params::flatten;
 use crate::spec::SweepKind;
 use crate::store::reference::ReferenceRow;
-use crate::store::{ParamValue, RunRow, RunStatus, StudyData, TraceRows};
+use crate::store::{LandmarkRow, ParamValue, RunLandmarks, RunRow, RunStatus, StudyData, TraceRows};
 use crate::world::map::Map;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -133,7 +133,10 @@ impl Study<'_> {
     }
 }
 
-pub fn build(data: &StudyData, traces: &dyn Fn(&[String]) -> Vec<TraceRows>) -> StudyPages {
+/// Reads the traces and final maps of the given runs.
+pub type Fetch<'a> = dyn Fn(&[String]) -> (Vec<TraceRows>, Vec<RunLandmarks>) + 'a;
+
+pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
     let spec = &data.resolved.spec;
     let maps: Vec<(String, Option<Map>)> =
         spec.maps.iter().map(|name| (name.clone(), data.maps.iter().find(|(n, _)| n == name).and_then(|(_, text)| Map::from_toml(text).ok()))).collect();
@@ -316,6 +319,51 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
                 crate::world::RangeNoise::Proportional => "proportional to range, at 1 m",
             },
             l.range_sigma_m
+        ));
+        if l.wall_thickness_m > 0.0 || l.range_quantum_m > 0.0 {
+            out.push(format!(
+                "Stage-like laser artefacts: walls seen as {} m thick bars around the map's centrelines (the ground truth), ranges rounded to a {} m raster.",
+                l.wall_thickness_m, l.range_quantum_m
+            ));
+        }
+    }
+    let reads = |section: &str| study.spec().algorithms.iter().any(|a| a.sections_read().contains(&section));
+    if reads("features") {
+        let f = &b.features;
+        out.push(format!(
+            "Feature extraction ([FT] Ch. 4): Split & Merge (iterative end-point fit) with Dmax = {} m, Lmin = {} m, Pmin = {}; collinear merge within ρmax = {} m, θmax = {} rad; corners within Emax = {} m; {}.",
+            f.dmax_m,
+            f.lmin_m,
+            f.pmin,
+            f.rho_max_m,
+            f.theta_max_rad,
+            f.emax_m,
+            if f.breakpoints { "the scan is first split at breakpoints (missed returns, adaptive distance)" } else { "no breakpoint detection, as in [FT]" }
+        ));
+    }
+    if reads("fastslam") {
+        let p = &b.fastslam;
+        use crate::world::odometry::Spread as S;
+        out.push(format!(
+            "FastSLAM 1.0 ([FT] Table 6.3): {} particles, P0 = {}, resampling when N̂eff < {}; motion noise ({}, {}, {}) per step read as {}; observation covariance diag({}, {}); ambiguous associations: {}.",
+            p.particles,
+            p.p0,
+            if p.neff_threshold.is_infinite() { "∞ (always)".to_string() } else { p.neff_threshold.to_string() },
+            p.motion_x,
+            p.motion_y,
+            p.motion_theta,
+            match p.motion_noise_is {
+                S::Std => "standard deviations (σ)",
+                S::Variance => "variances (σ²)",
+            },
+            p.obs_var_rho_m2,
+            p.obs_var_theta_rad2,
+            match p.ambiguity {
+                crate::slam::fastslam::association::Ambiguity::None => "kept (plain ML)",
+                crate::slam::fastslam::association::Ambiguity::MultipleCandidates => "ignored when several landmarks beat P0",
+                crate::slam::fastslam::association::Ambiguity::SharedLandmark => "ignored when two features choose one landmark",
+                crate::slam::fastslam::association::Ambiguity::Both => "ignored when several landmarks beat P0 or two features choose one landmark",
+            }
         ));
     }
     if sensors.iter().any(|s| s.landmarks) {
@@ -541,7 +589,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
 }
 
 /// One figure per map: truth and every algorithm's estimate for a representative replicate.
-fn trajectory_views(study: &Study<'_>, traces: &dyn Fn(&[String]) -> Vec<TraceRows>) -> Vec<FigureView> {
+fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
     let spec = study.spec();
     let points = &study.data.resolved.points;
     // The base configuration if it was run, else the middle point of the first group.
@@ -565,7 +613,7 @@ fn trajectory_views(study: &Study<'_>, traces: &dyn Fn(&[String]) -> Vec<TraceRo
             .iter()
             .filter_map(|a| study.runs_of(map_name, a.name(), &reference.label).find(|r| r.replicate == chosen.replicate).map(|r| r.run_id.clone()))
             .collect();
-        let rows = traces(&ids);
+        let (rows, maps) = traces(&ids);
         let Some(truth) = rows.first() else { continue };
         let mut paths = vec![PathSeries { label: "ground truth".into(), color: None, points: truth.truth.iter().map(|p| (p.x, p.y)).collect() }];
         for (ai, id) in ids.iter().enumerate() {
@@ -574,17 +622,29 @@ fn trajectory_views(study: &Study<'_>, traces: &dyn Fn(&[String]) -> Vec<TraceRo
                 paths.push(PathSeries { label, color: Some(ai), points: t.estimate.iter().map(|p| (p.x, p.y)).collect() });
             }
         }
+        // Final maps, coloured like their algorithm's path.
+        let (mut est_corners, mut est_lines) = (Vec::new(), Vec::new());
+        for (ai, id) in ids.iter().enumerate() {
+            for l in maps.iter().filter(|m| &m.run_id == id).flat_map(|m| &m.landmarks) {
+                match *l {
+                    LandmarkRow::Corner { x_m, y_m } => est_corners.push((ai, (x_m, y_m))),
+                    LandmarkRow::Line { rho_m, theta_rad } => est_lines.push((ai, rho_m, theta_rad)),
+                }
+            }
+        }
         let fig = TrajectoryFigure {
             walls: map.walls.iter().map(|s| ((s.a.x, s.a.y), (s.b.x, s.b.y))).collect(),
             corners: map.corners.iter().map(|c| (c.x, c.y)).collect(),
             paths,
             start: (map.start.x, map.start.y),
+            est_corners,
+            est_lines,
         };
         let value = chosen.metric(headline).map_or("—".into(), |v| sig(v, TABLE_DIGITS));
         out.push(FigureView {
             file: slug(&format!("trajectory--{map_name}")),
             caption: format!(
-                "{} ({map_name}): ground truth and estimates of replicate {} at {} — the median replicate by {headline} ({value}) of {}. Triangle: start; red dots: true corners.",
+                "{} ({map_name}): ground truth and estimates of replicate {} at {} — the median replicate by {headline} ({value}) of {}. Triangle: start; red dots: true corners; ×, dashed lines: the final maps of the algorithms that build one.",
                 map.title,
                 chosen.replicate,
                 reference.label,
