@@ -185,7 +185,8 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     let mut outcomes = outcomes;
     outcomes.sort_by(|a, b| a.0.row.run_id.cmp(&b.0.row.run_id));
     let rows: Vec<RunRow> = outcomes.iter().map(|(o, _)| o.row.clone()).collect();
-    let timings: Vec<Timing> = outcomes.iter().map(|(o, cached)| Timing { run_id: o.row.run_id.clone(), wall_ms: o.wall_ms, cached: *cached }).collect();
+    let timings: Vec<Timing> =
+        outcomes.iter().map(|(o, cached)| Timing { run_id: o.row.run_id.clone(), wall_ms: o.wall_ms, steps: o.trace.truth.len().saturating_sub(1) as u32, cached: *cached }).collect();
     let landmarks: Vec<RunLandmarks> = outcomes.iter().map(|(o, _)| o.landmarks.clone()).collect();
     let traces: Vec<TraceRows> = outcomes.into_iter().map(|(o, _)| o.trace).collect();
     let failed = rows.iter().filter(|r| r.status == RunStatus::Failed).count();

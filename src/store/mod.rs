@@ -169,11 +169,13 @@ pub struct RunLandmarks {
     pub landmarks: Vec<LandmarkRow>,
 }
 
-/// Wall-clock time of a run (when it was computed; `cached` = taken from the cache this time).
+/// Wall-clock time of a run (when it was computed; `cached` = taken from the cache this time),
+/// and its number of odometry steps (wall_ms / steps = time per step).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Timing {
     pub run_id: String,
     pub wall_ms: f64,
+    pub steps: u32,
     pub cached: bool,
 }
 

@@ -245,6 +245,7 @@ pub(super) fn timings_frame(timings: &[Timing]) -> PolarsResult<DataFrame> {
         vec![
             Column::new("run_id".into(), timings.iter().map(|t| t.run_id.as_str()).collect::<Vec<_>>()),
             Column::new("wall_ms".into(), timings.iter().map(|t| t.wall_ms).collect::<Vec<_>>()),
+            Column::new("steps".into(), timings.iter().map(|t| t.steps).collect::<Vec<_>>()),
             Column::new("cached".into(), timings.iter().map(|t| t.cached).collect::<Vec<_>>()),
         ],
     )
@@ -256,7 +257,8 @@ pub(super) fn read_timings(path: &Path) -> Result<Vec<Timing>, StoreError> {
     let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
     let ms = df.column("wall_ms").map_err(e)?.f64().map_err(e)?;
     let cached = df.column("cached").map_err(e)?.bool().map_err(e)?;
+    let steps = df.column("steps").map_err(e)?.u32().map_err(e)?;
     Ok((0..df.height())
-        .map(|i| Timing { run_id: ids.get(i).unwrap_or_default().to_string(), wall_ms: ms.get(i).unwrap_or(f64::NAN), cached: cached.get(i).unwrap_or(false) })
+        .map(|i| Timing { run_id: ids.get(i).unwrap_or_default().to_string(), wall_ms: ms.get(i).unwrap_or(f64::NAN), steps: steps.get(i).unwrap_or(0), cached: cached.get(i).unwrap_or(false) })
         .collect())
 }
