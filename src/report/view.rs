@@ -317,6 +317,7 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
             match l.range_noise {
                 crate::world::RangeNoise::Constant => "constant",
                 crate::world::RangeNoise::Proportional => "proportional to range, at 1 m",
+                crate::world::RangeNoise::Quadratic => "quadratic in range (stereo), at 1 m",
             },
             l.range_sigma_m
         ));

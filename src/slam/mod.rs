@@ -3,7 +3,11 @@
 //! nothing more.
 
 pub mod fastslam;
+pub mod motion;
+pub mod observations;
 pub mod odometry;
+
+pub use fastslam::models;
 
 use crate::geom::{Line, Point2, Pose2};
 use serde::{Deserialize, Serialize};
@@ -108,6 +112,11 @@ pub const ODOMETRY_MAP_CODE_VERSION: &str = "odometry-map-1";
 pub struct LandmarkMap {
     pub lines: Vec<Line>,
     pub corners: Vec<Point2>,
+    /// Point landmarks (point-landmark worlds and datasets).
+    pub points: Vec<Point2>,
+    /// For each point landmark, the true landmark it was created from when the filter knew it
+    /// (known association); `None` otherwise.
+    pub point_ids: Vec<Option<usize>>,
 }
 
 /// What an algorithm produced.
@@ -126,6 +135,9 @@ pub struct Trace {
     pub resamples: u64,
     /// Steps with an observation that weighted the particles.
     pub weighted_steps: u64,
+    /// The filter's own pose covariance at every step (EKF: P_rr; particle filters: the
+    /// weighted spread of the particles), for NEES. Empty when the algorithm has none.
+    pub pose_cov: Vec<Option<nalgebra::Matrix3<f64>>>,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -68,6 +68,9 @@ pub enum RangeNoise {
     Constant,
     /// σ(r) = σ₁·r, σ₁ being "σ at 1 m" ([EP] Table 1).
     Proportional,
+    /// σ(r) = σ₁·r², σ₁ being "σ at 1 m": stereo depth error, σ_Z = Z² σ_d / (f B) ([PF]
+    /// Eq. 12), so σ₁ = σ_d / (f B).
+    Quadratic,
 }
 
 impl RangeNoise {
@@ -75,6 +78,7 @@ impl RangeNoise {
         match self {
             RangeNoise::Constant => sigma_m,
             RangeNoise::Proportional => sigma_m * range_m,
+            RangeNoise::Quadratic => sigma_m * range_m * range_m,
         }
     }
 }
@@ -112,6 +116,9 @@ pub struct World {
     pub truth_lines: Vec<Line>,
     pub truth_corners: Vec<Point2>,
     pub truth_points: Vec<Point2>,
+    /// The range-bearing sensor's noise model, which filters are told (simulated worlds: the
+    /// `[landmark_sensor]` settings; datasets: the noise their map file states).
+    pub point_noise: Option<point_sensor::PointNoise>,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -155,7 +162,7 @@ pub fn generate(spec: &WorldSpec<'_>, world_seed: u64) -> Result<World, WorldErr
             let mut rng = stream(POINT_SENSOR_STREAM);
             (0..truth.poses.len())
                 .step_by(period)
-                .map(|k| params.observe(&spec.map.point_landmarks, truth.poses[k], k, &mut rng))
+                .map(|k| params.observe(&spec.map.point_landmarks, &spec.map.walls, truth.poses[k], k, &mut rng))
                 .collect()
         }
         None => Vec::new(),
@@ -170,6 +177,7 @@ pub fn generate(spec: &WorldSpec<'_>, world_seed: u64) -> Result<World, WorldErr
         truth_lines: spec.map.lines.clone(),
         truth_corners: spec.map.corners.clone(),
         truth_points: spec.map.point_landmarks.clone(),
+        point_noise: spec.landmark_sensor.map(|p| p.noise()),
     })
 }
 

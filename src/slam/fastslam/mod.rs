@@ -374,6 +374,7 @@ pub fn run(world: &World, params: &FastSlamParams, feature_params: &FeatureParam
         neff,
         resamples: filter.resamples,
         weighted_steps: filter.weighted_steps,
+        pose_cov: Vec::new(),
     })
 }
 
@@ -381,6 +382,7 @@ fn landmark_map(m: &particle::Map) -> LandmarkMap {
     LandmarkMap {
         lines: m.lines.iter().map(|l| Line::normalised(l.mean[0], l.mean[1])).collect(),
         corners: m.corners.iter().map(|l| Point2::new(l.mean[0], l.mean[1])).collect(),
+        ..LandmarkMap::default()
     }
 }
 

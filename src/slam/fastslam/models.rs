@@ -9,7 +9,7 @@
 //! with ρ' < 0 is flipped to (−ρ', θ' + π), and its Jacobian with it.
 
 use crate::geom::{wrap_angle, Line, Pose2};
-use nalgebra::{Matrix2, Vector2};
+use nalgebra::{Matrix2, Matrix2x3, Vector2};
 use std::f64::consts::PI;
 
 /// A predicted measurement ẑ and H = ∂ẑ/∂m.
@@ -107,6 +107,86 @@ pub fn point_inverse(z: &Vector2<f64>, pose: &Pose2) -> Vector2<f64> {
     Vector2::new(pose.x + z[0] * a.cos(), pose.y + z[0] * a.sin())
 }
 
+/// A predicted measurement with its Jacobians with respect to the robot pose (2 × 3) and the
+/// landmark (2 × 2): what EKF-SLAM and FastSLAM 2.0 need beyond FastSLAM 1.0's `H = ∂ẑ/∂m`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FullPrediction {
+    pub z: Vector2<f64>,
+    /// ∂ẑ/∂(x, y, θ).
+    pub h_pose: Matrix2x3<f64>,
+    /// ∂ẑ/∂m.
+    pub h_landmark: Matrix2<f64>,
+}
+
+/// The inverse observation model m = g⁻¹(pose, z) with its Jacobians, for initialising a
+/// landmark in a joint state (EKF augmentation: P_mm = G_p P_pp G_pᵀ + G_z R G_zᵀ).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FullInverse {
+    pub m: Vector2<f64>,
+    /// ∂m/∂(x, y, θ).
+    pub g_pose: Matrix2x3<f64>,
+    /// ∂m/∂z.
+    pub g_z: Matrix2<f64>,
+}
+
+impl Model {
+    /// ẑ with both Jacobians.
+    pub fn predict_full(self, m: &Vector2<f64>, pose: &Pose2) -> FullPrediction {
+        let p = self.predict(m, pose);
+        let h_pose = match self {
+            // r = √q: ∂r/∂(x, y, θ) = (−Δx/r, −Δy/r, 0); φ: (Δy/q, −Δx/q, −1)
+            Model::Point => {
+                let (dx, dy) = (m[0] - pose.x, m[1] - pose.y);
+                let q = dx * dx + dy * dy;
+                let r = q.sqrt();
+                Matrix2x3::new(-dx / r, -dy / r, 0.0, dy / q, -dx / q, -1.0)
+            }
+            // ρ' = ρ − (x cos θ + y sin θ): (−cos θ, −sin θ, 0); θ' = θ − θr: (0, 0, −1); the
+            // flipped form (ρ' < 0 → −ρ') negates the ρ row, as it does in H.
+            Model::Line => {
+                let (s, c) = m[1].sin_cos();
+                let sign = p.h[(0, 0)]; // +1 unflipped, −1 flipped
+                Matrix2x3::new(-c * sign, -s * sign, 0.0, 0.0, 0.0, -1.0)
+            }
+        };
+        FullPrediction { z: p.z, h_pose, h_landmark: p.h }
+    }
+
+    /// m = g⁻¹(pose, z) with both Jacobians.
+    pub fn inverse_full(self, z: &Vector2<f64>, pose: &Pose2) -> FullInverse {
+        match self {
+            Model::Point => {
+                let a = z[1] + pose.theta;
+                let (s, c) = a.sin_cos();
+                let r = z[0];
+                FullInverse {
+                    m: Vector2::new(pose.x + r * c, pose.y + r * s),
+                    g_pose: Matrix2x3::new(1.0, 0.0, -r * s, 0.0, 1.0, r * c),
+                    g_z: Matrix2::new(c, -r * s, s, r * c),
+                }
+            }
+            Model::Line => {
+                // θ = θ' + θr, ρ = ρ' + x cos θ + y sin θ; then normalised (ρ < 0 → (−ρ, θ + π))
+                let theta = z[1] + pose.theta;
+                let (s, c) = theta.sin_cos();
+                let rho = z[0] + pose.x * c + pose.y * s;
+                let d = -pose.x * s + pose.y * c; // ∂ρ/∂θ
+                let mut g_pose = Matrix2x3::new(c, s, d, 0.0, 0.0, 1.0);
+                let mut g_z = Matrix2::new(1.0, d, 0.0, 1.0);
+                if rho < 0.0 {
+                    for j in 0..3 {
+                        g_pose[(0, j)] = -g_pose[(0, j)];
+                    }
+                    g_z[(0, 0)] = -g_z[(0, 0)];
+                    g_z[(0, 1)] = -g_z[(0, 1)];
+                }
+                let l = Line::normalised(rho, theta);
+                FullInverse { m: Vector2::new(l.rho, l.theta), g_pose, g_z }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -183,5 +263,52 @@ mod tests {
         let m = Vector2::new(9.0, PI / 2.0);
         let p = line_predict(&m, &Pose2::IDENTITY);
         assert!((p.z - m).norm() < 1e-12);
+    }
+
+    #[test]
+    fn pose_and_inverse_jacobians_match_finite_differences() {
+        let eps = 1e-6;
+        for pose in POSES {
+            for (model, m) in [(Model::Line, Vector2::new(19.0, 0.0)), (Model::Line, Vector2::new(4.0, 2.2)), (Model::Line, Vector2::new(0.5, -2.8)), (Model::Point, Vector2::new(2.5, 3.5)), (Model::Point, Vector2::new(-1.0, -1.0))] {
+                let full = model.predict_full(&m, &pose);
+                assert_eq!(full.h_landmark, model.predict(&m, &pose).h);
+                for k in 0..3 {
+                    let shift = |e: f64| {
+                        let mut p = [pose.x, pose.y, pose.theta];
+                        p[k] += e;
+                        model.predict(&m, &Pose2::new(p[0], p[1], p[2])).z
+                    };
+                    let (a, b) = (shift(eps), shift(-eps));
+                    let num = Vector2::new((a[0] - b[0]) / (2.0 * eps), wrap_angle(a[1] - b[1]) / (2.0 * eps));
+                    assert!((full.h_pose.column(k) - num).abs().max() < 1e-6, "{model:?} {pose:?} {m:?} column {k}: {} vs {num}", full.h_pose);
+                }
+                // inverse: m = g⁻¹(pose, z) and its Jacobians
+                let z = full.z;
+                let inv = model.inverse_full(&z, &pose);
+                assert!((inv.m[0] - m[0]).abs() < 1e-9 && wrap_angle(inv.m[1] - m[1]).abs() < 1e-9 || (inv.m - m).norm() < 1e-9);
+                let diff = |a: Vector2<f64>, b: Vector2<f64>| match model {
+                    Model::Line => Vector2::new(a[0] - b[0], wrap_angle(a[1] - b[1])),
+                    Model::Point => a - b,
+                };
+                for k in 0..3 {
+                    let shift = |e: f64| {
+                        let mut p = [pose.x, pose.y, pose.theta];
+                        p[k] += e;
+                        model.inverse(&z, &Pose2::new(p[0], p[1], p[2]))
+                    };
+                    let num = diff(shift(eps), shift(-eps)) / (2.0 * eps);
+                    assert!((inv.g_pose.column(k) - num).abs().max() < 1e-6, "{model:?} g_pose column {k}: {} vs {num}", inv.g_pose);
+                }
+                for k in 0..2 {
+                    let shift = |e: f64| {
+                        let mut zz = z;
+                        zz[k] += e;
+                        model.inverse(&zz, &pose)
+                    };
+                    let num = diff(shift(eps), shift(-eps)) / (2.0 * eps);
+                    assert!((inv.g_z.column(k) - num).abs().max() < 1e-6, "{model:?} g_z column {k}: {} vs {num}", inv.g_z);
+                }
+            }
+        }
     }
 }
