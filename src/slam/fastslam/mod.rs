@@ -65,6 +65,28 @@ pub struct FastSlamParams {
     pub obs_var_theta_rad2: f64,
     /// Which ambiguous associations are ignored.
     pub ambiguity: Ambiguity,
+    /// `maximum_likelihood` with P0 ([FT], the default) or `known`: the sensor's landmark
+    /// identities ([PF] §V: "association was assumed known"). Written out only when not the
+    /// default, so existing run hashes are unchanged.
+    #[serde(skip_serializing_if = "DataAssociation::is_default")]
+    pub association: DataAssociation,
+}
+
+/// How FastSLAM matches observations to landmarks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DataAssociation {
+    /// Per-particle Maximum Likelihood with the new-landmark likelihood P0 ([FT] §5.4).
+    #[default]
+    MaximumLikelihood,
+    /// The sensor's landmark identities (only for sensors that report them).
+    Known,
+}
+
+impl DataAssociation {
+    pub fn is_default(&self) -> bool {
+        *self == DataAssociation::MaximumLikelihood
+    }
 }
 
 impl Default for FastSlamParams {
@@ -80,6 +102,7 @@ impl Default for FastSlamParams {
             obs_var_rho_m2: 0.04,
             obs_var_theta_rad2: 0.00122,
             ambiguity: Ambiguity::Both,
+            association: DataAssociation::MaximumLikelihood,
         }
     }
 }

@@ -15,11 +15,13 @@ pub struct Landmark {
     /// (sin, cos) of `mean[1]`, kept for line landmarks (their θ), so that predictions need no
     /// trigonometry; refresh with [`Landmark::refresh`] after changing the mean.
     pub trig: (f64, f64),
+    /// The true landmark it was created from, under known association.
+    pub id: Option<usize>,
 }
 
 impl Landmark {
     pub fn new(mean: Vector2<f64>, cov: Matrix2<f64>) -> Self {
-        Self { mean, cov, trig: mean[1].sin_cos() }
+        Self { mean, cov, trig: mean[1].sin_cos(), id: None }
     }
 
     pub fn refresh(&mut self) {
