@@ -5,9 +5,11 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use slamlab::features::{extract, FeatureParams, ScanFeatures};
+use nalgebra::Matrix2;
+use slamlab::features::FeatureParams;
 use slamlab::geom::Pose2;
 use slamlab::slam::fastslam::{FastSlam1, FastSlamParams};
+use slamlab::slam::observations::{stream, Observation, Source};
 use slamlab::world::laser::LaserParams;
 use slamlab::world::map::Map;
 use slamlab::world::odometry::OdometryNoise;
@@ -23,28 +25,28 @@ fn world_of(map: &Map) -> World {
 }
 
 /// (control, features) for every step of a world.
-fn steps(world: &World) -> Vec<(Option<Pose2>, Option<ScanFeatures>)> {
-    let geometry = world.laser.unwrap();
-    let mut scans = world.scans.iter().peekable();
+fn steps(world: &World, params: &FastSlamParams) -> Vec<(Option<Pose2>, Vec<Observation>)> {
+    let line_r = Matrix2::new(params.obs_var_rho_m2, 0.0, 0.0, params.obs_var_theta_rad2);
+    let mut observed = stream(world, Source::LaserFeatures { features: &FeatureParams::default(), line_r }).unwrap().into_iter().peekable();
     (0..=world.odometry.len())
         .map(|k| {
             let control = k.checked_sub(1).map(|j| world.odometry[j]);
-            let f = match scans.peek() {
-                Some(s) if s.step == k => Some(extract(scans.next().unwrap(), &geometry, &FeatureParams::default())),
-                _ => None,
+            let z = match observed.peek() {
+                Some(s) if s.step == k => observed.next().unwrap().observations,
+                _ => Vec::new(),
             };
-            (control, f)
+            (control, z)
         })
         .collect()
 }
 
 fn bench_case(c: &mut Criterion, group: &str, id: BenchmarkId, world: &World, params: &FastSlamParams) {
-    let steps = steps(world);
+    let steps = steps(world, params);
     let warm = steps.len() * 6 / 10;
     let mut rng = ChaCha8Rng::seed_from_u64(5);
-    let mut filter = FastSlam1::new(params, world.truth[0]);
-    for (u, f) in &steps[..warm] {
-        filter.step(u.as_ref(), f.as_ref(), &mut rng);
+    let mut filter = FastSlam1::new(params, None, world.truth[0]);
+    for (u, z) in &steps[..warm] {
+        filter.step(u.as_ref(), z, &mut rng);
     }
     let mut g = c.benchmark_group(group);
     g.throughput(Throughput::Elements(MEASURED_STEPS as u64));
@@ -53,7 +55,7 @@ fn bench_case(c: &mut Criterion, group: &str, id: BenchmarkId, world: &World, pa
             let mut f = filter.clone();
             let mut r = rng.clone();
             for (u, z) in &steps[warm..warm + MEASURED_STEPS] {
-                black_box(f.step(u.as_ref(), z.as_ref(), &mut r));
+                black_box(f.step(u.as_ref(), z, &mut r));
             }
             f
         })

@@ -176,6 +176,11 @@ fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, 
     }
     let mut problems = 0;
     for plan in &plans {
+        if let Some(why) = plan.maps.iter().find_map(|m| m.missing_data.as_ref()) {
+            // Real data that is not on this machine: nothing to compute; stored results stay.
+            eprintln!("{}: skipped: {why}", plan.id());
+            continue;
+        }
         let s = run::run_study(plan, &opts, &provenance).with_context(|| format!("running study {}", plan.id()))?;
         let bad = s.failed + s.diverged;
         problems += bad;

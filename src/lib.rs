@@ -3,11 +3,13 @@
 //! Data flows one way (see `CONVENTIONS.md`):
 //! `spec` (TOML as written) → `plan` (validated, expanded, hashed) → `run` (rayon; per run:
 //! `world::generate` → algorithm in `slam` → `metrics::compute`) → `store` (Parquet) →
-//! `report` (HTML, LaTeX, SVG, CSV). `geom`, `world`, `slam` and `metrics` are pure: no IO, no
+//! `report` (HTML, LaTeX, SVG, CSV); real logs enter through `dataset` (the run layer calls it).
+//! `geom`, `world`, `slam` and `metrics` are pure: no IO, no
 //! printing, no threads, no global RNG.
 
 pub mod cli;
 pub mod config;
+pub mod dataset;
 pub mod features;
 pub mod geom;
 pub mod metrics;

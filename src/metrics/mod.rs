@@ -45,11 +45,33 @@ pub const METRICS: &[MetricDef] = &[
     MetricDef { name: "landmark_count_ratio", title: "Detected / true landmarks", unit: "ratio", description: "landmarks detected divided by the true count (1 = as many as there are)", lower_is_better: false },
     MetricDef { name: "landmark_precision", title: "Landmark precision", unit: "fraction", description: "share of detected landmarks within 0.5 m of a same-type true landmark", lower_is_better: false },
     MetricDef { name: "landmark_recall", title: "Landmark recall", unit: "fraction", description: "share of true landmarks with a same-type detected landmark within 0.5 m", lower_is_better: false },
+    MetricDef {
+        name: MAP_RMSE,
+        title: "Map RMS error",
+        unit: "m",
+        description: "[PF] Fig. 8b: root mean square, over the point landmarks of the final map, of the distance to their true landmark (the one they were created from under known association, else the nearest)",
+        lower_is_better: true,
+    },
+    MetricDef { name: NEES_MEAN, title: "Mean pose NEES", unit: "", description: "normalised estimation error squared eᵀP⁻¹e of the pose (x, y, θ) against the filter's own covariance, averaged over the steps with truth (expected value 3 for a consistent filter)", lower_is_better: false },
+    MetricDef {
+        name: NEES_IN_BOUNDS,
+        title: "NEES within 95 % bounds",
+        unit: "fraction",
+        description: "share of steps whose pose NEES lies within the two-sided 95 % χ² interval for 3 degrees of freedom [0.216, 9.35] (0.95 for a consistent filter)",
+        lower_is_better: false,
+    },
     MetricDef { name: "neff_mean", title: "Mean N̂eff", unit: "particles", description: "effective sample size 1/Σw², averaged over the steps that weighted the particles", lower_is_better: false },
     MetricDef { name: "resamples", title: "Resamples", unit: "count", description: "how many times the particles were resampled", lower_is_better: false },
 ];
 
 pub const LANDMARK_ERROR: &str = "landmark_error_m";
+pub const MAP_RMSE: &str = "map_rmse_m";
+pub const NEES_MEAN: &str = "nees_mean";
+pub const NEES_IN_BOUNDS: &str = "nees_in_bounds";
+
+/// Two-sided 95 % interval of χ² with 3 degrees of freedom (the pose NEES of a consistent
+/// filter): χ²₃(0.025) and χ²₃(0.975).
+pub const NEES_BOUNDS_3DOF: (f64, f64) = (0.215_795_3, 9.348_403_6);
 pub const LANDMARKS_DETECTED: &str = "landmarks_detected";
 
 /// Distance [m] within which a detected landmark counts as finding a true one (precision, recall).
@@ -69,7 +91,14 @@ pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
     let mut out = trajectory_metrics(&world.truth, &trace.estimate);
     out.push(("numerical_failures", trace.numerical_failures as f64));
     if let Some(map) = &trace.map {
-        out.extend(landmark_metrics(map, &world.truth_lines, &world.truth_corners));
+        if world.truth_points.is_empty() && map.points.is_empty() {
+            out.extend(landmark_metrics(map, &world.truth_lines, &world.truth_corners));
+        } else {
+            out.extend(point_landmark_metrics(map, &world.truth_points));
+        }
+    }
+    if !trace.pose_cov.is_empty() {
+        out.extend(nees_metrics(&world.truth, &trace.estimate, &trace.pose_cov));
     }
     let neff: Vec<f64> = trace.neff.iter().flatten().copied().collect();
     if !neff.is_empty() {
@@ -105,19 +134,79 @@ pub fn landmark_metrics(map: &LandmarkMap, true_lines: &[Line], true_corners: &[
     ]
 }
 
+/// Landmark metrics of a point-landmark map: the [FT] error (mean distance to the nearest true
+/// landmark), [PF]'s map RMS error (to the landmark each was created from when known), counts,
+/// precision and recall within [`LANDMARK_GATE_M`].
+pub fn point_landmark_metrics(map: &LandmarkMap, truth: &[Point2]) -> RunMetrics {
+    let nearest = |p: &Point2, refs: &[Point2]| refs.iter().map(|r| r.distance(*p)).fold(f64::INFINITY, f64::min);
+    let errors: Vec<f64> = map.points.iter().map(|p| nearest(p, truth)).collect();
+    let own: Vec<f64> = map
+        .points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| match map.point_ids.get(i).copied().flatten().and_then(|id| truth.get(id)) {
+            Some(t) => t.distance(*p),
+            None => nearest(p, truth),
+        })
+        .collect();
+    let detected = errors.len();
+    let mean = |v: &[f64]| if v.is_empty() { f64::INFINITY } else { v.iter().sum::<f64>() / v.len() as f64 };
+    let rmse = if own.is_empty() { f64::INFINITY } else { (own.iter().map(|e| e * e).sum::<f64>() / own.len() as f64).sqrt() };
+    let precision = if detected == 0 { f64::NAN } else { errors.iter().filter(|&&e| e <= LANDMARK_GATE_M).count() as f64 / detected as f64 };
+    let found = truth.iter().filter(|t| nearest(t, &map.points) <= LANDMARK_GATE_M).count();
+    let ratio = |n: f64| if truth.is_empty() { f64::NAN } else { n / truth.len() as f64 };
+    vec![
+        (LANDMARK_ERROR, mean(&errors)),
+        (LANDMARKS_DETECTED, detected as f64),
+        ("landmarks_true", truth.len() as f64),
+        ("landmark_count_ratio", ratio(detected as f64)),
+        ("landmark_precision", precision),
+        ("landmark_recall", ratio(found as f64)),
+        (MAP_RMSE, rmse),
+    ]
+}
+
+/// Pose NEES eᵀP⁻¹e at every step with finite truth and an invertible covariance: its mean and
+/// the share within the 95 % χ²₃ bounds.
+pub fn nees_metrics(truth: &[Pose2], estimate: &[Pose2], cov: &[Option<nalgebra::Matrix3<f64>>]) -> RunMetrics {
+    let values: Vec<f64> = truth.iter().zip(estimate).zip(cov).filter_map(|((t, e), p)| nees(t, e, p.as_ref()?)).collect();
+    let n = values.len() as f64;
+    let (lo, hi) = NEES_BOUNDS_3DOF;
+    if values.is_empty() {
+        return vec![(NEES_MEAN, f64::NAN), (NEES_IN_BOUNDS, f64::NAN)];
+    }
+    vec![(NEES_MEAN, values.iter().sum::<f64>() / n), (NEES_IN_BOUNDS, values.iter().filter(|&&v| v >= lo && v <= hi).count() as f64 / n)]
+}
+
+/// eᵀP⁻¹e of one pose, `None` without truth or with a singular covariance (e.g. the known start).
+pub fn nees(truth: &Pose2, estimate: &Pose2, cov: &nalgebra::Matrix3<f64>) -> Option<f64> {
+    if !truth.is_finite() {
+        return None;
+    }
+    let e = nalgebra::Vector3::new(truth.x - estimate.x, truth.y - estimate.y, wrap_angle(truth.theta - estimate.theta));
+    let chol = nalgebra::Cholesky::new(*cov)?;
+    let v = e.dot(&chol.solve(&e));
+    v.is_finite().then_some(v)
+}
+
 /// ATE statistics, final errors and path length. Pairs poses by step index; a shorter estimate is
 /// a bug upstream, so the pairing stops at the shorter one and `final_*` use the last pair.
+///
+/// Real datasets lack truth at some steps (NaN poses): those steps are skipped, the final errors
+/// use the last step with a true position, and the path length sums the known stretches.
 pub fn trajectory_metrics(truth: &[Pose2], estimate: &[Pose2]) -> RunMetrics {
-    let errors: Vec<f64> = truth.iter().zip(estimate).map(|(t, e)| t.position().distance(e.position())).collect();
+    let known = |t: &Pose2| t.x.is_finite() && t.y.is_finite();
+    let pairs: Vec<(&Pose2, &Pose2)> = truth.iter().zip(estimate).filter(|(t, _)| known(t)).collect();
+    let errors: Vec<f64> = pairs.iter().map(|(t, e)| t.position().distance(e.position())).collect();
     let n = errors.len() as f64;
     let rmse = (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
     let mean = errors.iter().sum::<f64>() / n;
     let max = errors.iter().copied().fold(f64::NAN, f64::max);
-    let (final_pos, final_heading) = match (truth.get(errors.len().wrapping_sub(1)), estimate.get(errors.len().wrapping_sub(1))) {
-        (Some(t), Some(e)) => (t.position().distance(e.position()), wrap_angle(t.theta - e.theta).abs().to_degrees()),
-        _ => (f64::NAN, f64::NAN),
+    let (final_pos, final_heading) = match pairs.last() {
+        Some((t, e)) => (t.position().distance(e.position()), wrap_angle(t.theta - e.theta).abs().to_degrees()),
+        None => (f64::NAN, f64::NAN),
     };
-    let path_length = truth.windows(2).map(|w| w[0].position().distance(w[1].position())).sum();
+    let path_length = truth.windows(2).filter(|w| known(&w[0]) && known(&w[1])).map(|w| w[0].position().distance(w[1].position())).sum();
     vec![
         (ATE_RMSE, rmse),
         ("ate_mean_m", mean),
@@ -181,6 +270,7 @@ mod tests {
         let map = LandmarkMap {
             lines: vec![Line::normalised(1.1, -std::f64::consts::FRAC_PI_2), Line::normalised(1.3, -std::f64::consts::FRAC_PI_2)],
             corners: vec![Point2::new(-1.2, -1.0)],
+            ..LandmarkMap::default()
         };
         let m = landmark_metrics(&map, &true_lines, &true_corners);
         let get = |n: &str| m.iter().find(|(k, _)| *k == n).unwrap().1;
@@ -199,9 +289,46 @@ mod tests {
         let truth = vec![Pose2::IDENTITY; 3];
         let mut m = trajectory_metrics(&truth, &truth);
         m.extend(landmark_metrics(&LandmarkMap::default(), &[], &[]));
+        m.extend(point_landmark_metrics(&LandmarkMap::default(), &[]));
+        m.extend(nees_metrics(&truth, &truth, &[None, None, None]));
         for (name, _) in m {
             assert!(metric_def(name).is_some(), "{name} undocumented");
             assert!(!name.contains('.'), "metric names never contain a dot (parameter columns do)");
         }
+    }
+
+    #[test]
+    fn point_map_rmse_uses_the_known_identity() {
+        let truth = [Point2::new(0.0, 0.0), Point2::new(10.0, 0.0)];
+        // landmark 1 estimated at x = 4: 4 m from landmark 0, 6 m from itself. The nearest-truth
+        // error says 4; the map RMS error, which knows its identity, 6.
+        let map = LandmarkMap { points: vec![Point2::new(0.3, 0.4), Point2::new(4.0, 0.0)], point_ids: vec![Some(0), Some(1)], ..LandmarkMap::default() };
+        let m = point_landmark_metrics(&map, &truth);
+        let get = |n: &str| m.iter().find(|(k, _)| *k == n).unwrap().1;
+        assert!((get(MAP_RMSE) - ((0.25 + 36.0) / 2.0f64).sqrt()).abs() < 1e-12);
+        assert!((get(LANDMARK_ERROR) - 2.25).abs() < 1e-12);
+        assert_eq!(get("landmark_recall"), 0.5);
+    }
+
+    #[test]
+    fn nees_of_a_known_error_and_unknown_truth_is_skipped() {
+        let cov = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(0.25, 1.0, 0.01));
+        let truth = [Pose2::new(1.0, 0.0, 0.1), Pose2::new(f64::NAN, f64::NAN, f64::NAN), Pose2::IDENTITY];
+        let est = [Pose2::new(0.0, 0.0, 0.0), Pose2::IDENTITY, Pose2::IDENTITY];
+        let covs = [Some(cov), Some(cov), Some(nalgebra::Matrix3::zeros())];
+        let m = nees_metrics(&truth, &est, &covs);
+        // 1²/0.25 + 0.1²/0.01 = 5; the NaN step and the singular covariance are skipped
+        assert!((m[0].1 - 5.0).abs() < 1e-9);
+        assert_eq!(m[1].1, 1.0);
+    }
+
+    #[test]
+    fn steps_without_truth_are_skipped() {
+        let nan = Pose2::new(f64::NAN, f64::NAN, f64::NAN);
+        let truth = vec![Pose2::IDENTITY, nan, Pose2::new(2.0, 0.0, 0.0), nan];
+        let est = vec![Pose2::IDENTITY, Pose2::new(5.0, 5.0, 0.0), Pose2::new(2.0, 1.0, 0.0), Pose2::new(9.0, 9.0, 0.0)];
+        let m = trajectory_metrics(&truth, &est);
+        assert!((get(&m, ATE_RMSE) - 0.5f64.sqrt()).abs() < 1e-12);
+        assert_eq!(get(&m, "final_position_error_m"), 1.0);
     }
 }

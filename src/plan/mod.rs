@@ -23,9 +23,11 @@ pub struct MapEntry {
     pub name: String,
     pub path: PathBuf,
     pub text: String,
-    /// blake3 of the file's bytes.
+    /// blake3 of the file's bytes (for a dataset map, followed by every data file's bytes).
     pub hash: String,
     pub map: Map,
+    /// A dataset map whose data files are absent: why (the study is skipped, not failed).
+    pub missing_data: Option<String>,
 }
 
 /// A set of points plotted together: x is `params[0]`; further params (grid/zip) split or label
@@ -143,14 +145,49 @@ fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) ->
         };
         match Map::from_toml(&text) {
             Ok(map) if map.name == *name => {
-                let hash = blake3::hash(text.as_bytes()).to_hex().to_string();
-                out.push(MapEntry { name: name.clone(), path, text, hash, map });
+                let mut hasher = blake3::Hasher::new();
+                hasher.update(text.as_bytes());
+                let mut missing_data = None;
+                if let Some(table) = &map.dataset {
+                    match dataset_files(table) {
+                        Ok(files) => {
+                            for f in files {
+                                match std::fs::read(&f) {
+                                    Ok(bytes) => {
+                                        hasher.update(&bytes);
+                                    }
+                                    Err(e) => {
+                                        missing_data = Some(format!("cannot read {} ({e}): the real datasets are read from ../shared/data next to the repository, or from the `path` in {}", f.display(), path.display()));
+                                        break;
+                                    }
+                                }
+                            }
+                        }
+                        Err(msg) => {
+                            errors.push(SpecError::new(&path, vec![crate::source::SourceError::at_key(&crate::source::Locator::new(&text), "dataset", msg)]));
+                            continue;
+                        }
+                    }
+                }
+                let hash = hasher.finalize().to_hex().to_string();
+                out.push(MapEntry { name: name.clone(), path, text, hash, map, missing_data });
             }
             Ok(map) => errors.push(SpecError::new(&path, vec![crate::source::SourceError::at_key(&crate::source::Locator::new(&text), "name", format!("is `{}` but the file is {name}.toml", map.name))])),
             Err(e) => errors.push(SpecError::new(&path, e)),
         }
     }
     out
+}
+
+/// The files a `[dataset]` table reads (relative to the working directory, the repository), or
+/// why the table is invalid.
+fn dataset_files(table: &toml::Table) -> Result<Vec<PathBuf>, String> {
+    let spec: crate::dataset::DatasetSpec = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| e.message().trim().to_string())?;
+    let violations = spec.validate();
+    if let Some(v) = violations.first() {
+        return Err(format!("`{}` {}", v.key, v.message));
+    }
+    Ok(spec.files(Path::new(".")))
 }
 
 /// Names of the `*.toml` files in `dir`, sorted.
@@ -269,7 +306,7 @@ fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)]) -> 
         let names: Vec<&str> = assignments.iter().map(|(p, ..)| p.as_str()).collect();
         culprits.iter().map(|(_, _, key)| spec.error_at(key, format!("with {} set here, [base] does not deserialise: {}", names.join(", "), e.message().trim()))).collect::<Vec<_>>()
     })?;
-    let violations = params.validate(crate::slam::Sensors::union(&spec.spec.algorithms));
+    let violations = params.validate(crate::slam::Sensors::union(&spec.spec.algorithms, &[crate::slam::WorldKind::Laser, crate::slam::WorldKind::Points]));
     if violations.is_empty() {
         return Ok(params);
     }
@@ -399,7 +436,7 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
         for &algorithm in &s.algorithms {
             let code_version = format!("{SCHEMA_VERSION}+{WORLD_CODE_VERSION}+{METRICS_VERSION}+{}", algorithm.code_version());
             for (pi, point) in points.iter().enumerate() {
-                let sections = point.params.sections_read_by(algorithm);
+                let sections = point.params.sections_read_by(algorithm, map.map.world_kind());
                 for replicate in 0..s.replicates {
                     let world_seed = derive_seed(s.seed, &map.name, replicate, "world");
                     let filter_seed = derive_seed(s.seed, &map.name, replicate, "filter");

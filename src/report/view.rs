@@ -143,8 +143,11 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
     let metrics: Vec<&'static MetricDef> = spec.report.metrics.iter().filter_map(|m| metric_def(m)).collect();
     // Only the sections the study's algorithms read (what entered the run hashes).
     let mut read = toml::Table::new();
+    let kinds = world_kinds(&maps);
     for a in &spec.algorithms {
-        read.extend(spec.base.sections_read_by(*a));
+        for &k in &kinds {
+            read.extend(spec.base.sections_read_by(*a, k));
+        }
     }
     let mut base = Vec::new();
     flatten("", &toml::Value::Table(read), &mut base);
@@ -219,6 +222,12 @@ fn facts(study: &Study<'_>, failed: usize) -> Vec<Kv> {
         kv("Runs", study.data.runs.len()),
         kv("Failed or diverged runs", format!("{failed}/{}", study.data.runs.len())),
     ]
+}
+
+/// The kinds of world among a study's maps (laser first), laser for a map that cannot be read.
+fn world_kinds(maps: &[(String, Option<Map>)]) -> Vec<crate::slam::WorldKind> {
+    let has = |k| maps.iter().any(|(_, m)| m.as_ref().map_or(crate::slam::WorldKind::Laser, Map::world_kind) == k);
+    [crate::slam::WorldKind::Laser, crate::slam::WorldKind::Points].into_iter().filter(|&k| has(k)).collect()
 }
 
 fn maps_table(study: &Study<'_>) -> TableView {
@@ -304,7 +313,8 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
             format!("Odometry: additive per-step pose noise diag(σx², σy², σθ²) = diag({var_x_m2}, {var_y_m2}, {var_theta_rad2}) in the world frame ([FT] Eq. 7.18).")
         }
     });
-    let sensors: Vec<_> = study.spec().algorithms.iter().map(|a| a.sensors()).collect();
+    let kinds = world_kinds(&study.maps);
+    let sensors: Vec<_> = study.spec().algorithms.iter().flat_map(|a| kinds.iter().map(|&k| a.sensors(k))).collect();
     if sensors.iter().any(|s| s.laser) {
         let l = &b.laser;
         out.push(format!(
@@ -328,7 +338,7 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
             ));
         }
     }
-    let reads = |section: &str| study.spec().algorithms.iter().any(|a| a.sections_read().contains(&section));
+    let reads = |section: &str| study.spec().algorithms.iter().any(|a| kinds.iter().any(|&k| a.sections_read(k).contains(&section)));
     if reads("features") {
         let f = &b.features;
         out.push(format!(
@@ -616,11 +626,13 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
             .collect();
         let (rows, maps) = traces(&ids);
         let Some(truth) = rows.first() else { continue };
-        let mut paths = vec![PathSeries { label: "ground truth".into(), color: None, points: truth.truth.iter().map(|p| (p.x, p.y)).collect() }];
+        // Real data may lack truth at some steps: the path joins the known positions.
+        let finite = |p: &&crate::geom::Pose2| p.x.is_finite() && p.y.is_finite();
+        let mut paths = vec![PathSeries { label: "ground truth".into(), color: None, points: truth.truth.iter().filter(finite).map(|p| (p.x, p.y)).collect() }];
         for (ai, id) in ids.iter().enumerate() {
             if let Some(t) = rows.iter().find(|t| &t.run_id == id) {
                 let label = spec.algorithms.iter().find(|a| id.contains(&format!("--{}--", a.name()))).map_or(id.clone(), |a| a.title().to_string());
-                paths.push(PathSeries { label, color: Some(ai), points: t.estimate.iter().map(|p| (p.x, p.y)).collect() });
+                paths.push(PathSeries { label, color: Some(ai), points: t.estimate.iter().filter(finite).map(|p| (p.x, p.y)).collect() });
             }
         }
         // Final maps, coloured like their algorithm's path.
@@ -628,14 +640,14 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
         for (ai, id) in ids.iter().enumerate() {
             for l in maps.iter().filter(|m| &m.run_id == id).flat_map(|m| &m.landmarks) {
                 match *l {
-                    LandmarkRow::Corner { x_m, y_m } => est_corners.push((ai, (x_m, y_m))),
+                    LandmarkRow::Corner { x_m, y_m } | LandmarkRow::Point { x_m, y_m } => est_corners.push((ai, (x_m, y_m))),
                     LandmarkRow::Line { rho_m, theta_rad } => est_lines.push((ai, rho_m, theta_rad)),
                 }
             }
         }
         let fig = TrajectoryFigure {
             walls: map.walls.iter().map(|s| ((s.a.x, s.a.y), (s.b.x, s.b.y))).collect(),
-            corners: map.corners.iter().map(|c| (c.x, c.y)).collect(),
+            corners: map.corners.iter().chain(&map.point_landmarks).map(|c| (c.x, c.y)).collect(),
             paths,
             start: (map.start.x, map.start.y),
             est_corners,

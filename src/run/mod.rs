@@ -8,7 +8,7 @@ pub mod provenance;
 
 use crate::metrics;
 use crate::plan::{ExperimentPlan, RunSpec, SCHEMA_VERSION};
-use crate::slam::{self, AlgorithmKind, SlamError, Trace};
+use crate::slam::{self, AlgorithmKind, SlamError, Trace, WorldKind};
 use crate::spec::params::flatten;
 use crate::store::{self, Cache, CachedRun, GroupRecord, LandmarkRow, Manifest, ParamValue, PointRecord, ResolvedStudy, RunLandmarks, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows};
 use crate::world::{self, WorldError, WorldSpec, WORLD_CODE_VERSION};
@@ -231,6 +231,8 @@ enum SimError {
     World(#[from] WorldError),
     #[error("{0}")]
     Slam(#[from] SlamError),
+    #[error("dataset: {0}")]
+    Dataset(String),
 }
 
 /// World → algorithm → metrics. Returns the trace, the final map, the metrics, and whether the
@@ -238,17 +240,26 @@ enum SimError {
 fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandmarks, metrics::RunMetrics, bool), String> {
     (|| -> Result<_, SimError> {
         let params = &plan.points[run.point].params;
-        let sensors = run.algorithm.sensors();
-        let spec = WorldSpec {
-            map: &plan.maps[run.map].map,
-            sim: &params.sim,
-            odometry: &params.odometry,
-            laser: sensors.laser.then_some(&params.laser),
-            landmark_sensor: sensors.landmarks.then_some(&params.landmark_sensor),
+        let map = &plan.maps[run.map].map;
+        let kind = map.world_kind();
+        let sensors = run.algorithm.sensors(kind);
+        let world = match &map.dataset {
+            // Real data: read from its files (relative paths from the working directory, the
+            // repository); the plan hashed their bytes.
+            Some(table) => load_dataset(table)?,
+            None => {
+                let spec = WorldSpec {
+                    map,
+                    sim: &params.sim,
+                    odometry: &params.odometry,
+                    laser: sensors.laser.then_some(&params.laser),
+                    landmark_sensor: sensors.landmarks.then_some(&params.landmark_sensor),
+                };
+                world::generate(&spec, run.world_seed)?
+            }
         };
-        let world = world::generate(&spec, run.world_seed)?;
         let mut filter_rng = ChaCha8Rng::seed_from_u64(run.filter_seed);
-        let trace = run_algorithm(run.algorithm, &world, params, &mut filter_rng)?;
+        let trace = run_algorithm(run.algorithm, &world, params, kind, &mut filter_rng)?;
         let metrics = metrics::compute(&world, &trace);
         let diverged = trace.estimate.iter().any(|p| !p.is_finite());
         let landmarks = RunLandmarks {
@@ -256,7 +267,12 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
             landmarks: trace
                 .map
                 .iter()
-                .flat_map(|m| m.lines.iter().map(|l| LandmarkRow::Line { rho_m: l.rho, theta_rad: l.theta }).chain(m.corners.iter().map(|c| LandmarkRow::Corner { x_m: c.x, y_m: c.y })))
+                .flat_map(|m| {
+                    let lines = m.lines.iter().map(|l| LandmarkRow::Line { rho_m: l.rho, theta_rad: l.theta });
+                    let corners = m.corners.iter().map(|c| LandmarkRow::Corner { x_m: c.x, y_m: c.y });
+                    let points = m.points.iter().map(|p| LandmarkRow::Point { x_m: p.x, y_m: p.y });
+                    lines.chain(corners).chain(points)
+                })
                 .collect(),
         };
         let rows = TraceRows { run_id: run.run_id.clone(), dt_s: world.dt_s, truth: world.truth, estimate: trace.estimate, neff: trace.neff };
@@ -265,19 +281,44 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
     .map_err(|e| e.to_string())
 }
 
-/// The one place that maps an algorithm name to its implementation and its parameters.
-fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, params: &crate::spec::Params, filter_rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
-    match algorithm {
-        AlgorithmKind::Odometry => Ok(slam::odometry::run(world)),
-        AlgorithmKind::OdometryMap => slam::odometry::run_with_map(world, &params.fastslam, &params.features, filter_rng),
-        AlgorithmKind::Fastslam1 => slam::fastslam::run(world, &params.fastslam, &params.features, filter_rng),
+/// The one place that maps an algorithm name to its implementation and its parameters: which
+/// observations it reads (laser features or point landmarks) follows the world's kind.
+fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, params: &crate::spec::Params, kind: WorldKind, filter_rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+    use slam::observations::{stream, Source};
+    let fastslam_line_r = || nalgebra::Matrix2::new(params.fastslam.obs_var_rho_m2, 0.0, 0.0, params.fastslam.obs_var_theta_rad2);
+    let laser = kind == WorldKind::Laser;
+    match (algorithm, kind) {
+        (AlgorithmKind::Odometry, _) => Ok(slam::odometry::run(world)),
+        (AlgorithmKind::OdometryMap, WorldKind::Laser) => slam::odometry::run_with_map(world, &params.fastslam, &params.features, filter_rng),
+        (AlgorithmKind::OdometryMap, WorldKind::Points) => slam::odometry::run_with_point_map(world, &params.fastslam, &stream(world, Source::Points)?, filter_rng),
+        (AlgorithmKind::Fastslam1, WorldKind::Laser) => slam::fastslam::run(world, &params.fastslam, &params.features, filter_rng),
+        (AlgorithmKind::Fastslam1, WorldKind::Points) => slam::fastslam::run_on(world, &params.fastslam, Some(&params.motion_model), &stream(world, Source::Points)?, false, filter_rng),
+        (AlgorithmKind::Fastslam2, _) => {
+            let source = if laser { Source::LaserFeatures { features: &params.features, line_r: fastslam_line_r() } } else { Source::Points };
+            slam::fastslam2::run(world, &params.fastslam, &params.motion_model, &stream(world, source)?, laser, filter_rng)
+        }
+        (AlgorithmKind::EkfSlam, _) => {
+            let source = if laser { Source::LaserFeatures { features: &params.features, line_r: ekf_laser_covariance(&params.ekf) } } else { Source::Points };
+            slam::ekf::run(world, &params.motion_model, &params.ekf, &stream(world, source)?, laser)
+        }
     }
+}
+
+/// Reads a dataset map's world from its files (relative paths from the working directory, the
+/// repository); the plan hashed their bytes.
+fn load_dataset(table: &toml::Table) -> Result<world::World, SimError> {
+    let spec: crate::dataset::DatasetSpec = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| SimError::Dataset(e.message().to_string()))?;
+    crate::dataset::load(&spec, Path::new(".")).map_err(|e| SimError::Dataset(e.to_string()))
+}
+
+fn ekf_laser_covariance(_p: &slam::ekf::EkfParams) -> nalgebra::Matrix2<f64> {
+    nalgebra::Matrix2::new(0.04, 0.0, 0.0, 0.00122) // TODO(lead): from [ekf]
 }
 
 /// The study-specific fields of a run's row (status and metrics are filled by the caller).
 fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
     let mut leaves = Vec::new();
-    flatten("", &toml::Value::Table(plan.points[run.point].params.sections_read_by(run.algorithm)), &mut leaves);
+    flatten("", &toml::Value::Table(plan.points[run.point].params.sections_read_by(run.algorithm, plan.maps[run.map].map.world_kind())), &mut leaves);
     RunRow {
         study: plan.id().to_string(),
         run_id: run.run_id.clone(),

@@ -2,7 +2,9 @@
 //! pure, reads only its own parameters, and declares the sensors it needs so the world simulates
 //! nothing more.
 
+pub mod ekf;
 pub mod fastslam;
+pub mod fastslam2;
 pub mod motion;
 pub mod observations;
 pub mod odometry;
@@ -23,8 +25,22 @@ pub enum AlgorithmKind {
     /// (FastSLAM's extraction, association and landmark EKFs with one particle and no motion
     /// noise).
     OdometryMap,
-    /// FastSLAM 1.0 on laser line and corner landmarks ([FT] Table 6.3).
+    /// FastSLAM 1.0 ([FT] Table 6.3): line and corner landmarks from the laser, or point
+    /// landmarks ([PF]).
     Fastslam1,
+    /// FastSLAM 2.0 (Montemerlo et al. 2003): the pose proposal includes the observations.
+    Fastslam2,
+    /// EKF-SLAM: one joint Gaussian over the pose and every landmark ([EV]; Thrun et al. 2005).
+    EkfSlam,
+}
+
+/// What a world's landmarks are, which decides the sensor every landmark filter reads. A map
+/// with point landmarks (or a dataset) is a point-landmark world; a map of walls alone is seen by
+/// the laser, whose scans yield line and corner landmarks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WorldKind {
+    Laser,
+    Points,
 }
 
 /// Which simulated sensors an algorithm reads.
@@ -35,20 +51,29 @@ pub struct Sensors {
 }
 
 impl Sensors {
-    /// The sensors any of `algorithms` reads.
-    pub fn union(algorithms: &[AlgorithmKind]) -> Sensors {
-        algorithms.iter().fold(Sensors::default(), |a, k| Sensors { laser: a.laser || k.sensors().laser, landmarks: a.landmarks || k.sensors().landmarks })
+    /// The sensors any of `algorithms` reads in any of the world kinds `kinds`.
+    pub fn union(algorithms: &[AlgorithmKind], kinds: &[WorldKind]) -> Sensors {
+        let mut out = Sensors::default();
+        for a in algorithms {
+            for &k in kinds {
+                out.laser |= a.sensors(k).laser;
+                out.landmarks |= a.sensors(k).landmarks;
+            }
+        }
+        out
     }
 }
 
 impl AlgorithmKind {
-    pub const ALL: &'static [AlgorithmKind] = &[AlgorithmKind::Odometry, AlgorithmKind::OdometryMap, AlgorithmKind::Fastslam1];
+    pub const ALL: &'static [AlgorithmKind] = &[AlgorithmKind::Odometry, AlgorithmKind::OdometryMap, AlgorithmKind::Fastslam1, AlgorithmKind::Fastslam2, AlgorithmKind::EkfSlam];
 
     pub fn name(self) -> &'static str {
         match self {
             AlgorithmKind::Odometry => "odometry",
             AlgorithmKind::OdometryMap => "odometry_map",
             AlgorithmKind::Fastslam1 => "fastslam1",
+            AlgorithmKind::Fastslam2 => "fastslam2",
+            AlgorithmKind::EkfSlam => "ekf_slam",
         }
     }
 
@@ -62,6 +87,8 @@ impl AlgorithmKind {
             AlgorithmKind::Odometry => "Odometry only",
             AlgorithmKind::OdometryMap => "Odometry map",
             AlgorithmKind::Fastslam1 => "FastSLAM 1.0",
+            AlgorithmKind::Fastslam2 => "FastSLAM 2.0",
+            AlgorithmKind::EkfSlam => "EKF-SLAM",
         }
     }
 
@@ -71,35 +98,46 @@ impl AlgorithmKind {
             AlgorithmKind::Odometry => odometry::CODE_VERSION,
             AlgorithmKind::OdometryMap => ODOMETRY_MAP_CODE_VERSION,
             AlgorithmKind::Fastslam1 => fastslam::CODE_VERSION,
+            AlgorithmKind::Fastslam2 => fastslam2::CODE_VERSION,
+            AlgorithmKind::EkfSlam => ekf::CODE_VERSION,
         }
     }
 
-    pub fn sensors(self) -> Sensors {
-        match self {
-            AlgorithmKind::Odometry => Sensors::default(),
-            AlgorithmKind::OdometryMap | AlgorithmKind::Fastslam1 => Sensors { laser: true, landmarks: false },
+    /// The sensors this algorithm reads in a world of `kind`.
+    pub fn sensors(self, kind: WorldKind) -> Sensors {
+        match (self, kind) {
+            (AlgorithmKind::Odometry, _) => Sensors::default(),
+            (_, WorldKind::Laser) => Sensors { laser: true, landmarks: false },
+            (_, WorldKind::Points) => Sensors { laser: false, landmarks: true },
         }
     }
 
     /// The `[base]` sections holding this algorithm's own parameters (besides the world's).
-    pub fn param_sections(self) -> &'static [&'static str] {
-        match self {
-            AlgorithmKind::Odometry => &[],
-            AlgorithmKind::OdometryMap | AlgorithmKind::Fastslam1 => &["features", "fastslam"],
+    pub fn param_sections(self, kind: WorldKind) -> &'static [&'static str] {
+        match (self, kind) {
+            (AlgorithmKind::Odometry, _) => &[],
+            // [FT]'s FastSLAM keeps its own motion noise on laser worlds
+            (AlgorithmKind::OdometryMap | AlgorithmKind::Fastslam1, WorldKind::Laser) => &["features", "fastslam"],
+            (AlgorithmKind::OdometryMap, WorldKind::Points) => &["fastslam"],
+            (AlgorithmKind::Fastslam1, WorldKind::Points) => &["fastslam", "motion_model"],
+            (AlgorithmKind::Fastslam2, WorldKind::Laser) => &["features", "fastslam", "motion_model"],
+            (AlgorithmKind::Fastslam2, WorldKind::Points) => &["fastslam", "motion_model"],
+            (AlgorithmKind::EkfSlam, WorldKind::Laser) => &["features", "ekf", "motion_model"],
+            (AlgorithmKind::EkfSlam, WorldKind::Points) => &["ekf", "motion_model"],
         }
     }
 
-    /// Every `[base]` section a run of this algorithm reads: the clock and odometry, the sensors
-    /// it uses, and its own sections.
-    pub fn sections_read(self) -> Vec<&'static str> {
+    /// Every `[base]` section a run of this algorithm reads in a world of `kind`: the clock and
+    /// odometry, the sensors it uses, and its own sections.
+    pub fn sections_read(self, kind: WorldKind) -> Vec<&'static str> {
         let mut s = vec!["sim", "odometry"];
-        if self.sensors().laser {
+        if self.sensors(kind).laser {
             s.push("laser");
         }
-        if self.sensors().landmarks {
+        if self.sensors(kind).landmarks {
             s.push("landmark_sensor");
         }
-        s.extend(self.param_sections());
+        s.extend(self.param_sections(kind));
         s
     }
 }
@@ -144,4 +182,6 @@ pub struct Trace {
 pub enum SlamError {
     #[error("the world has no {0} data, which this algorithm needs")]
     MissingSensor(&'static str),
+    #[error("known data association needs landmark identities, which this sensor does not report")]
+    NoIdentities,
 }

@@ -11,6 +11,10 @@ use crate::features::{self, FeatureParams, ScanFeatures};
 use crate::world::World;
 use nalgebra::{Matrix2, Vector2};
 
+/// `PointObservation::landmark` of a sensor that cannot tell landmarks apart (Victoria Park's
+/// trees).
+pub const NO_IDENTITY: usize = usize::MAX;
+
 /// One measurement of one landmark.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Observation {
@@ -58,7 +62,7 @@ pub fn stream(world: &World, source: Source<'_>) -> Result<Vec<StepObservations>
                     observations: scan
                         .observations
                         .iter()
-                        .map(|o| Observation { model: Model::Point, z: Vector2::new(o.range_m, o.bearing_rad), r: noise.covariance(o.range_m), landmark: Some(o.landmark) })
+                        .map(|o| Observation { model: Model::Point, z: Vector2::new(o.range_m, o.bearing_rad), r: noise.covariance(o.range_m), landmark: (o.landmark != NO_IDENTITY).then_some(o.landmark) })
                         .collect(),
                 })
                 .collect())

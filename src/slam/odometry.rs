@@ -31,3 +31,12 @@ pub fn run_with_map(world: &World, fastslam: &super::fastslam::FastSlamParams, f
     };
     super::fastslam::run(world, &params, features, rng)
 }
+
+/// The odometry map of a point-landmark world: one particle driven by the odometry alone.
+pub fn run_with_point_map(world: &World, fastslam: &super::fastslam::FastSlamParams, observations: &[super::observations::StepObservations], rng: &mut rand_chacha::ChaCha8Rng) -> Result<Trace, super::SlamError> {
+    let params = super::fastslam::FastSlamParams { particles: 1, ..fastslam.clone() };
+    let still = super::motion::MotionModel::Pose { sigma_x_m: 0.0, sigma_y_m: 0.0, sigma_theta_rad: 0.0 };
+    let mut trace = super::fastslam::run_on(world, &params, Some(&still), observations, false, rng)?;
+    trace.pose_cov.clear(); // one particle has no spread: no NEES
+    Ok(trace)
+}

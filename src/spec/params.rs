@@ -3,8 +3,10 @@
 
 use crate::config::{Checks, Violation};
 use crate::features::FeatureParams;
+use crate::slam::ekf::EkfParams;
 use crate::slam::fastslam::FastSlamParams;
-use crate::slam::{AlgorithmKind, Sensors};
+use crate::slam::motion::MotionModel;
+use crate::slam::{AlgorithmKind, Sensors, WorldKind};
 use crate::world::laser::LaserParams;
 use crate::world::odometry::OdometryNoise;
 use crate::world::point_sensor::PointSensorParams;
@@ -25,8 +27,12 @@ pub struct Params {
     pub landmark_sensor: PointSensorParams,
     /// Line and corner extraction from laser scans ([FT] Ch. 4).
     pub features: FeatureParams,
-    /// FastSLAM 1.0 ([FT] Ch. 3, 6, 7).
+    /// FastSLAM 1.0 ([FT] Ch. 3, 6, 7) and 2.0 (particles, P0, resampling, association).
     pub fastslam: FastSlamParams,
+    /// The motion model of EKF-SLAM, FastSLAM 2.0, and FastSLAM 1.0 on point-landmark worlds.
+    pub motion_model: MotionModel,
+    /// EKF-SLAM.
+    pub ekf: EkfParams,
 }
 
 impl Params {
@@ -40,6 +46,8 @@ impl Params {
         c.nested("landmark_sensor", self.landmark_sensor.validate());
         c.nested("features", self.features.validate());
         c.nested("fastslam", self.fastslam.validate());
+        c.nested("motion_model", self.motion_model.validate());
+        c.nested("ekf", self.ekf.validate());
         let in_use = [("laser", self.laser.rate_hz, sensors.laser), ("landmark_sensor", self.landmark_sensor.rate_hz, sensors.landmarks)];
         for (section, rate, used) in in_use {
             if used && rate > 0.0 && self.sim.dt_s > 0.0 && sensor_period_steps(rate, self.sim.dt_s).is_none() {
@@ -57,8 +65,8 @@ impl Params {
     /// The sections `algorithm` reads: the world's (only the sensors it uses) and its own. Their
     /// values — not the whole parameter set — go into a run's content hash, so changing laser
     /// settings does not invalidate odometry-only runs.
-    pub fn sections_read_by(&self, algorithm: AlgorithmKind) -> toml::Table {
-        let wanted = algorithm.sections_read();
+    pub fn sections_read_by(&self, algorithm: AlgorithmKind, kind: WorldKind) -> toml::Table {
+        let wanted = algorithm.sections_read(kind);
         self.to_table().into_iter().filter(|(k, _)| wanted.contains(&k.as_str())).collect()
     }
 }
@@ -87,7 +95,7 @@ mod tests {
 
     #[test]
     fn odometry_baseline_reads_no_sensor_section() {
-        let s = Params::default().sections_read_by(AlgorithmKind::Odometry);
+        let s = Params::default().sections_read_by(AlgorithmKind::Odometry, WorldKind::Laser);
         let keys: Vec<_> = s.keys().map(String::as_str).collect();
         // declaration order, not alphabetical
         assert_eq!(keys, vec!["sim", "odometry"]);

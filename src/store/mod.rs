@@ -160,6 +160,8 @@ impl TraceRows {
 pub enum LandmarkRow {
     Line { rho_m: f64, theta_rad: f64 },
     Corner { x_m: f64, y_m: f64 },
+    /// A point landmark (point-landmark worlds and datasets).
+    Point { x_m: f64, y_m: f64 },
 }
 
 /// A run's final map.

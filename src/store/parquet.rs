@@ -208,11 +208,20 @@ pub(super) fn landmarks_frame(maps: &[RunLandmarks]) -> PolarsResult<DataFrame> 
         rows.len(),
         vec![
             Column::new("run_id".into(), rows.iter().map(|(id, _)| *id).collect::<Vec<_>>()),
-            Column::new("kind".into(), rows.iter().map(|(_, l)| if matches!(l, LandmarkRow::Line { .. }) { "line" } else { "corner" }).collect::<Vec<_>>()),
+            Column::new(
+                "kind".into(),
+                rows.iter()
+                    .map(|(_, l)| match l {
+                        LandmarkRow::Line { .. } => "line",
+                        LandmarkRow::Corner { .. } => "corner",
+                        LandmarkRow::Point { .. } => "point",
+                    })
+                    .collect::<Vec<_>>(),
+            ),
             Column::new("rho_m".into(), get(&|l| if let LandmarkRow::Line { rho_m, .. } = l { Some(*rho_m) } else { None })),
             Column::new("theta_rad".into(), get(&|l| if let LandmarkRow::Line { theta_rad, .. } = l { Some(*theta_rad) } else { None })),
-            Column::new("x_m".into(), get(&|l| if let LandmarkRow::Corner { x_m, .. } = l { Some(*x_m) } else { None })),
-            Column::new("y_m".into(), get(&|l| if let LandmarkRow::Corner { y_m, .. } = l { Some(*y_m) } else { None })),
+            Column::new("x_m".into(), get(&|l| if let LandmarkRow::Corner { x_m, .. } | LandmarkRow::Point { x_m, .. } = l { Some(*x_m) } else { None })),
+            Column::new("y_m".into(), get(&|l| if let LandmarkRow::Corner { y_m, .. } | LandmarkRow::Point { y_m, .. } = l { Some(*y_m) } else { None })),
         ],
     )
 }
@@ -233,7 +242,11 @@ pub(super) fn read_landmarks(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result
         if out.last().is_none_or(|m| m.run_id != id) {
             out.push(RunLandmarks { run_id: id.to_string(), landmarks: Vec::new() });
         }
-        let l = if kind.get(i) == Some("line") { LandmarkRow::Line { rho_m: rho[i], theta_rad: theta[i] } } else { LandmarkRow::Corner { x_m: x[i], y_m: y[i] } };
+        let l = match kind.get(i) {
+            Some("line") => LandmarkRow::Line { rho_m: rho[i], theta_rad: theta[i] },
+            Some("point") => LandmarkRow::Point { x_m: x[i], y_m: y[i] },
+            _ => LandmarkRow::Corner { x_m: x[i], y_m: y[i] },
+        };
         out.last_mut().expect("just pushed").landmarks.push(l);
     }
     Ok(out)

@@ -27,7 +27,10 @@ struct MapFile {
     start: StartPose,
     #[serde(default)]
     walls: Vec<Wall>,
-    trajectory: TrajectorySpec,
+    /// Simulated worlds drive this path; datasets have none.
+    trajectory: Option<TrajectorySpec>,
+    /// A real dataset instead of a simulation: how to read it (see `crate::dataset`).
+    dataset: Option<toml::Table>,
     /// Point landmarks [[x, y], …] [m] for range-bearing worlds.
     #[serde(default)]
     landmarks: Vec<[f64; 2]>,
@@ -84,6 +87,8 @@ pub struct Map {
     pub start: Pose2,
     pub walls: Vec<Segment>,
     pub trajectory: TrajectorySpec,
+    /// The `[dataset]` table of a real-data map, as written (parsed by `crate::dataset`).
+    pub dataset: Option<toml::Table>,
     pub point_landmarks: Vec<Point2>,
     /// Unique infinite lines through the walls, in order of first appearance.
     pub lines: Vec<Line>,
@@ -117,7 +122,14 @@ impl Map {
                 }
             }
         }
-        let t = &file.trajectory;
+        let trajectory = match (file.trajectory, &file.dataset) {
+            (Some(t), None) => t,
+            // a dataset brings its own path; the driven trajectory is unused
+            (None, Some(_)) => TrajectorySpec { max_speed_mps: 1.0, max_turn_rate_dps: default_turn_rate(), laps: 1, waypoint_tolerance_m: default_tolerance(), waypoints: vec![[0.0, 0.0]] },
+            (Some(_), Some(_)) => return Err(vec![SourceError::at_key(&loc, "dataset", "a map has either a [trajectory] (simulation) or a [dataset] (real data), not both")]),
+            (None, None) => return Err(vec![SourceError::at_key(&loc, "", "missing [trajectory] (or [dataset] for real data)")]),
+        };
+        let t = &trajectory;
         if !(t.max_speed_mps > 0.0 && t.max_speed_mps.is_finite()) {
             err("trajectory.max_speed_mps", format!("must be > 0, got {}", t.max_speed_mps));
         }
@@ -149,11 +161,17 @@ impl Map {
             notes: file.notes,
             start: Pose2::new(file.start.x_m, file.start.y_m, file.start.theta_deg.to_radians()),
             walls,
-            trajectory: file.trajectory,
+            trajectory,
+            dataset: file.dataset,
             point_landmarks: file.landmarks.iter().map(|p| Point2::new(p[0], p[1])).collect(),
             lines,
             corners,
         })
+    }
+
+    /// Point-landmark world (point landmarks or a dataset) or laser world (walls only).
+    pub fn world_kind(&self) -> crate::slam::WorldKind {
+        if self.point_landmarks.is_empty() && self.dataset.is_none() { crate::slam::WorldKind::Laser } else { crate::slam::WorldKind::Points }
     }
 
     /// Number of ground-truth landmarks of the laser world (lines + corners).

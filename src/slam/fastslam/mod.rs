@@ -15,9 +15,11 @@ pub mod models;
 pub mod particle;
 pub mod resample;
 
+use super::motion::MotionModel;
+use super::observations::{self, Observation, Source, StepObservations};
 use super::{LandmarkMap, SlamError, Trace};
 use crate::config::{Checks, Violation};
-use crate::features::{self, FeatureParams, ScanFeatures};
+use crate::features::FeatureParams;
 use crate::geom::{wrap_angle, Line, Point2, Pose2};
 use crate::world::odometry::Spread;
 use crate::world::World;
@@ -134,20 +136,6 @@ impl FastSlamParams {
     }
 }
 
-/// A feature of the current scan as a measurement of its landmark type.
-#[derive(Debug, Clone, Copy)]
-struct Measurement {
-    model: Model,
-    z: Vector2<f64>,
-}
-
-fn measurements(f: &ScanFeatures) -> Vec<Measurement> {
-    let lines = f.lines.iter().map(|l| Measurement { model: Model::Line, z: Vector2::new(l.line.rho, l.line.theta) });
-    // corners as range and bearing (Eq. 7.21)
-    let corners = f.corners.iter().map(|c| Measurement { model: Model::Point, z: Vector2::new(c.x.hypot(c.y), c.y.atan2(c.x)) });
-    lines.chain(corners).collect()
-}
-
 /// One landmark's prediction for a measurement: ẑ, H, Q = H Σ Hᵀ + R, and log N(z; ẑ, Q).
 #[derive(Debug, Clone, Copy)]
 struct Match {
@@ -164,7 +152,7 @@ struct Match {
 /// the joint one from below, and det Q ≥ det R since Q = H Σ Hᵀ + R ⪰ R. A landmark whose bound
 /// is below ln P0 can never be chosen, nor count as a plausible candidate: skipping it changes
 /// no decision.
-fn line_bound(m: &Measurement, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>, ln_det_r: f64) -> f64 {
+fn line_bound(m: &Observation, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>, ln_det_r: f64) -> f64 {
     let mut nu = wrap_angle(m.z[1] - (l.mean[1] - pose.theta));
     // the prediction may be flipped to (−ρ', θ' + π): take the nearer of the two angles
     nu = nu.abs().min((std::f64::consts::PI - nu.abs()).abs());
@@ -173,7 +161,7 @@ fn line_bound(m: &Measurement, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>, ln_
 }
 
 /// Gaussian log-likelihood of `m` for landmark `l`, or `None` if Q is not positive definite.
-fn evaluate(m: &Measurement, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>) -> Option<Match> {
+fn evaluate(m: &Observation, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>) -> Option<Match> {
     let prediction = l.predict(m.model, pose);
     let h = prediction.h;
     let q = h * l.cov * h.transpose() + r; // Eq. (3.14), standard orientation
@@ -202,21 +190,22 @@ fn correct(l: &mut Landmark, model: Model, m: &Match, r: &Matrix2<f64>) -> bool 
 }
 
 /// A new landmark from the inverse model, with Σ = H⁻¹ R H⁻ᵀ ([FT] Table 3.2).
-fn initialise(m: &Measurement, pose: &Pose2, r: &Matrix2<f64>) -> Option<Landmark> {
+fn initialise(m: &Observation, pose: &Pose2, r: &Matrix2<f64>) -> Option<Landmark> {
     let mean = m.model.inverse(&m.z, pose);
     let h_inv = m.model.predict(&mean, pose).h.try_inverse()?;
     let cov = h_inv * r * h_inv.transpose();
-    Some(Landmark::new(mean, 0.5 * (cov + cov.transpose())))
+    Some(Landmark { id: m.landmark, ..Landmark::new(mean, 0.5 * (cov + cov.transpose())) })
 }
 
 /// The filter state (cloning it is cheap: particle maps are shared copy-on-write).
 #[derive(Clone)]
 pub struct FastSlam1<'a> {
     params: &'a FastSlamParams,
+    /// The motion model on point-landmark worlds; `None`: [FT]'s Eq. 7.18 with `params.motion_*`.
+    motion: Option<&'a MotionModel>,
     particles: Vec<Particle>,
     /// Index of the best particle (after the last weighting, followed through resampling).
     best: usize,
-    r: Matrix2<f64>,
     ln_p0: f64,
     motion_sigma: [f64; 3],
     pub numerical_failures: u64,
@@ -225,12 +214,12 @@ pub struct FastSlam1<'a> {
 }
 
 impl<'a> FastSlam1<'a> {
-    pub fn new(params: &'a FastSlamParams, start: Pose2) -> Self {
+    pub fn new(params: &'a FastSlamParams, motion: Option<&'a MotionModel>, start: Pose2) -> Self {
         Self {
             params,
+            motion,
             particles: vec![Particle::new(start); params.particles as usize],
             best: 0,
-            r: Matrix2::new(params.obs_var_rho_m2, 0.0, 0.0, params.obs_var_theta_rad2),
             ln_p0: params.p0.ln(),
             motion_sigma: params.motion_sigmas(),
             numerical_failures: 0,
@@ -240,13 +229,15 @@ impl<'a> FastSlam1<'a> {
     }
 
     /// One step of [FT] Table 6.3. Returns N̂eff when the step weighted the particles.
-    pub fn step(&mut self, control: Option<&Pose2>, observation: Option<&ScanFeatures>, rng: &mut ChaCha8Rng) -> Option<f64> {
+    pub fn step(&mut self, control: Option<&Pose2>, observations: &[Observation], rng: &mut ChaCha8Rng) -> Option<f64> {
         if let Some(u) = control {
             self.predict(u, rng); // 1: sample every particle's pose
         }
-        let z = measurements(observation.filter(|o| !o.is_empty())?); // 4: no observation: stop
+        if observations.is_empty() {
+            return None; // 4: no observation: stop
+        }
         for i in 0..self.particles.len() {
-            self.weigh_and_update(i, &z); // 5–13: associate, update, weight
+            self.weigh_and_update(i, observations); // 5–13: associate, update, weight
         }
         self.weighted_steps += 1;
         let weights = self.normalised_weights();
@@ -260,6 +251,12 @@ impl<'a> FastSlam1<'a> {
 
     /// [FT] Eq. 7.18: x' = x ⊕ u + ε, ε ~ N(0, diag(σx², σy², σθ²)) in the world frame, per step.
     fn predict(&mut self, u: &Pose2, rng: &mut ChaCha8Rng) {
+        if let Some(motion) = self.motion {
+            for p in &mut self.particles {
+                p.pose = motion.sample(&p.pose, u, rng);
+            }
+            return;
+        }
         let [sx, sy, st] = self.motion_sigma;
         for p in &mut self.particles {
             let (zx, zy, zt): (f64, f64, f64) = (rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
@@ -270,21 +267,36 @@ impl<'a> FastSlam1<'a> {
 
     /// Associates all features of the scan against the particle's map (as it was before this
     /// scan), then applies the updates and multiplies the weight ([FT] Table 6.3 lines 6–13).
-    fn weigh_and_update(&mut self, i: usize, z: &[Measurement]) {
-        let (r, ln_p0, rule) = (self.r, self.ln_p0, self.params.ambiguity);
-        let ln_det_r = (r[(0, 0)] * r[(1, 1)]).ln();
+    fn weigh_and_update(&mut self, i: usize, z: &[Observation]) {
+        let (ln_p0, rule) = (self.ln_p0, self.params.ambiguity);
+        let known = self.params.association == DataAssociation::Known;
         let p = &self.particles[i];
         let pose = p.pose;
         let mut failures = 0;
         let mut decisions: Vec<(Association, Option<Match>)> = z
             .iter()
             .map(|m| {
+                let landmarks = p.map.of(m.model);
+                if known {
+                    // Known association: the landmark created from this identity, else a new one.
+                    return match landmarks.iter().position(|l| l.id.is_some() && l.id == m.landmark) {
+                        None => (Association::New, None),
+                        Some(j) => match evaluate(m, &landmarks[j], &pose, &m.r) {
+                            Some(mt) => (Association::Known { landmark: j, log_likelihood: mt.log_likelihood }, Some(mt)),
+                            None => {
+                                failures += 1;
+                                (Association::Ignored, None)
+                            }
+                        },
+                    };
+                }
+                let ln_det_r = (m.r[(0, 0)] * m.r[(1, 1)]).ln();
                 let mut candidates = Candidates::new(ln_p0);
-                for (j, l) in p.map.of(m.model).iter().enumerate() {
-                    if m.model == Model::Line && line_bound(m, l, &pose, &r, ln_det_r) < ln_p0 {
+                for (j, l) in landmarks.iter().enumerate() {
+                    if m.model == Model::Line && line_bound(m, l, &pose, &m.r, ln_det_r) < ln_p0 {
                         continue; // cannot beat P0: not a candidate
                     }
-                    match evaluate(m, l, &pose, &r) {
+                    match evaluate(m, l, &pose, &m.r) {
                         Some(mt) => candidates.offer(j, mt.log_likelihood, mt),
                         None => failures += 1,
                     }
@@ -292,8 +304,9 @@ impl<'a> FastSlam1<'a> {
                 candidates.decide(rule)
             })
             .collect();
-        // The shared-landmark rule compares features of the same landmark type.
-        for model in [Model::Line, Model::Point] {
+        // The shared-landmark rule compares features of the same landmark type (identities
+        // never collide under known association).
+        for model in [Model::Line, Model::Point].into_iter().filter(|_| !known) {
             let idx: Vec<usize> = (0..z.len()).filter(|&k| z[k].model == model).collect();
             let mut ds: Vec<Association> = idx.iter().map(|&k| decisions[k].0).collect();
             resolve_shared(&mut ds, rule);
@@ -310,13 +323,13 @@ impl<'a> FastSlam1<'a> {
             for (m, (d, matched)) in z.iter().zip(&decisions) {
                 match (d, matched) {
                     (Association::Known { landmark, log_likelihood }, Some(mt)) => {
-                        if correct(&mut map.of_mut(m.model)[*landmark], m.model, mt, &r) {
+                        if correct(&mut map.of_mut(m.model)[*landmark], m.model, mt, &m.r) {
                             log_weight += log_likelihood;
                         } else {
                             failures += 1;
                         }
                     }
-                    (Association::New, _) => match initialise(m, &pose, &r) {
+                    (Association::New, _) => match initialise(m, &pose, &m.r) {
                         Some(l) => {
                             map.of_mut(m.model).push(l);
                             log_weight += ln_p0;
@@ -363,6 +376,19 @@ impl<'a> FastSlam1<'a> {
         &self.particles[self.best]
     }
 
+    /// The weighted spread of the particle poses (the filter's pose covariance, for NEES).
+    pub fn pose_covariance(&self) -> nalgebra::Matrix3<f64> {
+        let max = self.particles.iter().map(|p| p.log_weight).fold(f64::NEG_INFINITY, f64::max);
+        let poses: Vec<Pose2> = self.particles.iter().map(|p| p.pose).collect();
+        if !max.is_finite() {
+            return pose_spread(&poses, None);
+        }
+        let w: Vec<f64> = self.particles.iter().map(|p| (p.log_weight - max).exp()).collect();
+        let sum: f64 = w.iter().sum();
+        let w: Vec<f64> = w.iter().map(|x| x / sum).collect();
+        pose_spread(&poses, Some(&w))
+    }
+
     /// Landmarks in the best particle's map.
     pub fn map_size(&self) -> usize {
         self.best().map.len()
@@ -373,40 +399,81 @@ fn argmax(w: &[f64]) -> usize {
     w.iter().enumerate().fold(0, |best, (i, &x)| if x > w[best] { i } else { best })
 }
 
-/// Runs FastSLAM 1.0 over a world's odometry and scans.
+/// Runs FastSLAM 1.0 over a world's odometry and scans ([FT]: line and corner features, its own
+/// motion noise).
 pub fn run(world: &World, params: &FastSlamParams, feature_params: &FeatureParams, rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
-    let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
-    let mut filter = FastSlam1::new(params, world.truth[0]);
-    let mut scans = world.scans.iter().peekable();
+    let line_r = Matrix2::new(params.obs_var_rho_m2, 0.0, 0.0, params.obs_var_theta_rad2);
+    let observations = observations::stream(world, Source::LaserFeatures { features: feature_params, line_r })?;
+    run_on(world, params, None, &observations, true, rng)
+}
+
+/// Runs FastSLAM 1.0 on any observation stream. `motion`: the motion model of point-landmark
+/// worlds (`None`: [FT] Eq. 7.18 with `params.motion_*`); `points_as_corners`: point landmarks
+/// are laser corners (else the map's point landmarks).
+pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionModel>, observations: &[StepObservations], points_as_corners: bool, rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+    if params.association == DataAssociation::Known && observations.iter().flat_map(|s| &s.observations).any(|o| o.landmark.is_none()) {
+        return Err(SlamError::NoIdentities);
+    }
+    let mut filter = FastSlam1::new(params, motion, world.truth[0]);
+    let mut next = observations.iter().peekable();
     let steps = world.odometry.len();
     let mut estimate = Vec::with_capacity(steps + 1);
     let mut neff = Vec::with_capacity(steps + 1);
+    let mut pose_cov = Vec::new();
     for k in 0..=steps {
         let control = k.checked_sub(1).map(|j| &world.odometry[j]);
-        let features = match scans.peek() {
-            Some(s) if s.step == k => Some(features::extract(scans.next().expect("peeked"), &geometry, feature_params)),
-            _ => None,
+        let z: &[Observation] = match next.peek() {
+            Some(s) if s.step == k => &next.next().expect("peeked").observations,
+            _ => &[],
         };
-        neff.push(filter.step(control, features.as_ref(), rng));
+        neff.push(filter.step(control, z, rng));
         estimate.push(filter.best().pose);
+        if motion.is_some() {
+            pose_cov.push(Some(filter.pose_covariance()));
+        }
     }
     Ok(Trace {
         estimate,
         numerical_failures: filter.numerical_failures,
-        map: Some(landmark_map(&filter.best().map)),
+        map: Some(landmark_map(&filter.best().map, points_as_corners)),
         neff,
         resamples: filter.resamples,
         weighted_steps: filter.weighted_steps,
-        pose_cov: Vec::new(),
+        pose_cov,
     })
 }
 
-fn landmark_map(m: &particle::Map) -> LandmarkMap {
-    LandmarkMap {
-        lines: m.lines.iter().map(|l| Line::normalised(l.mean[0], l.mean[1])).collect(),
-        corners: m.corners.iter().map(|l| Point2::new(l.mean[0], l.mean[1])).collect(),
-        ..LandmarkMap::default()
+/// A particle map as a [`LandmarkMap`].
+pub fn landmark_map(m: &particle::Map, points_as_corners: bool) -> LandmarkMap {
+    let points = m.corners.iter().map(|l| Point2::new(l.mean[0], l.mean[1])).collect();
+    let lines = m.lines.iter().map(|l| Line::normalised(l.mean[0], l.mean[1])).collect();
+    if points_as_corners {
+        LandmarkMap { lines, corners: points, ..LandmarkMap::default() }
+    } else {
+        LandmarkMap { lines, points, point_ids: m.corners.iter().map(|l| l.id).collect(), ..LandmarkMap::default() }
     }
+}
+
+/// The particles' pose spread around their mean (equal weights: after resampling, or between
+/// weighting steps the current normalised weights are those of the last step's resampling),
+/// headings wrapped about the mean heading.
+pub fn pose_spread(poses: &[Pose2], weights: Option<&[f64]>) -> nalgebra::Matrix3<f64> {
+    let n = poses.len() as f64;
+    let w = |i: usize| weights.map_or(1.0 / n, |w| w[i]);
+    let (mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0);
+    for (i, p) in poses.iter().enumerate() {
+        mx += w(i) * p.x;
+        my += w(i) * p.y;
+        ms += w(i) * p.theta.sin();
+        mc += w(i) * p.theta.cos();
+    }
+    let mt = ms.atan2(mc);
+    let mut cov = nalgebra::Matrix3::zeros();
+    for (i, p) in poses.iter().enumerate() {
+        let e = nalgebra::Vector3::new(p.x - mx, p.y - my, wrap_angle(p.theta - mt));
+        cov += w(i) * e * e.transpose();
+    }
+    cov
 }
 
 #[cfg(test)]
@@ -419,11 +486,11 @@ mod tests {
         let pose = Pose2::new(1.0, 0.5, 0.2);
         let truth = Vector2::new(9.0, std::f64::consts::FRAC_PI_2);
         let z = models::line_predict(&truth, &pose).z;
-        let m = Measurement { model: Model::Line, z };
+        let m = Observation { model: Model::Line, z, r, landmark: None };
         let mut l = initialise(&m, &pose, &r).unwrap();
         for k in 0..50 {
             let pose_k = Pose2::new(1.0 + 0.1 * k as f64, 0.5, 0.2);
-            let mk = Measurement { model: Model::Line, z: models::line_predict(&truth, &pose_k).z };
+            let mk = Observation { model: Model::Line, z: models::line_predict(&truth, &pose_k).z, r, landmark: None };
             let before = l.cov.trace();
             let mt = evaluate(&mk, &l, &pose_k, &r).unwrap();
             assert!(correct(&mut l, Model::Line, &mt, &r));
@@ -445,7 +512,7 @@ mod tests {
             let pose = Pose2::new(u(&mut rng, -5.0, 5.0), u(&mut rng, -5.0, 5.0), u(&mut rng, -3.1, 3.1));
             let a = u(&mut rng, 0.0, 0.05);
             let l = Landmark::new(Vector2::new(u(&mut rng, 0.5, 20.0), u(&mut rng, -3.1, 3.1)), Matrix2::new(a, 0.3 * a.sqrt() * 0.01, 0.3 * a.sqrt() * 0.01, u(&mut rng, 0.0, 0.01)));
-            let m = Measurement { model: Model::Line, z: Vector2::new(u(&mut rng, 0.0, 10.0), u(&mut rng, -3.1, 3.1)) };
+            let m = Observation { model: Model::Line, z: Vector2::new(u(&mut rng, 0.0, 10.0), u(&mut rng, -3.1, 3.1)), r, landmark: None };
             let exact = evaluate(&m, &l, &pose, &r).unwrap().log_likelihood;
             assert!(line_bound(&m, &l, &pose, &r, ln_det_r) >= exact - 1e-9);
         }
@@ -463,7 +530,7 @@ mod tests {
         for i in 0..n {
             for j in 0..n {
                 let z = zc + Vector2::new((i as f64 - n as f64 / 2.0) * h * 4.0, (j as f64 - n as f64 / 2.0) * h * 2.0);
-                total += evaluate(&Measurement { model: Model::Point, z }, &l, &pose, &r).unwrap().log_likelihood.exp() * h * 4.0 * h * 2.0;
+                total += evaluate(&Observation { model: Model::Point, z, r, landmark: None }, &l, &pose, &r).unwrap().log_likelihood.exp() * h * 4.0 * h * 2.0;
             }
         }
         assert!((total - 1.0).abs() < 0.01, "{total}");

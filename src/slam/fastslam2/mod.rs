@@ -1,0 +1,503 @@
+//! FastSLAM 2.0 on point and line landmarks: (World odometry, per-step [`Observation`]s, a
+//! [`MotionModel`]) → [`Trace`]. [FS2] Montemerlo, Thrun, Koller, Wegbreit, "FastSLAM 2.0",
+//! IJCAI 2003, §3; [MM] Montemerlo's thesis (CMU 2003) ch. 4; [PR] Thrun, Burgard, Fox,
+//! *Probabilistic Robotics*, the FastSLAM 2.0 table of ch. 13 (Table 13.3).
+//!
+//! Per step, every particle (x, w, map):
+//! - moves without observations: x ~ p(x | x₋, u) (the motion model's own sample);
+//! - with observations, associates them against its map as it was before the step, judging
+//!   each landmark under the *predicted* pose with its uncertainty; samples its pose from the
+//!   proposal that includes the associated observations; updates the landmark EKFs from the
+//!   sampled pose; and multiplies its weight by each observation's predictive likelihood.
+//!
+//! Then, as in FastSLAM 1.0 ([FT] Table 6.3): the best particle is taken after weighting and
+//! before resampling, and systematic resampling follows when N̂eff falls below the threshold.
+//!
+//! The equations, numbered for this file (the symbols of [FS2] in brackets; [PR] writes Q for
+//! the measurement noise and R for the motion noise, the other way round):
+//! - (1) x̂ = x ⊕ u, Q = cov(x̂): the motion prediction [ŝ_t, P_t].
+//! - (2) Z = H_m Σ H_mᵀ + R: the measurement's covariance given the pose [Q_t].
+//! - (3) S = H_x Q H_xᵀ + Z: its covariance given the previous pose and the control [L_t].
+//! - (4) Σx ← (H_xᵀ Z⁻¹ H_x + Σx⁻¹)⁻¹: proposal covariance [Σ_{s_t}].
+//! - (5) μ ← μ + Σx H_xᵀ Z⁻¹ (z − ẑ(μ)): proposal mean [μ_{s_t}].
+//! - (6) x ~ N(μ, Σx).
+//! - (7) landmark EKF from the sampled pose: K = Σ H_mᵀ Z⁻¹, μ_m += K ν,
+//!   Σ ← (I − K H_m) Σ (I − K H_m)ᵀ + K R Kᵀ (Joseph form).
+//! - (8) w ← w · N(z; ẑ(x̂), S) per matched observation, P0 per new landmark, 1 per ignored one
+//!   [importance weight N(z_t; ẑ_t, L_t)].
+//!
+//! Choices:
+//! - Several observations per step fold into the proposal one after another, each relinearised
+//!   at the current proposal mean μ (an iterated, sequential update; [PR]'s table linearises at
+//!   x̂ and treats a single measurement). (4)–(5) are computed in their Kalman form
+//!   K = Σx H_xᵀ (H_x Σx H_xᵀ + Z)⁻¹, Σx ← (I − K H_x) Σx (I − K H_x)ᵀ + K Z Kᵀ, μ ← μ + K ν, which
+//!   is the same by the matrix inversion lemma (K = Σx' H_xᵀ Z⁻¹) but needs no Σx⁻¹, so a motion
+//!   model with zero noise in one component works.
+//! - Maximum-likelihood association scores landmark j by N(z; ẑ_j(x̂), S_j), the density (8)
+//!   also weights with ([PR]'s π_j, evaluated at x̂ instead of at a per-landmark sample), against
+//!   P0 and the thesis's ambiguity rules, as FastSLAM 1.0 does.
+//! - The importance factor is the product of the observations' factors (8), each at x̂; it
+//!   ignores that the observations of one step share the pose error (the exact linear-Gaussian
+//!   factor would be the sequential one, evaluated at each intermediate μ).
+//! - The proposal is sampled with a Cholesky factor that accepts zero pivots (a positive
+//!   semi-definite Σx); an indefinite Σx falls back to the motion model's sample and is counted.
+//! - A particle none of whose observations matched a known landmark samples from the motion
+//!   model itself (the proposal is then the prior), exactly as on steps without observations.
+
+use super::fastslam::association::{resolve_shared, Association, Candidates};
+use super::fastslam::models::{FullPrediction, Model};
+use super::fastslam::particle::{Landmark, Map, Particle};
+use super::fastslam::{landmark_map, pose_spread, resample, DataAssociation, FastSlamParams};
+use super::motion::MotionModel;
+use super::observations::{Observation, StepObservations};
+use super::{SlamError, Trace};
+use crate::geom::{wrap_angle, Pose2};
+use crate::world::World;
+use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
+use rand::Rng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+pub const CODE_VERSION: &str = "fastslam2-1";
+
+/// ln(2π), the normalising constant of a bivariate Gaussian's log density.
+const LN_2PI: f64 = 1.837_877_066_409_345_5;
+
+/// A Cholesky pivot of the proposal covariance within this fraction of its largest diagonal
+/// entry counts as zero (a direction without uncertainty). Far above the rounding of a 3 × 3
+/// factorisation (~10 ε), far below any physical pose variance ratio.
+const PIVOT_RELATIVE_TOLERANCE: f64 = 1e-12;
+
+/// How far L Lᵀ may differ from the factored matrix, relative to its largest diagonal entry,
+/// before it counts as indefinite (a zero pivot with a non-zero column below it).
+const FACTOR_RELATIVE_TOLERANCE: f64 = 1e-9;
+
+/// Where the particles' poses are drawn from. Private: FastSLAM 1.0 sampling exists only so
+/// the tests can show what the proposal buys.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Proposal {
+    /// [FS2]: the motion prediction conditioned on the step's associated observations.
+    Observations,
+    /// FastSLAM 1.0: the motion model alone; association and weights at the sampled pose.
+    Motion,
+}
+
+/// One landmark's prediction of an observation under an uncertain pose.
+#[derive(Debug, Clone, Copy)]
+struct Match {
+    /// ẑ, H_x and H_m at the pose the match was evaluated at.
+    full: FullPrediction,
+    /// Z = H_m Σ H_mᵀ + R.
+    z_cov: Matrix2<f64>,
+    /// S = H_x P H_xᵀ + Z for the pose covariance P.
+    s: Matrix2<f64>,
+    /// z − ẑ, angle wrapped.
+    innovation: Vector2<f64>,
+    /// ln N(z; ẑ, S).
+    log_likelihood: f64,
+}
+
+/// ln N(ν; 0, S) with the closed-form 2 × 2 inverse, or `None` if S is not positive definite or
+/// the result is not finite.
+fn log_gaussian(nu: &Vector2<f64>, s: &Matrix2<f64>) -> Option<f64> {
+    let det = s[(0, 0)] * s[(1, 1)] - s[(0, 1)] * s[(1, 0)];
+    if !(det > 0.0 && s[(0, 0)] > 0.0 && det.is_finite()) {
+        return None;
+    }
+    let d2 = (s[(1, 1)] * nu[0] * nu[0] - (s[(0, 1)] + s[(1, 0)]) * nu[0] * nu[1] + s[(0, 0)] * nu[1] * nu[1]) / det;
+    let ll = -0.5 * d2 - LN_2PI - 0.5 * det.ln();
+    ll.is_finite().then_some(ll)
+}
+
+/// Landmark `l` as the source of `o`, seen from `pose` known up to covariance `pose_cov`
+/// (Eqs. 2, 3 and the likelihood of 8). `None` when S is singular.
+fn evaluate(o: &Observation, l: &Landmark, pose: &Pose2, pose_cov: &Matrix3<f64>) -> Option<Match> {
+    let full = o.model.predict_full(&l.mean, pose);
+    let (hx, hm) = (full.h_pose, full.h_landmark);
+    let z_cov = hm * l.cov * hm.transpose() + o.r; // Eq. (2)
+    let s = hx * pose_cov * hx.transpose() + z_cov; // Eq. (3)
+    let innovation = o.model.innovation(&o.z, &full.z);
+    let log_likelihood = log_gaussian(&innovation, &s)?; // Eq. (8)
+    Some(Match { full, z_cov, s, innovation, log_likelihood })
+}
+
+/// Folds one observation of landmark `l` into the pose proposal N(μ, Σx), relinearised at μ:
+/// Eqs. (4)–(5) in Kalman form. Leaves the proposal unchanged and returns `false` when S is
+/// singular or the result is not finite.
+fn refine(mu: &mut Pose2, sigma: &mut Matrix3<f64>, o: &Observation, l: &Landmark) -> bool {
+    let Some(m) = evaluate(o, l, mu, sigma) else { return false };
+    let Some(s_inv) = m.s.try_inverse() else { return false };
+    let hx = m.full.h_pose;
+    let k = *sigma * hx.transpose() * s_inv; // K = Σx H_xᵀ S⁻¹ = Σx' H_xᵀ Z⁻¹
+    let i_kh = Matrix3::identity() - k * hx;
+    let next = i_kh * *sigma * i_kh.transpose() + k * m.z_cov * k.transpose(); // Eq. (4)
+    let next = 0.5 * (next + next.transpose());
+    let step = k * m.innovation; // Eq. (5)
+    if !(next.iter().all(|v| v.is_finite()) && step.iter().all(|v| v.is_finite())) {
+        return false;
+    }
+    *mu = Pose2::new(mu.x + step[0], mu.y + step[1], wrap_angle(mu.theta + step[2]));
+    *sigma = next;
+    true
+}
+
+/// Lower-triangular L with L Lᵀ = A for a symmetric positive semi-definite 3 × 3 A (Cholesky–
+/// Banachiewicz; a pivot within [`PIVOT_RELATIVE_TOLERANCE`] of zero leaves its column zero:
+/// a direction without uncertainty). `None` if A is indefinite or not finite.
+fn psd_cholesky(a: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    if !a.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let scale = a.diagonal().max().max(0.0);
+    let tol = PIVOT_RELATIVE_TOLERANCE * scale;
+    let mut l = Matrix3::zeros();
+    for j in 0..3 {
+        let d = a[(j, j)] - (0..j).map(|k| l[(j, k)] * l[(j, k)]).sum::<f64>();
+        if d < -tol {
+            return None;
+        }
+        if d <= tol {
+            continue; // zero pivot: checked below that nothing was lost
+        }
+        let ljj = d.sqrt();
+        l[(j, j)] = ljj;
+        for i in j + 1..3 {
+            l[(i, j)] = (a[(i, j)] - (0..j).map(|k| l[(i, k)] * l[(j, k)]).sum::<f64>()) / ljj;
+        }
+    }
+    ((l * l.transpose() - a).abs().max() <= FACTOR_RELATIVE_TOLERANCE * scale).then_some(l)
+}
+
+/// EKF correction of landmark `l` from the sampled pose (Eq. 7). Leaves `l` unchanged and
+/// returns `false` when Z is singular or the result is not finite.
+fn correct(l: &mut Landmark, o: &Observation, pose: &Pose2) -> bool {
+    let p = l.predict(o.model, pose);
+    let h = p.h;
+    let z_cov = h * l.cov * h.transpose() + o.r; // Eq. (2)
+    let Some(z_inv) = z_cov.try_inverse() else { return false };
+    let k = l.cov * h.transpose() * z_inv; // Eq. (7)
+    let i_kh = Matrix2::identity() - k * h;
+    let mut mean = l.mean + k * o.model.innovation(&o.z, &p.z);
+    let cov = i_kh * l.cov * i_kh.transpose() + k * o.r * k.transpose(); // Eq. (7), Joseph form
+    let mut cov = 0.5 * (cov + cov.transpose());
+    if !(mean.iter().all(|v| v.is_finite()) && cov.iter().all(|v| v.is_finite())) {
+        return false;
+    }
+    o.model.normalise(&mut mean, &mut cov);
+    l.mean = mean;
+    l.cov = cov;
+    l.refresh();
+    true
+}
+
+/// A new landmark from the inverse model with Σ = H_m⁻¹ R H_m⁻ᵀ ([FT] Table 3.2), or `None`
+/// if H_m is singular there.
+fn initialise(o: &Observation, pose: &Pose2, id: Option<usize>) -> Option<Landmark> {
+    let mean = o.model.inverse(&o.z, pose);
+    let h_inv = o.model.predict(&mean, pose).h.try_inverse()?;
+    let cov = h_inv * o.r * h_inv.transpose();
+    let cov = 0.5 * (cov + cov.transpose());
+    (mean.iter().all(|v| v.is_finite()) && cov.iter().all(|v| v.is_finite())).then(|| Landmark { id, ..Landmark::new(mean, cov) })
+}
+
+/// Each observation's association with its match, against one particle's map.
+type Decisions = Vec<(Association, Option<Match>)>;
+
+/// The filter state.
+struct FastSlam2<'a> {
+    params: &'a FastSlamParams,
+    motion: &'a MotionModel,
+    proposal: Proposal,
+    particles: Vec<Particle>,
+    /// The current normalised weights (uniform after resampling).
+    weights: Vec<f64>,
+    /// Index of the best particle (after the last weighting, followed through resampling).
+    best: usize,
+    ln_p0: f64,
+    numerical_failures: u64,
+    resamples: u64,
+    weighted_steps: u64,
+}
+
+impl<'a> FastSlam2<'a> {
+    fn new(params: &'a FastSlamParams, motion: &'a MotionModel, proposal: Proposal, start: Pose2) -> Self {
+        // `FastSlamParams::validate` rejects 0 particles; one keeps the filter defined anyway.
+        let m = (params.particles as usize).max(1);
+        Self {
+            params,
+            motion,
+            proposal,
+            particles: vec![Particle::new(start); m],
+            weights: vec![1.0 / m as f64; m],
+            best: 0,
+            ln_p0: params.p0.ln(),
+            numerical_failures: 0,
+            resamples: 0,
+            weighted_steps: 0,
+        }
+    }
+
+    /// One step. Returns N̂eff when the step weighted the particles.
+    fn step(&mut self, control: Option<&Pose2>, z: &[Observation], rng: &mut ChaCha8Rng) -> Option<f64> {
+        for i in 0..self.particles.len() {
+            self.advance(i, control, z, rng); // predict, associate, propose, sample, update, weight
+        }
+        (!z.is_empty()).then(|| self.select(rng)) // best particle, resample
+    }
+
+    /// Moves particle `i` and, with observations, associates, updates its map and weights it.
+    fn advance(&mut self, i: usize, control: Option<&Pose2>, z: &[Observation], rng: &mut ChaCha8Rng) {
+        let previous = self.particles[i].pose;
+        let Some(u) = control else {
+            // the start: the pose is known exactly, nothing to sample
+            if !z.is_empty() {
+                let decisions = self.associate(i, &previous, &Matrix3::zeros(), z);
+                self.update(i, previous, z, &decisions);
+            }
+            return;
+        };
+        if z.is_empty() {
+            self.particles[i].pose = self.motion.sample(&previous, u, rng); // no observation: p(x | x₋, u)
+            return;
+        }
+        let pose = match self.proposal {
+            Proposal::Observations => {
+                let predicted = self.motion.predict(&previous, u); // Eq. (1)
+                let q = self.motion.covariance(&previous, u); // Eq. (1)
+                let decisions = self.associate(i, &predicted, &q, z);
+                let pose = self.sample_proposal(i, (&previous, u), (predicted, q), z, &decisions, rng);
+                self.update(i, pose, z, &decisions);
+                pose
+            }
+            Proposal::Motion => {
+                let pose = self.motion.sample(&previous, u, rng);
+                let decisions = self.associate(i, &pose, &Matrix3::zeros(), z);
+                self.update(i, pose, z, &decisions);
+                pose
+            }
+        };
+        self.particles[i].pose = pose;
+    }
+
+    /// Associates every observation against particle `i`'s map (as it was before this step),
+    /// seen from `pose` with covariance `pose_cov`.
+    fn associate(&mut self, i: usize, pose: &Pose2, pose_cov: &Matrix3<f64>, z: &[Observation]) -> Decisions {
+        let (ln_p0, rule) = (self.ln_p0, self.params.ambiguity);
+        let known = self.params.association == DataAssociation::Known;
+        let map = &self.particles[i].map;
+        let mut failures = 0;
+        let mut decisions: Decisions = z
+            .iter()
+            .map(|o| {
+                let landmarks = map.of(o.model);
+                if known {
+                    // the landmark created from this identity, else a new one (`run` checked
+                    // that every observation has an identity)
+                    return match landmarks.iter().position(|l| l.id.is_some() && l.id == o.landmark) {
+                        None => (Association::New, None),
+                        Some(j) => match evaluate(o, &landmarks[j], pose, pose_cov) {
+                            Some(m) => (Association::Known { landmark: j, log_likelihood: m.log_likelihood }, Some(m)),
+                            None => {
+                                failures += 1;
+                                (Association::Ignored, None)
+                            }
+                        },
+                    };
+                }
+                let mut candidates = Candidates::new(ln_p0);
+                for (j, l) in landmarks.iter().enumerate() {
+                    match evaluate(o, l, pose, pose_cov) {
+                        Some(m) => candidates.offer(j, m.log_likelihood, m),
+                        None => failures += 1,
+                    }
+                }
+                candidates.decide(rule)
+            })
+            .collect();
+        // The shared-landmark rule compares observations of the same landmark type
+        // (identities never collide under known association).
+        for model in [Model::Line, Model::Point].into_iter().filter(|_| !known) {
+            let idx: Vec<usize> = (0..z.len()).filter(|&k| z[k].model == model).collect();
+            let mut ds: Vec<Association> = idx.iter().map(|&k| decisions[k].0).collect();
+            resolve_shared(&mut ds, rule);
+            for (&k, d) in idx.iter().zip(ds) {
+                decisions[k].0 = d;
+                if !matches!(d, Association::Known { .. }) {
+                    decisions[k].1 = None;
+                }
+            }
+        }
+        self.numerical_failures += failures;
+        decisions
+    }
+
+    /// Draws particle `i`'s pose from the proposal: the motion prediction (x̂, Q) refined by
+    /// every observation matched to a known landmark (Eqs. 4–6). Always draws three standard
+    /// normals; with nothing matched, or an indefinite Σx (counted), the motion model's sample.
+    fn sample_proposal(&mut self, i: usize, (previous, u): (&Pose2, &Pose2), (predicted, q): (Pose2, Matrix3<f64>), z: &[Observation], decisions: &Decisions, rng: &mut ChaCha8Rng) -> Pose2 {
+        let map = &self.particles[i].map;
+        let (mut mu, mut sigma) = (predicted, q);
+        let mut refined = 0;
+        for (o, (d, _)) in z.iter().zip(decisions) {
+            if let Association::Known { landmark, .. } = *d {
+                if refine(&mut mu, &mut sigma, o, &map.of(o.model)[landmark]) {
+                    refined += 1;
+                } else {
+                    self.numerical_failures += 1;
+                }
+            }
+        }
+        if refined == 0 {
+            return self.motion.sample(previous, u, rng); // the proposal is the motion model
+        }
+        let Some(l) = psd_cholesky(&sigma) else {
+            self.numerical_failures += 1;
+            return self.motion.sample(previous, u, rng);
+        };
+        let n: Vector3<f64> = Vector3::new(rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
+        let d = l * n; // Eq. (6)
+        Pose2::new(mu.x + d[0], mu.y + d[1], wrap_angle(mu.theta + d[2]))
+    }
+
+    /// Updates particle `i`'s landmarks from its sampled `pose` (Eq. 7), adds the new ones, and
+    /// multiplies its weight (Eq. 8).
+    fn update(&mut self, i: usize, pose: Pose2, z: &[Observation], decisions: &Decisions) {
+        let known = self.params.association == DataAssociation::Known;
+        let ln_p0 = self.ln_p0;
+        let mut failures = 0;
+        let mut log_weight = 0.0;
+        let p = &mut self.particles[i];
+        if decisions.iter().any(|(d, _)| !matches!(d, Association::Ignored)) {
+            let map: &mut Map = p.map_mut(); // copied here only if shared
+            for (o, (d, _)) in z.iter().zip(decisions) {
+                match *d {
+                    Association::Known { landmark, log_likelihood } => {
+                        log_weight += log_likelihood; // Eq. (8), at the motion prediction
+                        if !correct(&mut map.of_mut(o.model)[landmark], o, &pose) {
+                            failures += 1;
+                        }
+                    }
+                    Association::New => {
+                        let id = if known { o.landmark } else { None };
+                        if id.is_some() && map.of(o.model).iter().any(|l| l.id == id) {
+                            continue; // an identity seen twice in one step: its first sighting made it
+                        }
+                        match initialise(o, &pose, id) {
+                            Some(l) => {
+                                map.of_mut(o.model).push(l);
+                                log_weight += ln_p0; // Eq. (8)
+                            }
+                            None => failures += 1,
+                        }
+                    }
+                    Association::Ignored => {} // weight factor 1
+                }
+            }
+        }
+        p.log_weight += log_weight;
+        self.numerical_failures += failures;
+    }
+
+    /// After weighting: the best particle, N̂eff, and resampling below the threshold.
+    fn select(&mut self, rng: &mut ChaCha8Rng) -> f64 {
+        self.weighted_steps += 1;
+        let weights = self.normalised_weights();
+        self.best = argmax(&weights); // before resampling
+        let neff = resample::effective_sample_size(&weights);
+        if neff < self.params.neff_threshold {
+            self.resample(&weights, rng);
+        } else {
+            self.weights = weights;
+        }
+        neff
+    }
+
+    /// Normalised weights from the log weights (max-shifted). All weights zero (or a weight not
+    /// a number) is a numerical failure: counted, and the weights made uniform.
+    fn normalised_weights(&mut self) -> Vec<f64> {
+        let m = self.particles.len();
+        let max = self.particles.iter().map(|p| p.log_weight).fold(f64::NEG_INFINITY, f64::max);
+        if !max.is_finite() || self.particles.iter().any(|p| p.log_weight.is_nan()) {
+            self.numerical_failures += 1;
+            for p in &mut self.particles {
+                p.log_weight = 0.0;
+            }
+            return vec![1.0 / m as f64; m];
+        }
+        for p in &mut self.particles {
+            p.log_weight -= max; // keeps the logs bounded; ratios unchanged
+        }
+        let w: Vec<f64> = self.particles.iter().map(|p| p.log_weight.exp()).collect();
+        let sum: f64 = w.iter().sum();
+        w.into_iter().map(|x| x / sum).collect()
+    }
+
+    /// Systematic resampling; the maps are shared, not copied.
+    fn resample(&mut self, weights: &[f64], rng: &mut ChaCha8Rng) {
+        let ancestors = resample::low_variance(weights, rng);
+        // Follow the best particle: systematic resampling keeps ≥ 1 copy of any w ≥ 1/M.
+        self.best = ancestors.iter().position(|&a| a == self.best).unwrap_or(0);
+        self.particles = ancestors.iter().map(|&a| Particle { log_weight: 0.0, ..self.particles[a].clone() }).collect();
+        self.weights = vec![1.0 / ancestors.len() as f64; ancestors.len()];
+        self.resamples += 1;
+    }
+
+    fn best(&self) -> &Particle {
+        &self.particles[self.best]
+    }
+
+    /// The weighted spread of the particle poses around their weighted mean.
+    fn pose_covariance(&self) -> Matrix3<f64> {
+        let poses: Vec<Pose2> = self.particles.iter().map(|p| p.pose).collect();
+        pose_spread(&poses, Some(&self.weights))
+    }
+}
+
+fn argmax(w: &[f64]) -> usize {
+    w.iter().enumerate().fold(0, |best, (i, &x)| if x > w[best] { i } else { best })
+}
+
+/// Runs FastSLAM 2.0 over a world's odometry and an observation stream (in step order).
+/// `points_as_corners`: point landmarks are laser corners (else the map's point landmarks, with
+/// their identities under known association).
+pub fn run(world: &World, params: &FastSlamParams, motion: &MotionModel, observations: &[StepObservations], points_as_corners: bool, rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+    run_with(world, params, motion, observations, points_as_corners, Proposal::Observations, rng)
+}
+
+fn run_with(world: &World, params: &FastSlamParams, motion: &MotionModel, observations: &[StepObservations], points_as_corners: bool, proposal: Proposal, rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+    if params.association == DataAssociation::Known && observations.iter().flat_map(|s| &s.observations).any(|o| o.landmark.is_none()) {
+        return Err(SlamError::NoIdentities);
+    }
+    let Some(&start) = world.truth.first() else { return Ok(Trace::default()) };
+    let mut filter = FastSlam2::new(params, motion, proposal, start);
+    let steps = world.odometry.len();
+    let mut estimate = Vec::with_capacity(steps + 1);
+    let mut neff = Vec::with_capacity(steps + 1);
+    let mut pose_cov = Vec::with_capacity(steps + 1);
+    let mut next = observations.iter().peekable();
+    let mut z: Vec<Observation> = Vec::new();
+    for k in 0..=steps {
+        let control = k.checked_sub(1).map(|j| &world.odometry[j]);
+        z.clear();
+        while let Some(s) = next.next_if(|s| s.step <= k) {
+            if s.step == k {
+                z.extend_from_slice(&s.observations);
+            }
+        }
+        neff.push(filter.step(control, &z, rng));
+        estimate.push(filter.best().pose);
+        pose_cov.push(Some(filter.pose_covariance()));
+    }
+    Ok(Trace {
+        estimate,
+        numerical_failures: filter.numerical_failures,
+        map: Some(landmark_map(&filter.best().map, points_as_corners)),
+        neff,
+        resamples: filter.resamples,
+        weighted_steps: filter.weighted_steps,
+        pose_cov,
+    })
+}
+
+#[cfg(test)]
+mod tests;
