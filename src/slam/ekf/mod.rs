@@ -457,3 +457,6 @@ pub fn run(world: &World, motion: &MotionModel, params: &EkfParams, observations
         pose_cov,
     })
 }
+
+#[cfg(test)]
+mod tests;
