@@ -312,6 +312,9 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
         OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => {
             format!("Odometry: additive per-step pose noise diag(σx², σy², σθ²) = diag({var_x_m2}, {var_y_m2}, {var_theta_rad2}) in the world frame ([FT] Eq. 7.18).")
         }
+        OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => format!(
+            "Odometry: v and ω perturbed by N(0, (k·|·|)²) with k = {k} (σ), plus [EV]'s systematic errors: {heading_bias_deg_per_m}°/m of heading drift missed while driving and {turn_slip_m_per_rad} m of phantom forward motion per radian turned (wheel slip)."
+        ),
     });
     let kinds = world_kinds(&study.maps);
     let sensors: Vec<_> = study.spec().algorithms.iter().flat_map(|a| kinds.iter().map(|&k| a.sensors(k))).collect();

@@ -46,6 +46,18 @@ pub enum OdometryNoise {
         /// σθ² [rad²] per step.
         var_theta_rad2: f64,
     },
+    /// Proportional noise (σ = k·|v|, k·|ω|) plus the systematic errors [EV] §4.1 measured on its
+    /// robot: a heading drift while driving (the odometry misses `heading_bias_deg_per_m` of
+    /// rotation per metre driven: ω̃ = ω − b·v) and wheel slip in turns (phantom forward motion
+    /// of `turn_slip_m_per_rad` per radian turned: ṽ = v + s·|ω|).
+    Systematic {
+        /// k: random noise scale, read as a standard deviation.
+        k: f64,
+        /// b [deg/m]: rotation the odometry misses per metre driven ([EV]: ≈ 6°/m uncorrected).
+        heading_bias_deg_per_m: f64,
+        /// s [m/rad]: phantom translation per radian turned ([EV] Exp. 2: ≈ 10 cm per 90° turn).
+        turn_slip_m_per_rad: f64,
+    },
 }
 
 impl Default for OdometryNoise {
@@ -65,6 +77,11 @@ impl OdometryNoise {
                 c.non_negative("var_x_m2", var_x_m2);
                 c.non_negative("var_y_m2", var_y_m2);
                 c.non_negative("var_theta_rad2", var_theta_rad2);
+            }
+            OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => {
+                c.non_negative("k", k);
+                c.finite("heading_bias_deg_per_m", heading_bias_deg_per_m);
+                c.non_negative("turn_slip_m_per_rad", turn_slip_m_per_rad);
             }
         }
         c.finish()
@@ -90,6 +107,16 @@ impl OdometryNoise {
                     })
                     .collect()
             }
+            OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => controls
+                .iter()
+                .map(|&(v, w)| {
+                    let zv: f64 = rng.sample(StandardNormal);
+                    let zw: f64 = rng.sample(StandardNormal);
+                    let v_meas = v + turn_slip_m_per_rad * w.abs() + k * v.abs() * zv;
+                    let w_meas = w - heading_bias_deg_per_m.to_radians() * v + k * w.abs() * zw;
+                    unicycle_increment(v_meas, w_meas, dt_s)
+                })
+                .collect(),
             OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => {
                 let (sx, sy, st) = (var_x_m2.sqrt(), var_y_m2.sqrt(), var_theta_rad2.sqrt());
                 let mut odom = start;
@@ -187,5 +214,21 @@ mod tests {
             let eb = db.x / 0.1 - 0.4;
             assert!((eb - 4.0 * ea).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn systematic_errors_bias_heading_and_add_phantom_motion() {
+        // 1 m straight at 1 m/s, then a quarter turn in place, noise-free apart from the biases
+        let noise = OdometryNoise::Systematic { k: 0.0, heading_bias_deg_per_m: 6.0, turn_slip_m_per_rad: 0.1 / std::f64::consts::FRAC_PI_2 };
+        let mut controls = vec![(1.0, 0.0); 10];
+        controls.extend(vec![(0.0, std::f64::consts::FRAC_PI_2); 10]);
+        let inc = noise.measure(Pose2::IDENTITY, &controls, 0.1, &mut rng());
+        let end_straight = inc[..10].iter().fold(Pose2::IDENTITY, |p, d| p.compose(*d));
+        assert!((end_straight.theta.to_degrees() + 6.0).abs() < 1e-9, "6° missed over 1 m");
+        let turn = inc[10..].iter().fold(Pose2::IDENTITY, |p, d| p.compose(*d));
+        let moved = turn.x.hypot(turn.y);
+        // 10 cm of phantom travel along the quarter arc: chord = 2·r·sin(π/4), r = 0.1/(π/2)
+        let r = 0.1 / std::f64::consts::FRAC_PI_2;
+        assert!((moved - 2.0 * r * std::f64::consts::FRAC_PI_4.sin()).abs() < 1e-9, "{moved}");
     }
 }

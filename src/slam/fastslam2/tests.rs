@@ -325,7 +325,7 @@ fn the_proposal_factor_accepts_semidefinite_and_rejects_indefinite_matrices() {
 /// One particle with one known point landmark (identity 0), about to move by `u`.
 fn one_particle<'a>(p: &'a FastSlamParams, motion: &'a MotionModel) -> (FastSlam2<'a>, Landmark) {
     let mut f = FastSlam2::new(p, motion, Proposal::Observations, Pose2::new(0.2, -0.1, 0.4));
-    let l = Landmark { id: Some(0), ..Landmark::new(Vector2::new(3.0, 2.5), Matrix2::new(4e-3, 1e-3, 1e-3, 2e-3)) };
+    let l = Landmark { id: Some(0), ..Landmark::new(Vector2::new(3.0, 2.5), Matrix2::new(4e-4, 1e-4, 1e-4, 2e-4)) };
     f.particles[0].map_mut().corners.push(l);
     (f, l)
 }
@@ -394,5 +394,6 @@ fn poses_are_drawn_from_the_proposal() {
     let sd = sigma.diagonal().map(f64::sqrt);
     assert!((0..3).all(|i| mean[i].abs() < 0.03 * sd[i]), "mean offset {mean} vs σ {sd}");
     assert!((cov - sigma).abs().max() < 0.05 * sigma.abs().max(), "sample covariance\n{cov}\nproposal\n{sigma}");
-    assert!(sigma.trace() < 0.5 * motion.covariance(&previous, &u).trace(), "the observation matters here");
+    // Σx differs from Q far beyond the 5 % tolerance: sampling from Q would fail
+    assert!(sigma.trace() < 0.75 * motion.covariance(&previous, &u).trace(), "the observation matters here");
 }
