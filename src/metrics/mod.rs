@@ -88,7 +88,12 @@ pub type RunMetrics = Vec<(&'static str, f64)>;
 
 /// Computes every metric that applies to this run.
 pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
-    let mut out = trajectory_metrics(&world.truth, &trace.estimate);
+    let mut out = if positions_only(&world.truth) {
+        // GPS-like truth: positions in its own frame, no heading. Align the estimate to it first.
+        trajectory_metrics(&world.truth, &align_to(&world.truth, &trace.estimate))
+    } else {
+        trajectory_metrics(&world.truth, &trace.estimate)
+    };
     out.push(("numerical_failures", trace.numerical_failures as f64));
     if let Some(map) = &trace.map {
         if world.truth_points.is_empty() && map.points.is_empty() {
@@ -132,6 +137,47 @@ pub fn landmark_metrics(map: &LandmarkMap, true_lines: &[Line], true_corners: &[
         ("landmark_precision", precision),
         ("landmark_recall", recall),
     ]
+}
+
+/// Truth that has positions but no heading after the start pose (GPS fixes): it lives in its
+/// own frame. (`truth[0]` is the start pose every algorithm is given, not a fix.)
+pub fn positions_only(truth: &[Pose2]) -> bool {
+    let fixes = truth.get(1..).unwrap_or(&[]);
+    fixes.iter().any(|t| t.x.is_finite() && t.y.is_finite()) && fixes.iter().all(|t| !t.theta.is_finite())
+}
+
+/// The estimate moved by the rigid 2-D transform (rotation + translation, no scale) that best
+/// fits its positions to the truth's known positions in the least-squares sense (Umeyama 1991
+/// without scale; evo's `--align`). Headings are rotated with it.
+pub fn align_to(truth: &[Pose2], estimate: &[Pose2]) -> Vec<Pose2> {
+    // the fixes only (position without heading): not the given start pose
+    let pairs: Vec<(Point2, Point2)> =
+        truth.iter().zip(estimate).filter(|(t, e)| t.x.is_finite() && t.y.is_finite() && !t.theta.is_finite() && e.is_finite()).map(|(t, e)| (t.position(), e.position())).collect();
+    if pairs.len() < 2 {
+        return estimate.to_vec();
+    }
+    let n = pairs.len() as f64;
+    let (mut mt, mut me) = (Point2::new(0.0, 0.0), Point2::new(0.0, 0.0));
+    for (t, e) in &pairs {
+        mt = Point2::new(mt.x + t.x / n, mt.y + t.y / n);
+        me = Point2::new(me.x + e.x / n, me.y + e.y / n);
+    }
+    // rotation angle maximising Σ tᵢ·R eᵢ (centred): atan2(Σ e×t, Σ e·t)
+    let (mut dot, mut cross) = (0.0, 0.0);
+    for (t, e) in &pairs {
+        let (tx, ty, ex, ey) = (t.x - mt.x, t.y - mt.y, e.x - me.x, e.y - me.y);
+        dot += ex * tx + ey * ty;
+        cross += ex * ty - ey * tx;
+    }
+    let phi = cross.atan2(dot);
+    let (s, c) = phi.sin_cos();
+    estimate
+        .iter()
+        .map(|e| {
+            let (dx, dy) = (e.x - me.x, e.y - me.y);
+            Pose2::new(mt.x + c * dx - s * dy, mt.y + s * dx + c * dy, wrap_angle(e.theta + phi))
+        })
+        .collect()
 }
 
 /// Landmark metrics of a point-landmark map: the [FT] error (mean distance to the nearest true
@@ -330,5 +376,21 @@ mod tests {
         let m = trajectory_metrics(&truth, &est);
         assert!((get(&m, ATE_RMSE) - 0.5f64.sqrt()).abs() < 1e-12);
         assert_eq!(get(&m, "final_position_error_m"), 1.0);
+    }
+
+    #[test]
+    fn alignment_recovers_a_rigid_transform() {
+        let est: Vec<Pose2> = (0..20).map(|i| Pose2::new(i as f64 * 0.5, (i as f64 * 0.3).sin(), 0.1)).collect();
+        let (phi, tx, ty) = (0.7f64, 3.0, -2.0);
+        let truth: Vec<Pose2> = est
+            .iter()
+            .enumerate()
+            .map(|(i, e)| if i % 3 == 0 { Pose2::new(e.x * phi.cos() - e.y * phi.sin() + tx, e.x * phi.sin() + e.y * phi.cos() + ty, f64::NAN) } else { Pose2::new(f64::NAN, f64::NAN, f64::NAN) })
+            .collect();
+        assert!(positions_only(&truth));
+        let aligned = align_to(&truth, &est);
+        let m = trajectory_metrics(&truth, &aligned);
+        assert!(get(&m, ATE_RMSE) < 1e-9, "{}", get(&m, ATE_RMSE));
+        assert!((aligned[0].theta - 0.8).abs() < 1e-9);
     }
 }
