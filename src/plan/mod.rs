@@ -434,7 +434,14 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
     let mut runs = Vec::new();
     for (mi, map) in maps.iter().enumerate() {
         for &algorithm in &s.algorithms {
-            let code_version = format!("{SCHEMA_VERSION}+{WORLD_CODE_VERSION}+{METRICS_VERSION}+{}", algorithm.code_version());
+            // The world's parts this run reads: the point sensor's and the dataset loaders'
+            // versions enter only the hashes of the runs that use them.
+            let mut code_version = format!("{SCHEMA_VERSION}+{WORLD_CODE_VERSION}+{METRICS_VERSION}+{}", algorithm.code_version());
+            if map.map.dataset.is_some() {
+                code_version.push_str(&format!("+{}", crate::dataset::DATASET_CODE_VERSION));
+            } else if algorithm.sensors(map.map.world_kind()).landmarks {
+                code_version.push_str(&format!("+{}", crate::world::point_sensor::POINT_SENSOR_CODE_VERSION));
+            }
             for (pi, point) in points.iter().enumerate() {
                 let sections = point.params.sections_read_by(algorithm, map.map.world_kind());
                 for replicate in 0..s.replicates {

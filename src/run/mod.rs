@@ -355,6 +355,12 @@ fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -
     for a in &plan.spec.spec.algorithms {
         code_versions.insert(a.name().to_string(), a.code_version().to_string());
     }
+    if plan.maps.iter().any(|m| m.map.dataset.is_some()) {
+        code_versions.insert("datasets".to_string(), crate::dataset::DATASET_CODE_VERSION.to_string());
+    }
+    if plan.maps.iter().any(|m| m.map.dataset.is_none() && m.map.world_kind() == WorldKind::Points) {
+        code_versions.insert("point sensor".to_string(), crate::world::point_sensor::POINT_SENSOR_CODE_VERSION.to_string());
+    }
     Manifest {
         study: plan.id().to_string(),
         schema_version: SCHEMA_VERSION.to_string(),

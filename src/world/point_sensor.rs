@@ -11,6 +11,10 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
+/// Bump when the point-landmark sensor's output changes for the same inputs. It is part of the
+/// content hash of the runs that read this sensor only (laser runs are unaffected).
+pub const POINT_SENSOR_CODE_VERSION: &str = "points-2";
+
 /// `[base.landmark_sensor]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]

@@ -10,12 +10,12 @@ use slamlab::slam::{odometry, AlgorithmKind};
 use slamlab::world::laser::LaserParams;
 use slamlab::world::map::Map;
 use slamlab::world::odometry::{OdometryNoise, Spread};
-use slamlab::world::point_sensor::PointSensorParams;
+use slamlab::world::point_sensor::{PointSensorParams, POINT_SENSOR_CODE_VERSION};
 use slamlab::world::{generate, RangeNoise, SimParams, WorldSpec, WORLD_CODE_VERSION};
 
 /// The code versions the fingerprint below was taken with.
-const VERSIONS: &str = "world-2+metrics-1+odometry-1";
-const FINGERPRINT: &str = "d0bf5e3bf8b07abc2d926066b979e5eb0297d78bf5c6e1f587ad54710bf6899d";
+const VERSIONS: &str = "world-2+points-2+metrics-1+odometry-1";
+const FINGERPRINT: &str = "f45d49de7bf97eef6b5da1df753a377776448928c2126695929460662a5c221c";
 
 fn fingerprint() -> String {
     let text = std::fs::read_to_string(repo().join("data/maps/bigloop2.toml")).unwrap();
@@ -28,12 +28,14 @@ fn fingerprint() -> String {
         OdometryNoise::Proportional { k: 0.1, k_is: Spread::Std },
         OdometryNoise::Proportional { k: 0.1, k_is: Spread::Variance },
         OdometryNoise::Pose { var_x_m2: 1e-4, var_y_m2: 2e-4, var_theta_rad2: 1e-5 },
+        OdometryNoise::Systematic { k: 0.05, heading_bias_deg_per_m: 0.6, turn_slip_m_per_rad: 0.06 },
     ];
     for (i, noise) in models.iter().enumerate() {
         let sim = SimParams::default();
-        let range_noise = if i % 2 == 0 { RangeNoise::Constant } else { RangeNoise::Proportional };
+        let range_noise = [RangeNoise::Constant, RangeNoise::Proportional, RangeNoise::Quadratic][i % 3];
         let laser = LaserParams { range_noise, ..LaserParams::default() };
-        let sensor = PointSensorParams { range_noise, ..PointSensorParams::default() };
+        // occlusion by the walls, a minimum range and a per-reading limit
+        let sensor = PointSensorParams { range_noise, min_range_m: 0.5, max_observations: 1, ..PointSensorParams::default() };
         let world = generate(&WorldSpec { map: &map, sim: &sim, odometry: noise, laser: Some(&laser), landmark_sensor: Some(&sensor) }, 42).unwrap();
         hash_run(&mut h, &world);
     }
@@ -69,7 +71,7 @@ fn hash_run(h: &mut blake3::Hasher, world: &slamlab::world::World) {
 
 #[test]
 fn outputs_change_only_with_a_code_version_bump() {
-    let versions = format!("{WORLD_CODE_VERSION}+{METRICS_VERSION}+{}", AlgorithmKind::Odometry.code_version());
+    let versions = format!("{WORLD_CODE_VERSION}+{POINT_SENSOR_CODE_VERSION}+{METRICS_VERSION}+{}", AlgorithmKind::Odometry.code_version());
     let now = fingerprint();
     assert_eq!(
         versions, VERSIONS,
