@@ -14,10 +14,11 @@
 //!   re-observation ("the covariance matrix is not altered"), kept as the faithful option
 //!   [`CovarianceUpdate::NoneOnReobservation`].
 //!
-//! Each step reads like [PR] Table 10.2: predict with the odometry increment, associate every
-//! observation of the step against the map as it was before the step, update sequentially with
-//! the matched ones (Joseph form, O(n²) per observation: H has only pose and one landmark's
-//! columns), then augment the state with the new ones.
+//! Each step follows [EV]'s steps 0–3 in [PR]'s and [TB]'s order: predict with the odometry
+//! increment, associate every observation of the step against the predicted map as it was before
+//! the step (gated on the innovation, where [EV] compares global positions with a 3 cm box),
+//! update sequentially with the matched ones (Joseph form, O(n²) per observation: H has only the
+//! pose's and one landmark's columns), then augment the state with the new ones.
 //!
 //! Known limitations (as in [TB]): two observations of one step may match the same landmark and
 //! both update it; two observations of one unseen landmark create two landmarks.
@@ -82,7 +83,9 @@ impl EkfParams {
         let mut c = Checks::new();
         c.non_negative("gate_reject", self.gate_reject);
         c.non_negative("gate_create", self.gate_create);
-        c.require(!(self.gate_create < self.gate_reject), "gate_create", || format!("must be ≥ gate_reject ({}), got {}", self.gate_reject, self.gate_create));
+        if self.gate_reject.is_finite() && self.gate_create.is_finite() {
+            c.require(self.gate_create >= self.gate_reject, "gate_create", || format!("must be ≥ gate_reject ({}), got {}", self.gate_reject, self.gate_create));
+        }
         c.non_negative("initial_pose_sigma_m", self.initial_pose_sigma_m);
         c.non_negative("initial_pose_sigma_rad", self.initial_pose_sigma_rad);
         c.finish()
@@ -164,12 +167,12 @@ impl<'a> Ekf<'a> {
         }
     }
 
-    /// One filter step ([PR] Table 10.2): predict → associate → update → augment.
+    /// One filter step: predict → associate → update → augment.
     pub fn step(&mut self, control: Option<&Pose2>, observations: &[Observation]) {
         if let Some(u) = control {
             self.predict(u); // [EV] step 1: odometry
         }
-        let decisions: Vec<Association> = observations.iter().map(|o| self.associate(o)).collect(); // [EV] step 0: association
+        let decisions: Vec<Association> = observations.iter().map(|o| self.associate(o)).collect(); // [EV] step 0, after the prediction
         let mut updated = false;
         for (o, d) in observations.iter().zip(&decisions) {
             if let Association::Update(j) = *d {

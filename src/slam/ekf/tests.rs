@@ -180,10 +180,14 @@ const SIGMA_RANGE_M: f64 = 0.05;
 const SIGMA_BEARING_RAD: f64 = 0.02;
 /// Monte-Carlo runs of the NEES test.
 const NEES_RUNS: usize = 30;
-/// Steps of each NEES run: 1.5 laps, so the second half-lap re-observes the first landmarks
-/// (loop closure). EKF-SLAM drifts into over-confidence over long runs (heading linearisation,
-/// Bailey et al. 2006); the claim is made for this length only.
-const NEES_STEPS: usize = LAP_STEPS + LAP_STEPS / 2;
+/// Steps of each NEES run: 4 laps, re-observing every landmark (loop closures). Long enough that
+/// the per-step means are many nearly independent stretches (over 1.5 laps the fraction inside
+/// varied from 89 % to 98 % between seed sets). With this noise the filter stays consistent
+/// over the 4 laps (4 disjoint seed sets: 95–99 % of steps inside, time averages 2.7–3.1);
+/// with 8× the heading noise EKF-SLAM's known over-confidence from heading linearisation
+/// (Bailey et al. 2006) shows (one seed set: time-averaged NEES 14), so the claim is made for
+/// this noise level only.
+const NEES_STEPS: usize = 4 * LAP_STEPS;
 
 /// Per-step pose NEES of `filter_motion` on worlds whose truth follows `world_motion` exactly
 /// (x' = x ⊕ u + ε, ε ~ N(0, Q)) and whose readings have noise R. Returns NEES[run][step]
@@ -237,7 +241,6 @@ fn pose_noise(scale: f64) -> MotionModel {
 fn pose_nees_is_consistent_when_the_noise_is_modelled_exactly() {
     let (lo, hi) = nees_bounds();
     let (inside, average) = nees_summary(&nees_runs(&pose_noise(1.0), &pose_noise(1.0)));
-    eprintln!("DBG consistent inside {inside} average {average} bounds {lo} {hi}");
     assert!(inside >= 0.9, "only {:.0} % of steps have their mean NEES in [{lo:.2}, {hi:.2}]", 100.0 * inside);
     // the time average of correlated per-step means: held to the same per-step bounds
     assert!((lo..=hi).contains(&average), "time-averaged NEES {average:.2} outside [{lo:.2}, {hi:.2}]");
@@ -248,8 +251,6 @@ fn the_nees_check_catches_a_filter_that_understates_its_motion_noise() {
     // same worlds, filter told σ/3: the check above must fail, or it could not fail at all
     let (_, hi) = nees_bounds();
     let (inside, average) = nees_summary(&nees_runs(&pose_noise(1.0), &pose_noise(1.0 / 3.0)));
-    eprintln!("DBG over inside {inside} average {average}");
-    for s in [0.5, 0.7, 0.8, 1.25, 1.5, 2.0] { let (i, a) = nees_summary(&nees_runs(&pose_noise(1.0), &pose_noise(s))); eprintln!("DBG scale {s} inside {i} average {a}"); }
     assert!(inside < 0.5 && average > hi, "{:.0} % inside, average {average:.2}", 100.0 * inside);
 }
 
@@ -269,14 +270,67 @@ fn covariance_stays_symmetric_psd_through_a_noisy_run() {
             truth = motion.sample(&truth, &u, &mut rng);
         }
         let z = point_readings(&[truth], &points, &r, Some(&mut rng)).remove(0).observations;
-        ekf.step((k > 0).then_some(&u), &z);
-        let cov = ekf.covariance();
-        assert!((cov - cov.transpose()).abs().max() == 0.0, "step {k}: P not symmetric");
-        min_eigenvalue = min_eigenvalue.min(cov.clone().symmetric_eigenvalues().min());
-        assert!(min_eigenvalue >= -1e-9, "step {k}: eigenvalue {min_eigenvalue}");
+        // prediction and correction checked apart (the update's symmetrisation would hide a
+        // prediction that forgets P_mr)
+        for (phase, control, readings) in [("predict", (k > 0).then_some(&u), &[][..]), ("update", None, &z[..])] {
+            ekf.step(control, readings);
+            let cov = ekf.covariance();
+            assert!((cov - cov.transpose()).abs().max() == 0.0, "step {k} {phase}: P not symmetric");
+            min_eigenvalue = min_eigenvalue.min(cov.clone().symmetric_eigenvalues().min());
+            assert!(min_eigenvalue >= -1e-9, "step {k} {phase}: eigenvalue {min_eigenvalue}");
+        }
     }
     assert!(ekf.landmarks().len() >= 30, "only {} landmarks were added", ekf.landmarks().len());
     assert_eq!(ekf.numerical_failures, 0);
+}
+
+#[test]
+fn sparse_prediction_and_update_equal_the_dense_textbook_equations() {
+    // a filter with correlated point and line landmarks, then one prediction and one update
+    // done both ways: F = diag(F_r, I), P = F P Fᵀ + diag(Q, 0); full 2 × n H, Joseph form
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let (p, motion) = (params(EkfAssociation::Known), pose_noise(1.0));
+    let r = r_matrix(SIGMA_RANGE_M, SIGMA_BEARING_RAD);
+    let (u, truth) = (circle_increment(), Pose2::new(0.5, -0.2, 0.4));
+    let marks: Vec<(Model, Vector2<f64>)> = vec![(Model::Point, Vector2::new(2.0, 1.0)), (Model::Line, Vector2::new(3.0, 0.2)), (Model::Point, Vector2::new(-1.0, 2.5)), (Model::Line, Vector2::new(4.0, 1.9))];
+    let read = |pose: &Pose2, rng: &mut ChaCha8Rng| -> Vec<Observation> { marks.iter().enumerate().map(|(id, (model, m))| measure(*model, m, pose, &r, id, Some(&mut *rng))).collect() };
+    let mut ekf = Ekf::new(&p, &motion, truth);
+    let z0 = read(&truth, &mut rng);
+    ekf.step(None, &z0);
+    ekf.step(Some(&u), &[]);
+    let z1 = read(&truth.compose(u), &mut rng);
+    ekf.step(None, &z1[..2]); // correlate everything
+    let (x, cov) = (ekf.mean().clone(), ekf.covariance().clone());
+    let n = x.len();
+
+    ekf.step(Some(&u), &[]);
+    let pose = Pose2::new(x[0], x[1], x[2]);
+    let mut f = DMatrix::<f64>::identity(n, n);
+    f.view_mut((0, 0), (3, 3)).copy_from(&motion.jacobian(&pose, &u));
+    let mut q = DMatrix::<f64>::zeros(n, n);
+    q.view_mut((0, 0), (3, 3)).copy_from(&motion.covariance(&pose, &u));
+    let predicted = &f * &cov * f.transpose() + q;
+    assert!((ekf.covariance() - &predicted).abs().max() < 1e-12, "prediction");
+
+    let z2 = read(&truth.compose(u).compose(u), &mut rng);
+    for (j, o) in z2.iter().enumerate() {
+        let (x, cov) = (ekf.mean().clone(), ekf.covariance().clone());
+        let pose = Pose2::new(x[0], x[1], x[2]);
+        let i = ekf.landmarks()[j].index;
+        let pred = o.model.predict_full(&Vector2::new(x[i], x[i + 1]), &pose);
+        let mut h = DMatrix::<f64>::zeros(2, n);
+        h.view_mut((0, 0), (2, 3)).copy_from(&pred.h_pose);
+        h.view_mut((0, i), (2, 2)).copy_from(&pred.h_landmark);
+        let s = &h * &cov * h.transpose() + o.r;
+        let k = &cov * h.transpose() * s.try_inverse().unwrap();
+        let mut x_dense = &x + &k * o.model.innovation(&o.z, &pred.z);
+        x_dense[2] = wrap_angle(x_dense[2]);
+        let i_kh = DMatrix::<f64>::identity(n, n) - &k * &h;
+        let p_dense = &i_kh * &cov * i_kh.transpose() + &k * o.r * k.transpose();
+        ekf.step(None, std::slice::from_ref(o));
+        assert!((ekf.mean() - x_dense).abs().max() < 1e-12, "update {j}: mean");
+        assert!((ekf.covariance() - p_dense).abs().max() < 1e-12, "update {j}: covariance");
+    }
 }
 
 /// A filter at the origin (known pose, P_rr = 0) with one point landmark 5 m ahead, seen once

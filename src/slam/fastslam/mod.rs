@@ -331,7 +331,8 @@ impl<'a> FastSlam1<'a> {
                     }
                     (Association::New, _) => match initialise(m, &pose, &m.r) {
                         Some(l) => {
-                            map.of_mut(m.model).push(l);
+                            // identities are kept only when the filter uses them
+                            map.of_mut(m.model).push(Landmark { id: if known { l.id } else { None }, ..l });
                             log_weight += ln_p0;
                         }
                         None => failures += 1,

@@ -43,6 +43,18 @@
 //!   semi-definite Σx); an indefinite Σx falls back to the motion model's sample and is counted.
 //! - A particle none of whose observations matched a known landmark samples from the motion
 //!   model itself (the proposal is then the prior), exactly as on steps without observations.
+//! - Maximum-likelihood association first skips landmarks whose likelihood bound from one
+//!   component (range or line angle) cannot beat P0 — exact, it changes no decision.
+//! - Known association, as in FastSLAM 1.0: an observation without an identity is an error
+//!   ([`SlamError::NoIdentities`]); an identity seen twice in one step is created by its first
+//!   sighting and the second is ignored. Landmarks keep their identity only under known
+//!   association (what [`super::LandmarkMap::point_ids`] promises).
+//! - A matched observation's importance factor counts even if its landmark's EKF update then
+//!   fails (counted): the factor is the predictive density, which does not depend on it.
+//!
+//! Private and for the tests only, the same code can sample from the motion model instead
+//! (FastSLAM 1.0: association and weights N(z; ẑ(x), Z) at the sampled pose), to show what the
+//! proposal buys.
 
 use super::fastslam::association::{resolve_shared, Association, Candidates};
 use super::fastslam::models::{FullPrediction, Model};
@@ -57,6 +69,7 @@ use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use std::f64::consts::PI;
 
 pub const CODE_VERSION: &str = "fastslam2-1";
 
@@ -79,6 +92,7 @@ enum Proposal {
     /// [FS2]: the motion prediction conditioned on the step's associated observations.
     Observations,
     /// FastSLAM 1.0: the motion model alone; association and weights at the sampled pose.
+    #[cfg_attr(not(test), allow(dead_code))] // only the tests compare against it
     Motion,
 }
 
@@ -119,6 +133,35 @@ fn evaluate(o: &Observation, l: &Landmark, pose: &Pose2, pose_cov: &Matrix3<f64>
     let innovation = o.model.innovation(&o.z, &full.z);
     let log_likelihood = log_gaussian(&innovation, &s)?; // Eq. (8)
     Some(Match { full, z_cov, s, innovation, log_likelihood })
+}
+
+/// An upper bound on ln N(z; ẑ, S) from one component, without the trigonometry and matrix
+/// products of [`evaluate`]: points from the range (row (−u, 0) of H_x and u of H_m, u the unit
+/// vector to the landmark), lines from the angle (rows (0, 0, −1) and (0, 1), flipped or not).
+/// The marginal Mahalanobis distance bounds the joint one from below, and det S ≥ det R since
+/// S − R ⪰ 0. A landmark whose bound is at most ln P0 can never be chosen nor count as a
+/// plausible candidate: skipping it changes no decision. +∞ (no skipping) when R is singular.
+fn log_likelihood_bound(o: &Observation, l: &Landmark, pose: &Pose2, pose_cov: &Matrix3<f64>, ln_det_r: f64) -> f64 {
+    if !ln_det_r.is_finite() {
+        return f64::INFINITY;
+    }
+    let (nu, s) = match o.model {
+        Model::Point => {
+            let (dx, dy) = (l.mean[0] - pose.x, l.mean[1] - pose.y);
+            let r = dx.hypot(dy);
+            if r.is_nan() || r <= 0.0 {
+                return f64::INFINITY; // left to `evaluate`, which counts it
+            }
+            let u = Vector2::new(dx / r, dy / r);
+            let s = (u.transpose() * (pose_cov.fixed_view::<2, 2>(0, 0) + l.cov) * u)[0] + o.r[(0, 0)]; // S_rr
+            (o.z[0] - r, s)
+        }
+        Model::Line => {
+            let nu = wrap_angle(o.z[1] - (l.mean[1] - pose.theta)).abs();
+            (nu.min((PI - nu).abs()), pose_cov[(2, 2)] + l.cov[(1, 1)] + o.r[(1, 1)]) // S_θθ
+        }
+    };
+    -0.5 * nu * nu / s - LN_2PI - 0.5 * ln_det_r
 }
 
 /// Folds one observation of landmark `l` into the pose proposal N(μ, Σx), relinearised at μ:
@@ -200,8 +243,8 @@ fn initialise(o: &Observation, pose: &Pose2, id: Option<usize>) -> Option<Landma
     (mean.iter().all(|v| v.is_finite()) && cov.iter().all(|v| v.is_finite())).then(|| Landmark { id, ..Landmark::new(mean, cov) })
 }
 
-/// Each observation's association with its match, against one particle's map.
-type Decisions = Vec<(Association, Option<Match>)>;
+/// Each observation's association against one particle's map.
+type Decisions = Vec<Association>;
 
 /// The filter state.
 struct FastSlam2<'a> {
@@ -294,37 +337,38 @@ impl<'a> FastSlam2<'a> {
                     // the landmark created from this identity, else a new one (`run` checked
                     // that every observation has an identity)
                     return match landmarks.iter().position(|l| l.id.is_some() && l.id == o.landmark) {
-                        None => (Association::New, None),
+                        None => Association::New,
                         Some(j) => match evaluate(o, &landmarks[j], pose, pose_cov) {
-                            Some(m) => (Association::Known { landmark: j, log_likelihood: m.log_likelihood }, Some(m)),
+                            Some(m) => Association::Known { landmark: j, log_likelihood: m.log_likelihood },
                             None => {
                                 failures += 1;
-                                (Association::Ignored, None)
+                                Association::Ignored
                             }
                         },
                     };
                 }
+                let ln_det_r = o.r.determinant().ln();
                 let mut candidates = Candidates::new(ln_p0);
                 for (j, l) in landmarks.iter().enumerate() {
+                    if log_likelihood_bound(o, l, pose, pose_cov, ln_det_r) <= ln_p0 {
+                        continue; // cannot beat P0: not a candidate
+                    }
                     match evaluate(o, l, pose, pose_cov) {
-                        Some(m) => candidates.offer(j, m.log_likelihood, m),
+                        Some(m) => candidates.offer(j, m.log_likelihood, ()),
                         None => failures += 1,
                     }
                 }
-                candidates.decide(rule)
+                candidates.decide(rule).0
             })
             .collect();
         // The shared-landmark rule compares observations of the same landmark type
         // (identities never collide under known association).
         for model in [Model::Line, Model::Point].into_iter().filter(|_| !known) {
             let idx: Vec<usize> = (0..z.len()).filter(|&k| z[k].model == model).collect();
-            let mut ds: Vec<Association> = idx.iter().map(|&k| decisions[k].0).collect();
+            let mut ds: Vec<Association> = idx.iter().map(|&k| decisions[k]).collect();
             resolve_shared(&mut ds, rule);
             for (&k, d) in idx.iter().zip(ds) {
-                decisions[k].0 = d;
-                if !matches!(d, Association::Known { .. }) {
-                    decisions[k].1 = None;
-                }
+                decisions[k] = d;
             }
         }
         self.numerical_failures += failures;
@@ -338,7 +382,7 @@ impl<'a> FastSlam2<'a> {
         let map = &self.particles[i].map;
         let (mut mu, mut sigma) = (predicted, q);
         let mut refined = 0;
-        for (o, (d, _)) in z.iter().zip(decisions) {
+        for (o, d) in z.iter().zip(decisions) {
             if let Association::Known { landmark, .. } = *d {
                 if refine(&mut mu, &mut sigma, o, &map.of(o.model)[landmark]) {
                     refined += 1;
@@ -367,9 +411,9 @@ impl<'a> FastSlam2<'a> {
         let mut failures = 0;
         let mut log_weight = 0.0;
         let p = &mut self.particles[i];
-        if decisions.iter().any(|(d, _)| !matches!(d, Association::Ignored)) {
+        if decisions.iter().any(|d| !matches!(d, Association::Ignored)) {
             let map: &mut Map = p.map_mut(); // copied here only if shared
-            for (o, (d, _)) in z.iter().zip(decisions) {
+            for (o, d) in z.iter().zip(decisions) {
                 match *d {
                     Association::Known { landmark, log_likelihood } => {
                         log_weight += log_likelihood; // Eq. (8), at the motion prediction

@@ -364,6 +364,8 @@ fn one_step_weights_at_the_prediction_and_updates_from_the_sample() {
         let map = &f.particles[0].map.corners;
         assert_eq!(map.len(), 2);
         assert!((map[0].mean - mean).norm() < 1e-12, "{association:?}: {} vs {mean}", map[0].mean);
+        let cov = (Matrix2::identity() - k * h.h) * l.cov; // the standard form, equal to Joseph's
+        assert!((map[0].cov - cov).abs().max() < 1e-12 * l.cov.abs().max(), "{association:?}: {} vs {cov}", map[0].cov);
         assert!((map[1].mean - Model::Point.inverse(&z[1].z, &x)).norm() < 1e-12);
     }
 }
@@ -396,4 +398,31 @@ fn poses_are_drawn_from_the_proposal() {
     assert!((cov - sigma).abs().max() < 0.05 * sigma.abs().max(), "sample covariance\n{cov}\nproposal\n{sigma}");
     // Σx differs from Q far beyond the 5 % tolerance: sampling from Q would fail
     assert!(sigma.trace() < 0.75 * motion.covariance(&previous, &u).trace(), "the observation matters here");
+}
+
+#[test]
+fn the_association_bound_never_underestimates_the_likelihood() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let mut u = |a: f64, b: f64| rng.random_range(a..b);
+    let mut tight = 0;
+    for _ in 0..4000 {
+        let pose = Pose2::new(u(-5.0, 5.0), u(-5.0, 5.0), u(-3.1, 3.1));
+        let a = Matrix3::new(u(-0.1, 0.1), u(-0.1, 0.1), u(-0.1, 0.1), u(-0.1, 0.1), u(-0.1, 0.1), u(-0.1, 0.1), u(-0.1, 0.1), u(-0.1, 0.1), u(-0.1, 0.1));
+        let q = a * a.transpose();
+        let b = Matrix2::new(u(-0.1, 0.1), u(-0.1, 0.1), u(-0.1, 0.1), u(-0.1, 0.1));
+        let r = Matrix2::new(u(1e-4, 0.05), 0.0, 0.0, u(1e-5, 0.01));
+        for model in [Model::Point, Model::Line] {
+            let (m, z) = match model {
+                Model::Point => (Vector2::new(u(-10.0, 10.0), u(-10.0, 10.0)), Vector2::new(u(0.1, 15.0), u(-3.1, 3.1))),
+                Model::Line => (Vector2::new(u(0.5, 20.0), u(-3.1, 3.1)), Vector2::new(u(0.0, 10.0), u(-3.1, 3.1))),
+            };
+            let l = Landmark::new(m, b * b.transpose());
+            let o = Observation { model, z, r, landmark: None };
+            let exact = evaluate(&o, &l, &pose, &q).unwrap().log_likelihood;
+            let bound = log_likelihood_bound(&o, &l, &pose, &q, r.determinant().ln());
+            assert!(bound.is_finite() && bound >= exact - 1e-9, "{model:?}: bound {bound} < {exact}");
+            tight += (bound < exact + 1.0) as usize;
+        }
+    }
+    assert!(tight > 20, "the bound should sometimes be close: {tight}");
 }
