@@ -298,7 +298,7 @@ fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, params: &crate:
             slam::fastslam2::run(world, &params.fastslam, &params.motion_model, &stream(world, source)?, laser, filter_rng)
         }
         (AlgorithmKind::EkfSlam, _) => {
-            let source = if laser { Source::LaserFeatures { features: &params.features, line_r: ekf_laser_covariance(&params.ekf) } } else { Source::Points };
+            let source = if laser { Source::LaserFeatures { features: &params.features, line_r: params.ekf.laser_covariance() } } else { Source::Points };
             slam::ekf::run(world, &params.motion_model, &params.ekf, &stream(world, source)?, laser)
         }
     }
@@ -309,10 +309,6 @@ fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, params: &crate:
 fn load_dataset(table: &toml::Table) -> Result<world::World, SimError> {
     let spec: crate::dataset::DatasetSpec = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| SimError::Dataset(e.message().to_string()))?;
     crate::dataset::load(&spec, Path::new(".")).map_err(|e| SimError::Dataset(e.to_string()))
-}
-
-fn ekf_laser_covariance(_p: &slam::ekf::EkfParams) -> nalgebra::Matrix2<f64> {
-    nalgebra::Matrix2::new(0.04, 0.0, 0.0, 0.00122) // TODO(lead): from [ekf]
 }
 
 /// The study-specific fields of a run's row (status and metrics are filled by the caller).

@@ -63,6 +63,18 @@ pub struct EkfParams {
     pub initial_pose_sigma_rad: f64,
     /// What a re-observation does to P.
     pub covariance_update: CovarianceUpdate,
+    /// σρ² [m²] of line features (and the range of corner features) on laser worlds; point
+    /// sensors state their own noise. Default: [FT] Table 10.2.
+    pub laser_var_rho_m2: f64,
+    /// σθ² [rad²] of line features (and the bearing of corners) on laser worlds.
+    pub laser_var_theta_rad2: f64,
+}
+
+impl EkfParams {
+    /// R of line and corner features on laser worlds.
+    pub fn laser_covariance(&self) -> Matrix2<f64> {
+        Matrix2::new(self.laser_var_rho_m2, 0.0, 0.0, self.laser_var_theta_rad2)
+    }
 }
 
 impl Default for EkfParams {
@@ -74,6 +86,8 @@ impl Default for EkfParams {
             initial_pose_sigma_m: 0.0,
             initial_pose_sigma_rad: 0.0,
             covariance_update: CovarianceUpdate::Joseph,
+            laser_var_rho_m2: 0.04,
+            laser_var_theta_rad2: 0.00122,
         }
     }
 }
@@ -88,6 +102,8 @@ impl EkfParams {
         }
         c.non_negative("initial_pose_sigma_m", self.initial_pose_sigma_m);
         c.non_negative("initial_pose_sigma_rad", self.initial_pose_sigma_rad);
+        c.positive("laser_var_rho_m2", self.laser_var_rho_m2);
+        c.positive("laser_var_theta_rad2", self.laser_var_theta_rad2);
         c.finish()
     }
 }
