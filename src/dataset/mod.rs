@@ -25,7 +25,7 @@ use std::path::{Path, PathBuf};
 
 /// Bump when a loader's output changes for the same files: part of the content hash of every
 /// run on real data.
-pub const DATASET_CODE_VERSION: &str = "datasets-1";
+pub const DATASET_CODE_VERSION: &str = "datasets-2";
 
 /// `PointObservation::landmark` of a measurement whose landmark has no identity (Victoria Park's
 /// trees). Known-association filters must reject such worlds; metrics must not score

@@ -35,6 +35,13 @@ pub struct TableView {
 }
 
 #[derive(Debug, Clone, Serialize)]
+pub struct NamedTable {
+    pub title: String,
+    pub caption: String,
+    pub table: TableView,
+}
+
+#[derive(Debug, Clone, Serialize)]
 pub struct FigureView {
     /// File stem under `figures/` (`.svg` and `.tex`): letters, digits and `-` only.
     pub file: String,
@@ -71,6 +78,8 @@ pub struct StudyView {
     pub groups: Vec<GroupView>,
     pub claims: Vec<super::claims::ClaimView>,
     pub trajectories: Vec<FigureView>,
+    /// Per-landmark error tables beside published ones (`[report] landmark_reference`).
+    pub landmark_tables: Vec<NamedTable>,
     pub failures: TableView,
     pub metrics: TableView,
     pub provenance: Vec<Kv>,
@@ -168,6 +177,7 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
         used.push(name);
     }
     let trajectories = trajectory_views(&study, traces);
+    let landmark_tables = landmark_tables(&study, traces);
     let failed = data.runs.iter().filter(|r| r.status != RunStatus::Ok).count();
     let view = StudyView {
         id: spec.id.clone(),
@@ -182,6 +192,7 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
         groups,
         claims: super::claims::evaluate(data),
         trajectories,
+        landmark_tables,
         failures: failures_table(data),
         metrics: TableView {
             columns: vec!["Metric".into(), "Unit".into(), "Definition".into()],
@@ -643,7 +654,7 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
         for (ai, id) in ids.iter().enumerate() {
             for l in maps.iter().filter(|m| &m.run_id == id).flat_map(|m| &m.landmarks) {
                 match *l {
-                    LandmarkRow::Corner { x_m, y_m } | LandmarkRow::Point { x_m, y_m } => est_corners.push((ai, (x_m, y_m))),
+                    LandmarkRow::Corner { x_m, y_m } | LandmarkRow::Point { x_m, y_m, .. } => est_corners.push((ai, (x_m, y_m))),
                     LandmarkRow::Line { rho_m, theta_rad } => est_lines.push((ai, rho_m, theta_rad)),
                 }
             }
@@ -672,6 +683,85 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
     }
     out
 }
+
+/// [EV]-style per-landmark tables: for each published table, our mean estimate of every true
+/// landmark (the map landmark created from it, known association) at that sweep point, over the
+/// replicates, with the error true − estimated in cm, beside the published error.
+fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
+    let spec = study.spec();
+    let Some(algorithm) = spec.algorithms.first() else { return Vec::new() };
+    let base_value = |k: &str| study.base.iter().find(|(b, _)| b == k).map(|(_, v)| v.clone());
+    let same = |a: &toml::Value, b: &toml::Value| match (a.as_float().or(a.as_integer().map(|i| i as f64)), b.as_float().or(b.as_integer().map(|i| i as f64))) {
+        (Some(x), Some(y)) => x == y,
+        _ => a == b,
+    };
+    let mut out = Vec::new();
+    for reference in &spec.report.landmark_reference {
+        // the point with these values and every other swept parameter at base
+        let point = study.data.resolved.points.iter().find(|p| {
+            let mut flat = Vec::new();
+            crate::spec::params::flatten("", &toml::Value::Table(reference.at.clone()), &mut flat);
+            flat.iter().all(|(k, v)| p.assignments.get(k).or(base_value(k).as_ref()).is_some_and(|pv| same(pv, v)))
+                && p.assignments.iter().all(|(k, v)| flat.iter().any(|(fk, _)| fk == k) || base_value(k).is_some_and(|b| same(&b, v)))
+        });
+        let Some(point) = point else { continue };
+        for (map_name, map) in &study.maps {
+            let Some(map) = map else { continue };
+            let ids: Vec<String> = study.runs_of(map_name, algorithm.name(), &point.label).filter(|r| r.status == RunStatus::Ok).map(|r| r.run_id.clone()).collect();
+            if ids.is_empty() || map.point_landmarks.is_empty() {
+                continue;
+            }
+            let (_, maps) = traces(&ids);
+            let cm = |v: f64| if v.is_finite() { format!("{:.1}", v * 100.0) } else { "—".into() };
+            let rows = map
+                .point_landmarks
+                .iter()
+                .enumerate()
+                .map(|(i, truth)| {
+                    let estimates: Vec<(f64, f64)> = maps
+                        .iter()
+                        .filter_map(|m| m.landmarks.iter().find_map(|l| match *l {
+                            LandmarkRow::Point { x_m, y_m, id: Some(id) } if id as usize == i => Some((x_m, y_m)),
+                            _ => None,
+                        }))
+                        .collect();
+                    let n = estimates.len() as f64;
+                    let (ex, ey) = if estimates.is_empty() { (f64::NAN, f64::NAN) } else { (estimates.iter().map(|e| e.0).sum::<f64>() / n, estimates.iter().map(|e| e.1).sum::<f64>() / n) };
+                    let published = reference.landmarks.iter().find(|l| (l[0] - truth.x).hypot(l[1] - truth.y) < LANDMARK_MATCH_M);
+                    vec![
+                        format!("{}", i + 1),
+                        cm(truth.x),
+                        cm(ex),
+                        cm(truth.x - ex),
+                        cm(truth.y),
+                        cm(ey),
+                        cm(truth.y - ey),
+                        format!("{}/{}", estimates.len(), ids.len()),
+                        published.map_or("—".into(), |l| cm(l[2])),
+                        published.map_or("—".into(), |l| cm(l[3])),
+                    ]
+                })
+                .collect();
+            out.push(NamedTable {
+                title: format!("{} — {} ({}), {}", reference.label, algorithm.title(), map.title, point.label),
+                caption: format!(
+                    "Per landmark, in cm: true position, our estimate (mean over the replicates that mapped it, k/n) and the error true − estimated, beside {}'s error (one real run). Landmarks are numbered in the map's order.",
+                    reference.label
+                ),
+                table: TableView {
+                    columns: ["Landmark", "X true", "X est.", "Error X", "Y true", "Y est.", "Error Y", "Mapped", "Published error X", "Published error Y"].iter().map(|c| c.to_string()).collect(),
+                    rows,
+                    align: "rrrrrrrrrr".into(),
+                },
+            });
+        }
+    }
+    out
+}
+
+/// A published landmark is matched to a true one within this distance [m] (the tables give whole
+/// centimetres).
+const LANDMARK_MATCH_M: f64 = 0.02;
 
 fn failures_table(data: &StudyData) -> TableView {
     TableView {

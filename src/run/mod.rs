@@ -270,7 +270,7 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
                 .flat_map(|m| {
                     let lines = m.lines.iter().map(|l| LandmarkRow::Line { rho_m: l.rho, theta_rad: l.theta });
                     let corners = m.corners.iter().map(|c| LandmarkRow::Corner { x_m: c.x, y_m: c.y });
-                    let points = m.points.iter().map(|p| LandmarkRow::Point { x_m: p.x, y_m: p.y });
+                    let points = m.points.iter().enumerate().map(|(i, p)| LandmarkRow::Point { x_m: p.x, y_m: p.y, id: m.point_ids.get(i).copied().flatten().map(|id| id as u32) });
                     lines.chain(corners).chain(points)
                 })
                 .collect(),

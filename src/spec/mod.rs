@@ -164,11 +164,26 @@ pub struct ReportSpec {
     pub log_x: Vec<String>,
     /// Published results shown beside ours (tables, and a dashed series on the plots).
     pub reference: Option<ReferenceSpec>,
+    /// Published per-landmark errors (e.g. [EV] Tables 4.1–4.3): the report shows, for each, a
+    /// table of our per-landmark errors at that sweep point beside the published ones.
+    pub landmark_reference: Vec<LandmarkReference>,
+}
+
+/// A published per-landmark error table of one sweep point.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LandmarkReference {
+    /// Shown as the table's title, e.g. "[EV] Table 4.1 (Exp. 1)".
+    pub label: String,
+    /// The sweep point: parameter path → value, every other swept parameter at its base value.
+    pub at: toml::Table,
+    /// Published landmarks as [x_true, y_true, error_x, error_y] [m], error = true − estimated.
+    pub landmarks: Vec<[f64; 4]>,
 }
 
 impl Default for ReportSpec {
     fn default() -> Self {
-        Self { metrics: vec!["ate_rmse_m".into(), "final_position_error_m".into(), "final_heading_error_deg".into()], log_x: Vec::new(), reference: None }
+        Self { metrics: vec!["ate_rmse_m".into(), "final_position_error_m".into(), "final_heading_error_deg".into()], log_x: Vec::new(), reference: None, landmark_reference: Vec::new() }
     }
 }
 

@@ -160,8 +160,9 @@ impl TraceRows {
 pub enum LandmarkRow {
     Line { rho_m: f64, theta_rad: f64 },
     Corner { x_m: f64, y_m: f64 },
-    /// A point landmark (point-landmark worlds and datasets).
-    Point { x_m: f64, y_m: f64 },
+    /// A point landmark (point-landmark worlds and datasets), with the true landmark it was
+    /// created from when the filter knew it (known association).
+    Point { x_m: f64, y_m: f64, id: Option<u32> },
 }
 
 /// A run's final map.

@@ -222,6 +222,7 @@ pub(super) fn landmarks_frame(maps: &[RunLandmarks]) -> PolarsResult<DataFrame> 
             Column::new("theta_rad".into(), get(&|l| if let LandmarkRow::Line { theta_rad, .. } = l { Some(*theta_rad) } else { None })),
             Column::new("x_m".into(), get(&|l| if let LandmarkRow::Corner { x_m, .. } | LandmarkRow::Point { x_m, .. } = l { Some(*x_m) } else { None })),
             Column::new("y_m".into(), get(&|l| if let LandmarkRow::Corner { y_m, .. } | LandmarkRow::Point { y_m, .. } = l { Some(*y_m) } else { None })),
+            Column::new("landmark_id".into(), rows.iter().map(|(_, l)| if let LandmarkRow::Point { id, .. } = l { *id } else { None }).collect::<Vec<Option<u32>>>()),
         ],
     )
 }
@@ -233,6 +234,11 @@ pub(super) fn read_landmarks(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result
     let kind = df.column("kind").map_err(e)?.str().map_err(e)?;
     let f = |name: &str| -> Result<Vec<f64>, StoreError> { Ok(df.column(name).map_err(e)?.f64().map_err(e)?.iter().map(|v| v.unwrap_or(f64::NAN)).collect()) };
     let (rho, theta, x, y) = (f("rho_m")?, f("theta_rad")?, f("x_m")?, f("y_m")?);
+    // files written before point landmarks had identities lack the column: no identities
+    let landmark_id: Vec<Option<u32>> = match df.column("landmark_id") {
+        Ok(c) => c.u32().map_err(e)?.iter().collect(),
+        Err(_) => vec![None; df.height()],
+    };
     let mut out: Vec<RunLandmarks> = Vec::new();
     for i in 0..df.height() {
         let id = ids.get(i).unwrap_or_default();
@@ -244,7 +250,7 @@ pub(super) fn read_landmarks(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result
         }
         let l = match kind.get(i) {
             Some("line") => LandmarkRow::Line { rho_m: rho[i], theta_rad: theta[i] },
-            Some("point") => LandmarkRow::Point { x_m: x[i], y_m: y[i] },
+            Some("point") => LandmarkRow::Point { x_m: x[i], y_m: y[i], id: landmark_id[i] },
             _ => LandmarkRow::Corner { x_m: x[i], y_m: y[i] },
         };
         out.last_mut().expect("just pushed").landmarks.push(l);

@@ -12,8 +12,9 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 /// Bump when the point-landmark sensor's output changes for the same inputs. It is part of the
-/// content hash of the runs that read this sensor only (laser runs are unaffected).
-pub const POINT_SENSOR_CODE_VERSION: &str = "points-2";
+/// content hash of the runs that read this sensor only (laser runs are unaffected). points-3:
+/// stored point maps carry the landmark identities of known association.
+pub const POINT_SENSOR_CODE_VERSION: &str = "points-3";
 
 /// `[base.landmark_sensor]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -8,5 +8,6 @@ mod fastslam;
 mod ft_maps;
 mod layering;
 mod pipeline;
+mod point_worlds;
 mod specs;
 mod util;
