@@ -62,7 +62,7 @@ fn negative_variance_in_a_sweep_points_at_the_value() {
 fn missing_map() {
     let err = rejected(&GOOD.replace("[\"recinto_basico\"]", "[\"recinto_basico\", \"atlantis\"]"));
     assert!(err.contains("bad.toml:5:") && err.contains("key `maps[1]`: no map `atlantis`"), "{err}");
-    assert!(err.contains("available in data/maps: bigloop, bigloop2, complex, lineamedia, recinto_basico"), "{err}");
+    assert!(err.contains("available in data/maps: bigloop, bigloop2, complex, corridor_1m"), "{err}");
 }
 
 #[test]
