@@ -727,6 +727,7 @@ fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
                         .collect();
                     let n = estimates.len() as f64;
                     let (ex, ey) = if estimates.is_empty() { (f64::NAN, f64::NAN) } else { (estimates.iter().map(|e| e.0).sum::<f64>() / n, estimates.iter().map(|e| e.1).sum::<f64>() / n) };
+                    let rms = if estimates.is_empty() { f64::NAN } else { (estimates.iter().map(|e| (e.0 - truth.x).powi(2) + (e.1 - truth.y).powi(2)).sum::<f64>() / n).sqrt() };
                     let published = reference.landmarks.iter().find(|l| (l[0] - truth.x).hypot(l[1] - truth.y) < LANDMARK_MATCH_M);
                     vec![
                         format!("{}", i + 1),
@@ -737,21 +738,23 @@ fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
                         cm(ey),
                         cm(truth.y - ey),
                         format!("{}/{}", estimates.len(), ids.len()),
+                        cm(rms),
                         published.map_or("—".into(), |l| cm(l[2])),
                         published.map_or("—".into(), |l| cm(l[3])),
+                        published.map_or("—".into(), |l| cm(l[2].hypot(l[3]))),
                     ]
                 })
                 .collect();
             out.push(NamedTable {
                 title: format!("{} — {} ({}), {}", reference.label, algorithm.title(), map.title, point.label),
                 caption: format!(
-                    "Per landmark, in cm: true position, our estimate (mean over the replicates that mapped it, k/n) and the error true − estimated, beside {}'s error (one real run). Landmarks are numbered in the map's order.",
+                    "Per landmark, in cm: true position, our estimate (mean over the replicates that mapped it, k/n), its error true − estimated (the bias over the replicates) and the RMS distance of the replicates' estimates (the typical error of one run), beside {}'s errors of its one real run and their Euclidean size. Landmarks are numbered in the map's order.",
                     reference.label
                 ),
                 table: TableView {
-                    columns: ["Landmark", "X true", "X est.", "Error X", "Y true", "Y est.", "Error Y", "Mapped", "Published error X", "Published error Y"].iter().map(|c| c.to_string()).collect(),
+                    columns: ["Landmark", "X true", "X est.", "Error X", "Y true", "Y est.", "Error Y", "Mapped", "RMS error", "Published error X", "Published error Y", "Published error"].iter().map(|c| c.to_string()).collect(),
                     rows,
-                    align: "rrrrrrrrrr".into(),
+                    align: "rrrrrrrrrrrr".into(),
                 },
             });
         }
