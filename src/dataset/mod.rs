@@ -23,9 +23,10 @@ use crate::world::{MAX_DT_S, MIN_DT_S, World};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-/// Bump when a loader's output changes for the same files: part of the content hash of every
-/// run on real data.
-pub const DATASET_CODE_VERSION: &str = "datasets-2";
+/// Bump when a loader's output, or a metric only real data exercises, changes for the same files:
+/// part of the content hash of every run on real data. datasets-3: the path length through sparse
+/// (GPS) truth.
+pub const DATASET_CODE_VERSION: &str = "datasets-3";
 
 /// `PointObservation::landmark` of a measurement whose landmark has no identity (Victoria Park's
 /// trees). Known-association filters must reject such worlds; metrics must not score

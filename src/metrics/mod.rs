@@ -252,7 +252,9 @@ pub fn trajectory_metrics(truth: &[Pose2], estimate: &[Pose2]) -> RunMetrics {
         Some((t, e)) => (t.position().distance(e.position()), wrap_angle(t.theta - e.theta).abs().to_degrees()),
         None => (f64::NAN, f64::NAN),
     };
-    let path_length = truth.windows(2).filter(|w| known(&w[0]) && known(&w[1])).map(|w| w[0].position().distance(w[1].position())).sum();
+    // consecutive known positions (sparse truth such as GPS: the path through its fixes)
+    let known_positions: Vec<Point2> = truth.iter().filter(|t| known(t)).map(|t| t.position()).collect();
+    let path_length = known_positions.windows(2).map(|w| w[0].distance(w[1])).sum();
     vec![
         (ATE_RMSE, rmse),
         ("ate_mean_m", mean),
@@ -376,6 +378,7 @@ mod tests {
         let m = trajectory_metrics(&truth, &est);
         assert!((get(&m, ATE_RMSE) - 0.5f64.sqrt()).abs() < 1e-12);
         assert_eq!(get(&m, "final_position_error_m"), 1.0);
+        assert_eq!(get(&m, "path_length_m"), 2.0, "the path through the known positions");
     }
 
     #[test]

@@ -235,6 +235,75 @@ fn facts(study: &Study<'_>, failed: usize) -> Vec<Kv> {
     ]
 }
 
+/// The choices of the point-landmark filters: FastSLAM on point worlds, FastSLAM 2.0, EKF-SLAM,
+/// and their motion model.
+fn filter_choices(study: &Study<'_>, kinds: &[crate::slam::WorldKind]) -> Vec<String> {
+    use crate::slam::{AlgorithmKind as A, WorldKind as W};
+    let b = &study.spec().base;
+    let algos = &study.spec().algorithms;
+    let mut out = Vec::new();
+    let motion_users = algos.iter().any(|a| kinds.iter().any(|&k| a.param_sections(k).contains(&"motion_model")));
+    if motion_users {
+        out.push(match &b.motion_model {
+            crate::slam::motion::MotionModel::Proportional { k_translation, k_rotation, floor_translation_m, floor_rotation_rad } => format!(
+                "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: noise on the odometry increment, σ = {k_translation}·|translation| + {floor_translation_m} m per axis and {k_rotation}·|rotation| + {floor_rotation_rad} rad per step."
+            ),
+            crate::slam::motion::MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => {
+                format!("Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: per-step world-frame pose noise σ = ({sigma_x_m} m, {sigma_y_m} m, {sigma_theta_rad} rad) ([FT] Eq. 7.18).")
+            }
+        });
+    }
+    let fast = algos.iter().any(|a| matches!(a, A::Fastslam2) || (matches!(a, A::Fastslam1) && kinds.contains(&W::Points)));
+    if fast {
+        let p = &b.fastslam;
+        out.push(format!(
+            "FastSLAM{}: {} particles, {} association{}, resampling when N̂eff < {}; the best particle is the one with the highest current weight.",
+            if algos.contains(&A::Fastslam2) { " 1.0 on point worlds and 2.0" } else { " 1.0 on point worlds" },
+            p.particles,
+            match p.association {
+                crate::slam::fastslam::DataAssociation::Known => "known".to_string(),
+                crate::slam::fastslam::DataAssociation::MaximumLikelihood => format!("maximum-likelihood (P0 = {})", p.p0),
+            },
+            "",
+            if p.neff_threshold.is_infinite() { "∞ (always)".to_string() } else { p.neff_threshold.to_string() },
+        ));
+    }
+    if algos.contains(&A::EkfSlam) {
+        let e = &b.ekf;
+        out.push(format!(
+            "EKF-SLAM: {} association (NIS gates: update below {}, new landmark above {}){}; covariance update {}.",
+            match e.association {
+                crate::slam::ekf::EkfAssociation::Known => "known",
+                crate::slam::ekf::EkfAssociation::NearestNeighbour => "nearest-neighbour",
+                crate::slam::ekf::EkfAssociation::MaximumLikelihood => "maximum-likelihood",
+            },
+            e.gate_reject,
+            e.gate_create,
+            if e.known_outlier_gate.is_finite() { format!(", known matches with NIS above {} ignored as outliers", e.known_outlier_gate) } else { String::new() },
+            match e.covariance_update {
+                crate::slam::ekf::CovarianceUpdate::Joseph => "in Joseph form",
+                crate::slam::ekf::CovarianceUpdate::NoneOnReobservation => "skipped on re-observation ([EV]'s omission)",
+            }
+        ));
+    }
+    out
+}
+
+/// The choices of a study on real data only: the simulation's do not apply.
+fn dataset_choices(study: &Study<'_>) -> Vec<String> {
+    let mut out = vec!["Real data: odometry, measurements and truth come from the dataset's files (read from the path in each map file; the files' bytes are part of every run's content hash). The simulation settings of [base] do not apply.".to_string()];
+    out.extend(filter_choices(study, &[crate::slam::WorldKind::Points]));
+    out.push("Trajectory error is evo's APE (translation part) at the steps with truth; truth without headings (GPS) is first aligned to the estimate by a rigid transform (rotation and translation).".into());
+    let mut notes: Vec<String> = Vec::new();
+    for (name, map) in &study.maps {
+        for note in map.iter().flat_map(|m| &m.notes) {
+            notes.push(format!("Map {name}: {note}"));
+        }
+    }
+    out.extend(notes);
+    out
+}
+
 /// The kinds of world among a study's maps (laser first), laser for a map that cannot be read.
 fn world_kinds(maps: &[(String, Option<Map>)]) -> Vec<crate::slam::WorldKind> {
     let has = |k| maps.iter().any(|(_, m)| m.as_ref().map_or(crate::slam::WorldKind::Laser, Map::world_kind) == k);
@@ -256,7 +325,7 @@ fn maps_table(study: &Study<'_>) -> TableView {
                     if points {
                         row.push(m.point_landmarks.len().to_string());
                     }
-                    row.push(format!("{} × {} waypoints", m.trajectory.laps, m.trajectory.waypoints.len()));
+                    row.push(if m.dataset.is_some() { "real data".to_string() } else { format!("{} × {} waypoints", m.trajectory.laps, m.trajectory.waypoints.len()) });
                     row.push(path_length.map_or("—".into(), |l| format!("{l:.1} m")));
                     row.push(m.source.clone());
                 }
@@ -305,6 +374,10 @@ fn sweep_lines(study: &Study<'_>) -> Vec<String> {
 /// The modelling choices behind these runs, stated from the parameters actually used.
 fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     let b = &study.spec().base;
+    let datasets = study.maps.iter().filter(|(_, m)| m.as_ref().is_some_and(|m| m.dataset.is_some())).count();
+    if datasets > 0 && datasets == study.maps.len() {
+        return dataset_choices(study);
+    }
     let mut out = vec![format!(
         "Ground truth: a unicycle driven through each map's waypoints by a turn-then-drive heading controller, integrated exactly at Δt = {} s ({} Hz odometry).",
         b.sim.dt_s,
@@ -366,11 +439,11 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
             if f.breakpoints { "the scan is first split at breakpoints (missed returns, adaptive distance)" } else { "no breakpoint detection, as in [FT]" }
         ));
     }
-    if reads("fastslam") {
+    if reads("fastslam") && kinds.contains(&crate::slam::WorldKind::Laser) {
         let p = &b.fastslam;
         use crate::world::odometry::Spread as S;
         out.push(format!(
-            "FastSLAM 1.0 ([FT] Table 6.3): {} particles, P0 = {}, resampling when N̂eff < {}; motion noise ({}, {}, {}) per step read as {}; observation covariance diag({}, {}); ambiguous associations: {}.",
+            "FastSLAM 1.0 on laser worlds ([FT] Table 6.3): {} particles, P0 = {}, resampling when N̂eff < {}; motion noise ({}, {}, {}) per step read as {}; observation covariance diag({}, {}); ambiguous associations: {}.",
             p.particles,
             p.p0,
             if p.neff_threshold.is_infinite() { "∞ (always)".to_string() } else { p.neff_threshold.to_string() },
@@ -394,10 +467,23 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     if sensors.iter().any(|s| s.landmarks) {
         let p = &b.landmark_sensor;
         out.push(format!(
-            "Landmark sensor: range-bearing to point landmarks within {} m and a {}° field of view at {} Hz, σr = {} m, σb = {} rad.",
-            p.max_range_m, p.fov_deg, p.rate_hz, p.range_sigma_m, p.bearing_sigma_rad
+            "Landmark sensor: range-bearing to point landmarks from {} to {} m in a {}° field of view at {} Hz{}{}; range noise {} σ = {} m, σb = {} rad; the filters are told this model, at the measured range.",
+            p.min_range_m,
+            p.max_range_m,
+            p.fov_deg,
+            p.rate_hz,
+            if p.occlusion { ", hidden by walls" } else { "" },
+            if p.max_observations > 0 { format!(", at most {} per reading (the nearest)", p.max_observations) } else { String::new() },
+            match p.range_noise {
+                crate::world::RangeNoise::Constant => "constant,",
+                crate::world::RangeNoise::Proportional => "proportional to range, at 1 m:",
+                crate::world::RangeNoise::Quadratic => "quadratic in range (stereo), at 1 m:",
+            },
+            p.range_sigma_m,
+            p.bearing_sigma_rad
         ));
     }
+    out.extend(filter_choices(study, &kinds));
     out.push("Seeds derive from (study seed, map, replicate), never from the swept value: replicate k of every sweep point and algorithm sees the same world noise (paired comparisons).".into());
     out.push("Trajectory error is evo's APE (translation part, every step, no alignment: estimate and truth start at the same pose).".into());
     // Map notes, each stated once with the maps it applies to (in spec order).
