@@ -445,7 +445,7 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
             for (pi, point) in points.iter().enumerate() {
                 let sections = point.params.sections_read_by(algorithm, map.map.world_kind());
                 for replicate in 0..s.replicates {
-                    let world_seed = derive_seed(s.seed, &map.name, replicate, "world");
+                    let world_seed = derive_seed(s.seed, &map.name, if s.fixed_world { 0 } else { replicate }, "world");
                     let filter_seed = derive_seed(s.seed, &map.name, replicate, "filter");
                     // TOML text, not JSON: it keeps `inf` (e.g. fastslam.neff_threshold) distinct.
                     let params = toml::to_string(&sections).expect("parameters serialise to TOML");

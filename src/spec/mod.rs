@@ -25,6 +25,11 @@ pub struct ExperimentSpec {
     pub seed: u64,
     /// Runs per (map, algorithm, sweep point).
     pub replicates: u32,
+    /// `true`: every replicate sees the same world (odometry and sensor noise of replicate 0) and
+    /// only the filters' random numbers differ — [PF]'s design ("the same odometry readings and
+    /// the same map throughout all experiments"). Default `false`: each replicate draws a world.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub fixed_world: bool,
     /// Map names, each `data/maps/<name>.toml`.
     pub maps: Vec<String>,
     pub algorithms: Vec<AlgorithmKind>,

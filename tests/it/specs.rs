@@ -31,3 +31,19 @@ fn odometry_noise_study_covers_the_five_thesis_maps() {
     assert_eq!(loaded.spec.maps, ["recinto_basico", "lineamedia", "bigloop", "bigloop2", "complex"]);
     assert!(loaded.sweeps.iter().flat_map(|b| &b.params).any(|p| p.path == "odometry.k"));
 }
+
+#[test]
+fn a_fixed_world_study_varies_only_the_filter_seeds() {
+    // [PF]'s design: the same odometry and map in all 20 runs, only the filter's randomness varies
+    let loaded = spec::load(&repo().join("experiments/pf-particles.toml")).unwrap();
+    assert!(loaded.spec.fixed_world);
+    let plan = plan::build(loaded, &repo().join("data/maps")).unwrap();
+    let world: std::collections::BTreeSet<u64> = plan.runs.iter().map(|r| r.world_seed).collect();
+    let filter: std::collections::BTreeSet<u64> = plan.runs.iter().map(|r| r.filter_seed).collect();
+    assert_eq!(world.len(), 1, "one world for every replicate");
+    assert_eq!(filter.len(), plan.spec.spec.replicates as usize, "a filter seed per replicate");
+    // and a study without the flag draws a world per replicate
+    let other = plan::build(spec::load(&repo().join("experiments/pf-neff-p0.toml")).unwrap(), &repo().join("data/maps")).unwrap();
+    let worlds: std::collections::BTreeSet<u64> = other.runs.iter().map(|r| r.world_seed).collect();
+    assert_eq!(worlds.len(), other.spec.spec.replicates as usize);
+}
