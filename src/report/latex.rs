@@ -1,9 +1,19 @@
 //! LaTeX escaping: text → something pdflatex and lualatex both typeset. Greek letters and math
 //! symbols (common in parameter names: σ, θ, ρ, Δ, ≥) become math-mode commands.
 
+/// U+0302, as in "N̂eff".
+const COMBINING_CIRCUMFLEX: char = '\u{302}';
+
 pub fn escape(text: &str) -> String {
     let mut out = String::with_capacity(text.len() + 8);
-    for c in text.chars() {
+    let mut chars = text.chars().peekable();
+    while let Some(c) = chars.next() {
+        // a letter with a combining circumflex (N̂eff): \hat in math mode
+        if chars.peek() == Some(&COMBINING_CIRCUMFLEX) && c.is_ascii_alphabetic() {
+            chars.next();
+            out.push_str(&format!("\\ensuremath{{\\hat{{{c}}}}}"));
+            continue;
+        }
         match c {
             '\\' => out.push_str("\\textbackslash{}"),
             '{' => out.push_str("\\{"),
@@ -45,6 +55,18 @@ pub fn escape(text: &str) -> String {
             '⊖' => out.push_str("\\ensuremath{\\ominus}"),
             '∈' => out.push_str("\\ensuremath{\\in}"),
             '§' => out.push_str("\\S{}"),
+            'ᵀ' => out.push_str("\\ensuremath{^{\\top}}"),
+            '⁻' => out.push_str("\\ensuremath{^{-}}"),
+            '⁺' => out.push_str("\\ensuremath{^{+}}"),
+            c @ ('⁰' | '¹' | '⁴' | '⁵' | '⁶' | '⁷' | '⁸' | '⁹') => {
+                let d = "⁰¹²³⁴⁵⁶⁷⁸⁹".chars().position(|x| x == c).expect("a superscript digit");
+                out.push_str(&format!("\\ensuremath{{^{d}}}"));
+            }
+            c @ '₀'..='₉' => {
+                let d = c as u32 - '₀' as u32;
+                out.push_str(&format!("\\ensuremath{{_{d}}}"));
+            }
+            'ᵢ' => out.push_str("\\ensuremath{_i}"),
             '\u{a0}' => out.push('~'),
             c if greek(c).is_some() => {
                 out.push_str("\\ensuremath{\\");
@@ -98,5 +120,13 @@ mod tests {
         assert_eq!(escape("a_b & 50% #1 $x$"), "a\\_b \\& 50\\% \\#1 \\$x\\$");
         assert_eq!(escape("σ ≥ 0"), "\\ensuremath{\\sigma} \\ensuremath{\\geq} 0");
         assert_eq!(escape("{x}\\"), "\\{x\\}\\textbackslash{}");
+    }
+
+    #[test]
+    fn hats_superscripts_and_subscripts_become_math() {
+        // these broke pdflatex ("Unicode character ̂ (U+0302) not set up")
+        assert_eq!(escape("N̂eff"), "\\ensuremath{\\hat{N}}eff");
+        assert_eq!(escape("eᵀP⁻¹e"), "e\\ensuremath{^{\\top}}P\\ensuremath{^{-}}\\ensuremath{^1}e");
+        assert_eq!(escape("χ²₃"), "\\ensuremath{\\chi}\\ensuremath{^2}\\ensuremath{_3}");
     }
 }

@@ -48,8 +48,10 @@ pub fn line_pgf(fig: &LineFigure) -> String {
         XAxis::Categorical(_) => {}
     }
     if !matches!(fig.x_axis, XAxis::Linear) {
-        let ticks: Vec<String> = fig.x_ticks.iter().map(|(x, _)| num(*x)).collect();
-        let labels: Vec<String> = fig.x_ticks.iter().map(|(_, l)| format!("{{{}}}", escape(l))).collect();
+        // a swept ∞ (e.g. "always resample") has no place on a numeric axis, as in the SVG
+        let finite: Vec<&(f64, String)> = fig.x_ticks.iter().filter(|(x, _)| x.is_finite()).collect();
+        let ticks: Vec<String> = finite.iter().map(|(x, _)| num(*x)).collect();
+        let labels: Vec<String> = finite.iter().map(|(_, l)| format!("{{{}}}", escape(l))).collect();
         opts.push(format!("xtick={{{}}}", ticks.join(",")));
         opts.push(format!("xticklabels={{{}}}", labels.join(",")));
         opts.push("xticklabel style={rotate=0}".into());
