@@ -15,7 +15,7 @@ build:
 ## Run every study in experiments/ (cached, parallel, deterministic) and render reports/.
 report: build
 	$(BIN) run $(SPECS)
-	$(BIN) report
+	$(BIN) report --specs experiments
 
 ## Only (re)run the studies, without rendering.
 run: build

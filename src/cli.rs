@@ -45,6 +45,10 @@ enum Command {
         /// Output directory (replaced as a whole).
         #[arg(long, default_value = "reports")]
         out: PathBuf,
+        /// Studies with a spec in this folder but no results (real data absent on this machine)
+        /// keep their previous report instead of losing it.
+        #[arg(long)]
+        specs: Option<PathBuf>,
     },
     /// Check specs (and the maps they name) without running anything.
     Validate {
@@ -121,9 +125,13 @@ pub fn main() -> ExitCode {
 fn dispatch(command: Command) -> Result<()> {
     match command {
         Command::Run { specs, dirs, threads, force, quiet } => cmd_run(&specs, &dirs, threads, force, quiet),
-        Command::Report { results, out } => {
-            let summary = crate::report::render_all(&results, &out).context("rendering reports")?;
+        Command::Report { results, out, specs } => {
+            let keep: Vec<String> = specs.as_deref().map(spec_ids).unwrap_or_default();
+            let summary = crate::report::render_all(&results, &out, &keep).context("rendering reports")?;
             eprintln!("rendered {} studies into {}", summary.studies.len(), out.display());
+            for id in &summary.kept {
+                eprintln!("{id}: no results here; its previous report is kept");
+            }
             Ok(())
         }
         Command::Validate { specs, maps } => {
@@ -199,6 +207,19 @@ fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, 
         eprintln!("warning: {problems} runs failed or diverged; they are recorded with their status and shown in the reports");
     }
     Ok(())
+}
+
+/// The study ids of the `*.toml` specs in `dir` (their file names), sorted.
+fn spec_ids(dir: &Path) -> Vec<String> {
+    let mut ids: Vec<String> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.path().extension().is_some_and(|x| x == "toml"))
+        .filter_map(|e| e.path().file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .collect();
+    ids.sort();
+    ids
 }
 
 fn cmd_plan(spec_path: &Path, dirs: &Dirs, force: bool) -> Result<()> {

@@ -228,7 +228,10 @@ pub struct PathSeries {
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrajectoryFigure {
     pub walls: Vec<((f64, f64), (f64, f64))>,
+    /// True landmarks drawn as dots: the walls' corners (laser worlds) or the point landmarks.
     pub corners: Vec<(f64, f64)>,
+    /// Whether `corners` are point landmarks (legend wording).
+    pub point_landmarks: bool,
     pub paths: Vec<PathSeries>,
     pub start: (f64, f64),
     /// Estimated corners: (colour, point).
@@ -299,10 +302,11 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
     let width = (plot_w as u32 + label_y + 2 * margin).min(WIDTH);
     let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false, dashed: false }).collect();
     if !fig.corners.is_empty() {
-        entries.push(LegendEntry { label: "true corners", color: CORNER, dot: true, dashed: false });
+        entries.push(LegendEntry { label: if fig.point_landmarks { "true landmarks" } else { "true corners" }, color: CORNER, dot: true, dashed: false });
     }
     if !fig.est_lines.is_empty() || !fig.est_corners.is_empty() {
-        entries.push(LegendEntry { label: "mapped lines (dashed) and corners (×)", color: RGBColor(100, 100, 100), dot: false, dashed: true });
+        let label = if fig.point_landmarks { "mapped landmarks (×)" } else { "mapped lines (dashed) and corners (×)" };
+        entries.push(LegendEntry { label, color: RGBColor(100, 100, 100), dot: false, dashed: !fig.point_landmarks });
     }
     let (_, legend_px) = legend_layout(&entries, width, label_y + margin);
     let mut svg = String::new();

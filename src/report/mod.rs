@@ -89,10 +89,14 @@ fn render(env: &Environment<'_>, template: &str, ctx: minijinja::Value) -> Resul
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReportSummary {
     pub studies: Vec<String>,
+    /// Studies without results whose previous report was carried over.
+    pub kept: Vec<String>,
 }
 
 /// Renders every study under `results_dir` into `reports_dir` (replaced atomically as a whole).
-pub fn render_all(results_dir: &Path, reports_dir: &Path) -> Result<ReportSummary, ReportError> {
+/// A study of `keep` that has no results but a previous report (with its `entry.json`) keeps
+/// that report byte for byte: real-data studies on a machine without the data.
+pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String]) -> Result<ReportSummary, ReportError> {
     let env = environment();
     let mut pages = Vec::new();
     for dir in store::list_studies(results_dir)? {
@@ -115,9 +119,20 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path) -> Result<ReportSummar
         pages.push(built);
     }
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
+    let rendered: Vec<&str> = pages.iter().map(|p| p.view.id.as_str()).collect();
+    let mut kept: Vec<(String, view::IndexEntry)> = Vec::new();
+    for id in keep.iter().filter(|id| !rendered.contains(&id.as_str())) {
+        let dir = reports_dir.join(id);
+        let Some(entry) = std::fs::read(dir.join(ENTRY)).ok().and_then(|b| serde_json::from_slice::<view::IndexEntry>(&b).ok()) else { continue };
+        for (rel, bytes) in read_tree(&dir)? {
+            files.push((format!("{id}/{rel}"), bytes));
+        }
+        kept.push((id.clone(), entry));
+    }
     let palette = pgf::palette_definitions();
     for p in &pages {
         let id = &p.view.id;
+        files.push((format!("{id}/{ENTRY}"), serde_json::to_vec_pretty(&p.index).expect("an index entry serialises")));
         let ctx = minijinja::context! { study => &p.view, palette => minijinja::Value::from_safe_string(palette.clone()) };
         files.push((format!("{id}/index.html"), render(&env, "study.html", ctx.clone())?.into_bytes()));
         files.push((format!("{id}/{id}.tex"), render(&env, "study.tex", ctx)?.into_bytes()));
@@ -127,7 +142,8 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path) -> Result<ReportSummar
             files.push((format!("{id}/figures/{}.tex", f.file), f.pgf.clone().into_bytes()));
         }
     }
-    let index: Vec<&view::IndexEntry> = pages.iter().map(|p| &p.index).collect();
+    let mut index: Vec<&view::IndexEntry> = pages.iter().map(|p| &p.index).chain(kept.iter().map(|(_, e)| e)).collect();
+    index.sort_by(|a, b| a.id.cmp(&b.id));
     files.push(("index.html".into(), render(&env, "index.html", minijinja::context! { studies => index })?.into_bytes()));
 
     // `reports_dir` is replaced as a whole: refuse to wipe a folder slamlab did not write.
@@ -146,5 +162,30 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path) -> Result<ReportSummar
         }
         Ok(())
     })?;
-    Ok(ReportSummary { studies: pages.iter().map(|p| p.view.id.clone()).collect() })
+    Ok(ReportSummary { studies: pages.iter().map(|p| p.view.id.clone()).collect(), kept: kept.into_iter().map(|(id, _)| id).collect() })
+}
+
+/// A kept report's index line.
+const ENTRY: &str = "entry.json";
+
+/// Every file under `dir` as (relative path with `/`, bytes), sorted.
+fn read_tree(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, ReportError> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, Vec<u8>)>) -> Result<(), StoreError> {
+        let entries = std::fs::read_dir(dir).map_err(|e| StoreError::Io { path: dir.to_path_buf(), source: e })?;
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                walk(root, &p, out)?;
+            } else {
+                let bytes = std::fs::read(&p).map_err(|e| StoreError::Io { path: p.clone(), source: e })?;
+                let rel = p.strip_prefix(root).expect("below root").to_string_lossy().replace('\\', "/");
+                out.push((rel, bytes));
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(dir, dir, &mut out)?;
+    out.sort();
+    Ok(out)
 }

@@ -114,7 +114,7 @@ pub fn trajectory_pgf(fig: &TrajectoryFigure) -> String {
     if !fig.corners.is_empty() {
         let coords: Vec<String> = fig.corners.iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
         let _ = writeln!(s, "\\addplot[only marks, mark=*, mark size=1.5pt, red!80!black] coordinates {{{}}};", coords.join(" "));
-        let _ = writeln!(s, "\\addlegendentry{{true corners}}");
+        let _ = writeln!(s, "\\addlegendentry{{{}}}", if fig.point_landmarks { "true landmarks" } else { "true corners" });
     }
     let _ = writeln!(s, "\\addplot[only marks, mark=triangle*, mark size=3pt, black, forget plot] coordinates {{({},{})}};", num(fig.start.0), num(fig.start.1));
     let _ = writeln!(s, "\\end{{axis}}\n\\end{{tikzpicture}}");

@@ -85,8 +85,9 @@ pub struct StudyView {
     pub provenance: Vec<Kv>,
 }
 
-/// One line of the index page.
-#[derive(Debug, Clone, Serialize)]
+/// One line of the index page (also written beside each report as `entry.json`, so that a kept
+/// report keeps its line).
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct IndexEntry {
     pub id: String,
     pub title: String,
@@ -745,9 +746,12 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
                 }
             }
         }
+        let points_world = map.world_kind() == crate::slam::WorldKind::Points;
         let fig = TrajectoryFigure {
             walls: map.walls.iter().map(|s| ((s.a.x, s.a.y), (s.b.x, s.b.y))).collect(),
-            corners: map.corners.iter().chain(&map.point_landmarks).map(|c| (c.x, c.y)).collect(),
+            // a point world's landmarks are its points; its wall corners are not landmarks
+            corners: if points_world { map.point_landmarks.iter().map(|c| (c.x, c.y)).collect() } else { map.corners.iter().map(|c| (c.x, c.y)).collect() },
+            point_landmarks: points_world,
             paths,
             start: (map.start.x, map.start.y),
             est_corners,
@@ -757,11 +761,13 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
         out.push(FigureView {
             file: slug(&format!("trajectory--{map_name}")),
             caption: format!(
-                "{} ({map_name}): ground truth and estimates of replicate {} at {} — the median replicate by {headline} ({value}) of {}. Triangle: start; red dots: true corners; ×, dashed lines: the final maps of the algorithms that build one.",
+                "{} ({map_name}): ground truth and estimates of replicate {} at {} — the median replicate by {headline} ({value}) of {}. Triangle: start; red dots: {}; ×{}: the final maps of the algorithms that build one.",
                 map.title,
                 chosen.replicate,
                 reference.label,
-                first_algorithm.title()
+                first_algorithm.title(),
+                if points_world { "true landmarks" } else { "true corners" },
+                if points_world { "" } else { ", dashed lines" }
             ),
             svg: figure::trajectory_svg(&fig),
             pgf: super::pgf::trajectory_pgf(&fig),

@@ -144,3 +144,27 @@ fn a_bad_dataset_table_names_the_file_and_key() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("bad.toml") && err.contains("dataset") && err.contains("robot"), "{err}");
 }
+
+#[test]
+fn a_study_without_results_keeps_its_report_when_its_spec_remains() {
+    // real-data studies on a machine without the data: `make report` must not delete them
+    let dir = tempfile::tempdir().unwrap();
+    let specs = dir.path().join("experiments");
+    std::fs::create_dir(&specs).unwrap();
+    std::fs::copy(repo().join("experiments/smoke.toml"), specs.join("smoke.toml")).unwrap();
+    let (results, cache, reports) = (dir.path().join("results"), dir.path().join("cache"), dir.path().join("reports"));
+    ok(&["run", s(&specs.join("smoke.toml")), "--results", s(&results), "--cache", s(&cache), "--quiet"]);
+    ok(&["report", "--results", s(&results), "--out", s(&reports), "--specs", s(&specs)]);
+    let before = crate::util::tree(&reports.join("smoke"));
+    let index = std::fs::read(reports.join("index.html")).unwrap();
+    std::fs::remove_dir_all(results.join("smoke")).unwrap();
+    std::fs::create_dir_all(&results).unwrap();
+    let out = ok(&["report", "--results", s(&results), "--out", s(&reports), "--specs", s(&specs)]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("smoke: no results here; its previous report is kept"));
+    assert_eq!(crate::util::tree(&reports.join("smoke")), before, "kept byte for byte");
+    assert_eq!(std::fs::read(reports.join("index.html")).unwrap(), index, "and listed in the index");
+    // without its spec the study is retired
+    std::fs::remove_file(specs.join("smoke.toml")).unwrap();
+    ok(&["report", "--results", s(&results), "--out", s(&reports), "--specs", s(&specs)]);
+    assert!(!reports.join("smoke").exists());
+}
