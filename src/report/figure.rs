@@ -266,10 +266,11 @@ pub fn clip_line(rho: f64, theta: f64, ((x0, x1), (y0, y1)): ((f64, f64), (f64, 
 }
 
 impl TrajectoryFigure {
-    /// Bounds of walls and paths with a margin [m].
+    /// Bounds of walls, paths and true landmarks with a margin [m].
     pub fn bounds(&self) -> ((f64, f64), (f64, f64)) {
-        let xs: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.0, b.0]).chain(self.paths.iter().flat_map(|p| p.points.iter().map(|q| q.0))).filter(|v| v.is_finite()).collect();
-        let ys: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.1, b.1]).chain(self.paths.iter().flat_map(|p| p.points.iter().map(|q| q.1))).filter(|v| v.is_finite()).collect();
+        let points = || self.paths.iter().flat_map(|p| p.points.iter().copied()).chain(self.corners.iter().copied());
+        let xs: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.0, b.0]).chain(points().map(|q| q.0)).filter(|v| v.is_finite()).collect();
+        let ys: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.1, b.1]).chain(points().map(|q| q.1)).filter(|v| v.is_finite()).collect();
         let (x0, x1) = padded(&xs, 0.04, false);
         let (y0, y1) = padded(&ys, 0.04, false);
         ((x0, x1), (y0, y1))
@@ -341,7 +342,9 @@ fn draw_trajectory(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &TrajectoryFi
         }
     }
     chart.draw_series(fig.corners.iter().map(|c| Circle::new(*c, 4, CORNER.filled()))).map_err(e)?;
-    chart.draw_series(fig.est_corners.iter().map(|(color, c)| Cross::new(*c, 4, rgb(*color).stroke_width(2)))).map_err(e)?;
+    // mapped landmarks outside the plotted area are left out rather than pinned to its edge
+    let inside = |(x, y): (f64, f64)| x >= x0 && x <= x1 && y >= y0 && y <= y1;
+    chart.draw_series(fig.est_corners.iter().filter(|(_, c)| inside(*c)).map(|(color, c)| Cross::new(*c, 4, rgb(*color).stroke_width(2)))).map_err(e)?;
     chart.draw_series(std::iter::once(TriangleMarker::new(fig.start, 7, BLACK.filled()))).map_err(e)?;
     Ok(())
 }

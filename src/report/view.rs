@@ -753,7 +753,8 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
             corners: if points_world { map.point_landmarks.iter().map(|c| (c.x, c.y)).collect() } else { map.corners.iter().map(|c| (c.x, c.y)).collect() },
             point_landmarks: points_world,
             paths,
-            start: (map.start.x, map.start.y),
+            // the true start pose (a dataset's first truth pose; the map's start for a simulation)
+            start: truth.truth.first().filter(|p| p.x.is_finite() && p.y.is_finite()).map_or((map.start.x, map.start.y), |p| (p.x, p.y)),
             est_corners,
             est_lines,
         };
