@@ -258,14 +258,13 @@ fn filter_choices(study: &Study<'_>, kinds: &[crate::slam::WorldKind]) -> Vec<St
     if fast {
         let p = &b.fastslam;
         out.push(format!(
-            "FastSLAM{}: {} particles, {} association{}, resampling when N̂eff < {}; the best particle is the one with the highest current weight.",
+            "FastSLAM{}: {} particles, {} association, resampling when N̂eff < {}; the best particle is the one with the highest current weight.",
             if algos.contains(&A::Fastslam2) { " 1.0 on point worlds and 2.0" } else { " 1.0 on point worlds" },
             p.particles,
             match p.association {
                 crate::slam::fastslam::DataAssociation::Known => "known".to_string(),
                 crate::slam::fastslam::DataAssociation::MaximumLikelihood => format!("maximum-likelihood (P0 = {})", p.p0),
             },
-            "",
             if p.neff_threshold.is_infinite() { "∞ (always)".to_string() } else { p.neff_threshold.to_string() },
         ));
     }
