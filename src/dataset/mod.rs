@@ -28,10 +28,7 @@ use std::path::{Path, PathBuf};
 /// (GPS) truth.
 pub const DATASET_CODE_VERSION: &str = "datasets-3";
 
-/// `PointObservation::landmark` of a measurement whose landmark has no identity (Victoria Park's
-/// trees). Known-association filters must reject such worlds; metrics must not score
-/// associations against it. It is never a valid index into `World::truth_points`.
-pub const UNKNOWN_LANDMARK: usize = usize::MAX;
+pub use crate::world::point_sensor::UNKNOWN_LANDMARK;
 
 /// The `[dataset]` table of a map file (data/maps/<name>.toml) — how to read a real dataset.
 ///

@@ -307,7 +307,7 @@ fn dataset_choices(study: &Study<'_>) -> Vec<String> {
 /// The kinds of world among a study's maps (laser first), laser for a map that cannot be read.
 fn world_kinds(maps: &[(String, Option<Map>)]) -> Vec<crate::slam::WorldKind> {
     let has = |k| maps.iter().any(|(_, m)| m.as_ref().map_or(crate::slam::WorldKind::Laser, Map::world_kind) == k);
-    [crate::slam::WorldKind::Laser, crate::slam::WorldKind::Points].into_iter().filter(|&k| has(k)).collect()
+    crate::slam::WorldKind::ALL.into_iter().filter(|&k| has(k)).collect()
 }
 
 fn maps_table(study: &Study<'_>) -> TableView {

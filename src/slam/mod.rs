@@ -43,6 +43,10 @@ pub enum WorldKind {
     Points,
 }
 
+impl WorldKind {
+    pub const ALL: [WorldKind; 2] = [WorldKind::Laser, WorldKind::Points];
+}
+
 /// Which simulated sensors an algorithm reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Sensors {

@@ -8,12 +8,9 @@
 use super::fastslam::models::Model;
 use super::SlamError;
 use crate::features::{self, FeatureParams, ScanFeatures};
+use crate::world::point_sensor::UNKNOWN_LANDMARK;
 use crate::world::World;
 use nalgebra::{Matrix2, Vector2};
-
-/// `PointObservation::landmark` of a sensor that cannot tell landmarks apart (Victoria Park's
-/// trees).
-pub const NO_IDENTITY: usize = usize::MAX;
 
 /// One measurement of one landmark.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -62,7 +59,7 @@ pub fn stream(world: &World, source: Source<'_>) -> Result<Vec<StepObservations>
                     observations: scan
                         .observations
                         .iter()
-                        .map(|o| Observation { model: Model::Point, z: Vector2::new(o.range_m, o.bearing_rad), r: noise.covariance(o.range_m), landmark: (o.landmark != NO_IDENTITY).then_some(o.landmark) })
+                        .map(|o| Observation { model: Model::Point, z: Vector2::new(o.range_m, o.bearing_rad), r: noise.covariance(o.range_m), landmark: (o.landmark != UNKNOWN_LANDMARK).then_some(o.landmark) })
                         .collect(),
                 })
                 .collect())

@@ -139,7 +139,12 @@ impl PointNoise {
     }
 }
 
-/// A range-bearing measurement of landmark `landmark` (index into the map's point list).
+/// `PointObservation::landmark` of a sensor that cannot tell landmarks apart (Victoria Park's
+/// trees): never a valid index into the map's points, so known association must refuse it.
+pub const UNKNOWN_LANDMARK: usize = usize::MAX;
+
+/// A range-bearing measurement of landmark `landmark` (index into the map's point list, or
+/// [`UNKNOWN_LANDMARK`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PointObservation {
     pub landmark: usize,
