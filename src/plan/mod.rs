@@ -148,24 +148,14 @@ fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) ->
                 let mut hasher = blake3::Hasher::new();
                 hasher.update(text.as_bytes());
                 let mut missing_data = None;
-                if let Some(table) = &map.dataset {
-                    match dataset_files(table) {
-                        Ok(files) => {
-                            for f in files {
-                                match std::fs::read(&f) {
-                                    Ok(bytes) => {
-                                        hasher.update(&bytes);
-                                    }
-                                    Err(e) => {
-                                        missing_data = Some(format!("cannot read {} ({e}): the real datasets are read from ../shared/data next to the repository, or from the `path` in {}", f.display(), path.display()));
-                                        break;
-                                    }
-                                }
-                            }
+                for f in map.dataset.iter().flat_map(|d| d.files(Path::new("."))) {
+                    match std::fs::read(&f) {
+                        Ok(bytes) => {
+                            hasher.update(&bytes);
                         }
-                        Err(msg) => {
-                            errors.push(SpecError::new(&path, vec![crate::source::SourceError::at_key(&crate::source::Locator::new(&text), "dataset", msg)]));
-                            continue;
+                        Err(e) => {
+                            missing_data = Some(format!("cannot read {} ({e}): the real datasets are read from ../shared/data next to the repository, or from the `path` in {}", f.display(), path.display()));
+                            break;
                         }
                     }
                 }
@@ -177,17 +167,6 @@ fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) ->
         }
     }
     out
-}
-
-/// The files a `[dataset]` table reads (relative to the working directory, the repository), or
-/// why the table is invalid.
-fn dataset_files(table: &toml::Table) -> Result<Vec<PathBuf>, String> {
-    let spec: crate::dataset::DatasetSpec = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| e.message().trim().to_string())?;
-    let violations = spec.validate();
-    if let Some(v) = violations.first() {
-        return Err(format!("`{}` {}", v.key, v.message));
-    }
-    Ok(spec.files(Path::new(".")))
 }
 
 /// Names of the `*.toml` files in `dir`, sorted.

@@ -325,7 +325,7 @@ fn maps_table(study: &Study<'_>) -> TableView {
                     if points {
                         row.push(m.point_landmarks.len().to_string());
                     }
-                    row.push(if m.dataset.is_some() { "real data".to_string() } else { format!("{} × {} waypoints", m.trajectory.laps, m.trajectory.waypoints.len()) });
+                    row.push(m.trajectory.as_ref().map_or("real data".to_string(), |t| format!("{} × {} waypoints", t.laps, t.waypoints.len())));
                     row.push(path_length.map_or("—".into(), |l| format!("{l:.1} m")));
                     row.push(m.source.clone());
                 }

@@ -246,7 +246,7 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
         let world = match &map.dataset {
             // Real data: read from its files (relative paths from the working directory, the
             // repository); the plan hashed their bytes.
-            Some(table) => load_dataset(table)?,
+            Some(dataset) => crate::dataset::load(dataset, Path::new(".")).map_err(|e| SimError::Dataset(e.to_string()))?,
             None => {
                 let spec = WorldSpec {
                     map,
@@ -302,13 +302,6 @@ fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, params: &crate:
             slam::ekf::run(world, &params.motion_model, &params.ekf, &stream(world, source)?, laser)
         }
     }
-}
-
-/// Reads a dataset map's world from its files (relative paths from the working directory, the
-/// repository); the plan hashed their bytes.
-fn load_dataset(table: &toml::Table) -> Result<world::World, SimError> {
-    let spec: crate::dataset::DatasetSpec = toml::Value::Table(table.clone()).try_into().map_err(|e: toml::de::Error| SimError::Dataset(e.message().to_string()))?;
-    crate::dataset::load(&spec, Path::new(".")).map_err(|e| SimError::Dataset(e.to_string()))
 }
 
 /// The study-specific fields of a run's row (status and metrics are filled by the caller).

@@ -30,7 +30,7 @@ struct MapFile {
     /// Simulated worlds drive this path; datasets have none.
     trajectory: Option<TrajectorySpec>,
     /// A real dataset instead of a simulation: how to read it (see `crate::dataset`).
-    dataset: Option<toml::Table>,
+    dataset: Option<crate::dataset::DatasetSpec>,
     /// Point landmarks [[x, y], …] [m] for range-bearing worlds.
     #[serde(default)]
     landmarks: Vec<[f64; 2]>,
@@ -86,9 +86,10 @@ pub struct Map {
     pub notes: Vec<String>,
     pub start: Pose2,
     pub walls: Vec<Segment>,
-    pub trajectory: TrajectorySpec,
-    /// The `[dataset]` table of a real-data map, as written (parsed by `crate::dataset`).
-    pub dataset: Option<toml::Table>,
+    /// The driven path of a simulated world (`None` for a dataset).
+    pub trajectory: Option<TrajectorySpec>,
+    /// How to read a real dataset (`None` for a simulated world).
+    pub dataset: Option<crate::dataset::DatasetSpec>,
     pub point_landmarks: Vec<Point2>,
     /// Unique infinite lines through the walls, in order of first appearance.
     pub lines: Vec<Line>,
@@ -122,30 +123,32 @@ impl Map {
                 }
             }
         }
-        let trajectory = match (file.trajectory, &file.dataset) {
-            (Some(t), None) => t,
-            // a dataset brings its own path; the driven trajectory is unused
-            (None, Some(_)) => TrajectorySpec { max_speed_mps: 1.0, max_turn_rate_dps: default_turn_rate(), laps: 1, waypoint_tolerance_m: default_tolerance(), waypoints: vec![[0.0, 0.0]] },
+        match (&file.trajectory, &file.dataset) {
             (Some(_), Some(_)) => return Err(vec![SourceError::at_key(&loc, "dataset", "a map has either a [trajectory] (simulation) or a [dataset] (real data), not both")]),
             (None, None) => return Err(vec![SourceError::at_key(&loc, "", "missing [trajectory] (or [dataset] for real data)")]),
-        };
-        let t = &trajectory;
-        if !(t.max_speed_mps > 0.0 && t.max_speed_mps.is_finite()) {
-            err("trajectory.max_speed_mps", format!("must be > 0, got {}", t.max_speed_mps));
+            _ => {}
         }
-        if !(t.max_turn_rate_dps > 0.0 && t.max_turn_rate_dps.is_finite()) {
-            err("trajectory.max_turn_rate_dps", format!("must be > 0, got {}", t.max_turn_rate_dps));
+        for v in file.dataset.iter().flat_map(|d| d.validate()) {
+            err(&format!("dataset.{}", v.key), v.message);
         }
-        if t.laps == 0 {
-            err("trajectory.laps", "must be ≥ 1".into());
+        if let Some(t) = &file.trajectory {
+            if !(t.max_speed_mps > 0.0 && t.max_speed_mps.is_finite()) {
+                err("trajectory.max_speed_mps", format!("must be > 0, got {}", t.max_speed_mps));
+            }
+            if !(t.max_turn_rate_dps > 0.0 && t.max_turn_rate_dps.is_finite()) {
+                err("trajectory.max_turn_rate_dps", format!("must be > 0, got {}", t.max_turn_rate_dps));
+            }
+            if t.laps == 0 {
+                err("trajectory.laps", "must be ≥ 1".into());
+            }
+            if !(t.waypoint_tolerance_m > 0.0 && t.waypoint_tolerance_m.is_finite()) {
+                err("trajectory.waypoint_tolerance_m", format!("must be > 0, got {}", t.waypoint_tolerance_m));
+            }
+            if t.waypoints.is_empty() {
+                err("trajectory.waypoints", "needs at least one waypoint".into());
+            }
         }
-        if !(t.waypoint_tolerance_m > 0.0 && t.waypoint_tolerance_m.is_finite()) {
-            err("trajectory.waypoint_tolerance_m", format!("must be > 0, got {}", t.waypoint_tolerance_m));
-        }
-        if t.waypoints.is_empty() {
-            err("trajectory.waypoints", "needs at least one waypoint".into());
-        }
-        let all_numbers = file.walls.iter().flat_map(|w| w.points.iter()).chain(&t.waypoints).chain(&file.landmarks);
+        let all_numbers = file.walls.iter().flat_map(|w| w.points.iter()).chain(file.trajectory.iter().flat_map(|t| &t.waypoints)).chain(&file.landmarks);
         if all_numbers.flatten().any(|v| !v.is_finite()) || ![file.start.x_m, file.start.y_m, file.start.theta_deg].iter().all(|v| v.is_finite()) {
             err("", "coordinates must be finite numbers".into());
         }
@@ -161,7 +164,7 @@ impl Map {
             notes: file.notes,
             start: Pose2::new(file.start.x_m, file.start.y_m, file.start.theta_deg.to_radians()),
             walls,
-            trajectory,
+            trajectory: file.trajectory,
             dataset: file.dataset,
             point_landmarks: file.landmarks.iter().map(|p| Point2::new(p[0], p[1])).collect(),
             lines,

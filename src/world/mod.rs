@@ -127,6 +127,8 @@ pub enum WorldError {
     TrajectoryStuck { waypoint: usize, lap: usize, steps: usize },
     #[error("the trajectory would take about {steps:.0} steps, more than the limit of {max}")]
     TooLong { steps: f64, max: usize },
+    #[error("the map has no trajectory to simulate (a dataset map is read, not simulated)")]
+    NoTrajectory,
     #[error("{sensor} rate must be a whole number of odometry steps")]
     SensorRate { sensor: &'static str },
 }
@@ -134,7 +136,8 @@ pub enum WorldError {
 /// Simulates one world.
 pub fn generate(spec: &WorldSpec<'_>, world_seed: u64) -> Result<World, WorldError> {
     let dt = spec.sim.dt_s;
-    let truth = trajectory::drive(spec.map.start, &spec.map.trajectory, dt)?;
+    let path = spec.map.trajectory.as_ref().ok_or(WorldError::NoTrajectory)?;
+    let truth = trajectory::drive(spec.map.start, path, dt)?;
     let stream = |n| {
         let mut rng = ChaCha8Rng::seed_from_u64(world_seed);
         rng.set_stream(n);

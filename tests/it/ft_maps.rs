@@ -76,9 +76,10 @@ fn trajectories_follow_the_thesis_description() {
     // [FT] §3.2: loops driven twice, ≤ 0.5 m/s, longer than 200 m, start at (0, 0, 0°).
     for r in FT {
         let m = load(r.name);
-        assert_eq!(m.trajectory.laps, 2, "{}", r.name);
+        let path = m.trajectory.as_ref().expect("a simulated map has a trajectory");
+        assert_eq!(path.laps, 2, "{}", r.name);
         assert_eq!((m.start.x, m.start.y, m.start.theta), (0.0, 0.0, 0.0), "{}", r.name);
-        let run = trajectory::drive(m.start, &m.trajectory, 0.1).unwrap();
+        let run = trajectory::drive(m.start, path, 0.1).unwrap();
         let length: f64 = run.poses.windows(2).map(|w| w[0].position().distance(w[1].position())).sum();
         assert!(length > 200.0, "{}: {length} m", r.name);
         assert!(run.controls.iter().all(|&(v, _)| v <= 0.5 + 1e-12), "{}", r.name);
