@@ -79,6 +79,8 @@ pub struct ExperimentPlan {
     pub claims: Vec<ClaimCells>,
     /// The reference rows of `[report] reference` (header + that experiment's lines, verbatim).
     pub reference: Option<String>,
+    /// The sweep point label of each `[[report.landmark_reference]]`, in order.
+    pub landmark_points: Vec<String>,
 }
 
 impl ExperimentPlan {
@@ -121,13 +123,20 @@ pub fn build(spec: LoadedSpec, maps_dir: &Path) -> Result<ExperimentPlan, InputE
         Ok(r) => r,
         Err(e) => return Err(e.into()),
     };
+    let mut landmark_points = Vec::new();
+    for (i, r) in spec.spec.report.landmark_reference.iter().enumerate() {
+        match find_point(&spec, &points, &r.at, &format!("report.landmark_reference[{i}].at")) {
+            Ok(p) => landmark_points.push(points[p].label.clone()),
+            Err(e) => return Err(SpecError::new(&spec.path, vec![e]).into()),
+        }
+    }
     let runs = runs(&spec, &maps, &points);
     let mut ids: Vec<&str> = runs.iter().map(|r| r.run_id.as_str()).collect();
     ids.sort_unstable();
     if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
         return Err(SpecError::new(&spec.path, vec![spec.error_at("sweeps", format!("two sweep points give the same run id `{}`", w[0]))]).into());
     }
-    Ok(ExperimentPlan { spec, maps, groups, points, runs, claims, reference })
+    Ok(ExperimentPlan { spec, maps, groups, points, runs, claims, reference, landmark_points })
 }
 
 fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) -> Vec<MapEntry> {

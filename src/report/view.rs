@@ -782,21 +782,10 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
 fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
     let spec = study.spec();
     let Some(algorithm) = spec.algorithms.first() else { return Vec::new() };
-    let base_value = |k: &str| study.base.iter().find(|(b, _)| b == k).map(|(_, v)| v.clone());
-    let same = |a: &toml::Value, b: &toml::Value| match (a.as_float().or(a.as_integer().map(|i| i as f64)), b.as_float().or(b.as_integer().map(|i| i as f64))) {
-        (Some(x), Some(y)) => x == y,
-        _ => a == b,
-    };
     let mut out = Vec::new();
-    for reference in &spec.report.landmark_reference {
-        // the point with these values and every other swept parameter at base
-        let point = study.data.resolved.points.iter().find(|p| {
-            let mut flat = Vec::new();
-            crate::spec::params::flatten("", &toml::Value::Table(reference.at.clone()), &mut flat);
-            flat.iter().all(|(k, v)| p.assignments.get(k).or(base_value(k).as_ref()).is_some_and(|pv| same(pv, v)))
-                && p.assignments.iter().all(|(k, v)| flat.iter().any(|(fk, _)| fk == k) || base_value(k).is_some_and(|b| same(&b, v)))
-        });
-        let Some(point) = point else { continue };
+    // each published table's sweep point, resolved by the plan
+    for (reference, label) in spec.report.landmark_reference.iter().zip(&study.data.resolved.landmark_points) {
+        let Some(point) = study.data.resolved.points.iter().find(|p| &p.label == label) else { continue };
         for (map_name, map) in &study.maps {
             let Some(map) = map else { continue };
             let ids: Vec<String> = study.runs_of(map_name, algorithm.name(), &point.label).filter(|r| r.status == RunStatus::Ok).map(|r| r.run_id.clone()).collect();

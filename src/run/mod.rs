@@ -389,6 +389,7 @@ fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
             .map(|p| PointRecord { label: p.label.clone(), groups: p.groups.clone(), assignments: p.assignments.iter().cloned().collect() })
             .collect(),
         claims: plan.claims.clone(),
+        landmark_points: plan.landmark_points.clone(),
     }
 }
 

@@ -241,6 +241,9 @@ pub struct ResolvedStudy {
     pub points: Vec<PointRecord>,
     #[serde(default)]
     pub claims: Vec<ClaimCells>,
+    /// The sweep point label of each `[[report.landmark_reference]]` (written only when any).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub landmark_points: Vec<String>,
 }
 
 /// Everything `write_study` puts in a study directory.

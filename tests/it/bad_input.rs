@@ -76,3 +76,10 @@ fn toml_syntax_error() {
     let err = rejected(&GOOD.replace("seed = 1", "seed = = 1"));
     assert!(err.contains("bad.toml:3:"), "{err}");
 }
+
+#[test]
+fn a_published_landmark_table_must_name_a_sweep_point() {
+    // it used to be skipped silently by the report
+    let err = rejected(&format!("{GOOD}\n[[report.landmark_reference]]\nlabel = \"T\"\nat = {{ \"odometry.var_x_m2\" = 9.0 }}\nlandmarks = []\n"));
+    assert!(err.contains("report.landmark_reference[0].at") && err.contains("no sweep point"), "{err}");
+}
