@@ -241,7 +241,7 @@ impl<'a> FastSlam1<'a> {
         }
         self.weighted_steps += 1;
         let weights = self.normalised_weights();
-        self.best = argmax(&weights); // 15: best particle, before resampling
+        self.best = particle::argmax(&weights); // 15: best particle, before resampling
         let neff = resample::effective_sample_size(&weights);
         if neff < self.params.neff_threshold {
             self.resample(&weights, rng); // 16–17: resample, weights back to uniform
@@ -345,31 +345,18 @@ impl<'a> FastSlam1<'a> {
         self.numerical_failures += failures as u64;
     }
 
-    /// Normalised weights from the log weights (max-shifted, so the largest is 1 before
-    /// normalising). All weights zero is a numerical failure: counted, and the weights made
-    /// uniform so that the filter can go on.
+    /// Normalised weights; all weights unusable is a numerical failure, counted, and the weights
+    /// made uniform so that the filter can go on.
     fn normalised_weights(&mut self) -> Vec<f64> {
-        let max = self.particles.iter().map(|p| p.log_weight).fold(f64::NEG_INFINITY, f64::max);
-        if !max.is_finite() {
+        particle::normalised_weights(&mut self.particles).unwrap_or_else(|| {
             self.numerical_failures += 1;
-            for p in &mut self.particles {
-                p.log_weight = 0.0;
-            }
-            return vec![1.0 / self.particles.len() as f64; self.particles.len()];
-        }
-        for p in &mut self.particles {
-            p.log_weight -= max; // keeps the logs bounded; ratios unchanged
-        }
-        let w: Vec<f64> = self.particles.iter().map(|p| p.log_weight.exp()).collect();
-        let sum: f64 = w.iter().sum();
-        w.into_iter().map(|x| x / sum).collect()
+            vec![1.0 / self.particles.len() as f64; self.particles.len()]
+        })
     }
 
     fn resample(&mut self, weights: &[f64], rng: &mut ChaCha8Rng) {
         let ancestors = resample::low_variance(weights, rng);
-        // Follow the best particle: systematic resampling keeps ≥ 1 copy of any w ≥ 1/M.
-        self.best = ancestors.iter().position(|&a| a == self.best).unwrap_or(0);
-        self.particles = ancestors.iter().map(|&a| Particle { log_weight: 0.0, ..self.particles[a].clone() }).collect();
+        (self.particles, self.best) = particle::resampled(&self.particles, &ancestors, self.best);
         self.resamples += 1;
     }
 
@@ -396,9 +383,6 @@ impl<'a> FastSlam1<'a> {
     }
 }
 
-fn argmax(w: &[f64]) -> usize {
-    w.iter().enumerate().fold(0, |best, (i, &x)| if x > w[best] { i } else { best })
-}
 
 /// Runs FastSLAM 1.0 over a world's odometry and scans ([FT]: line and corner features, its own
 /// motion noise).

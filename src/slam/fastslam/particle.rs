@@ -85,6 +85,37 @@ impl Particle {
     }
 }
 
+/// Normalised weights from the particles' log weights, max-shifted (the largest becomes 1 before
+/// normalising, which keeps the logs bounded). `None` when no weight is usable (all −∞, or a NaN):
+/// the caller counts a numerical failure; the log weights are reset so that the filter can go on.
+pub fn normalised_weights(particles: &mut [Particle]) -> Option<Vec<f64>> {
+    let max = particles.iter().map(|p| p.log_weight).fold(f64::NEG_INFINITY, f64::max);
+    if !max.is_finite() || particles.iter().any(|p| p.log_weight.is_nan()) {
+        for p in particles.iter_mut() {
+            p.log_weight = 0.0;
+        }
+        return None;
+    }
+    for p in particles.iter_mut() {
+        p.log_weight -= max; // ratios unchanged
+    }
+    let w: Vec<f64> = particles.iter().map(|p| p.log_weight.exp()).collect();
+    let sum: f64 = w.iter().sum();
+    Some(w.into_iter().map(|x| x / sum).collect())
+}
+
+/// The particles drawn from `ancestors` with their weights reset (maps shared, not copied), and
+/// where the particle `best` went: systematic resampling keeps ≥ 1 copy of any w ≥ 1/M.
+pub fn resampled(particles: &[Particle], ancestors: &[usize], best: usize) -> (Vec<Particle>, usize) {
+    let best = ancestors.iter().position(|&a| a == best).unwrap_or(0);
+    (ancestors.iter().map(|&a| Particle { log_weight: 0.0, ..particles[a].clone() }).collect(), best)
+}
+
+/// Index of the largest weight (the first on ties).
+pub fn argmax(w: &[f64]) -> usize {
+    w.iter().enumerate().fold(0, |best, (i, &x)| if x > w[best] { i } else { best })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

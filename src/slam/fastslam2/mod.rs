@@ -58,7 +58,7 @@
 
 use super::fastslam::association::{resolve_shared, Association, Candidates};
 use super::fastslam::models::{FullPrediction, Model};
-use super::fastslam::particle::{Landmark, Map, Particle};
+use super::fastslam::particle::{self, Landmark, Map, Particle};
 use super::fastslam::{landmark_map, pose_spread, resample, DataAssociation, FastSlamParams};
 use super::motion::MotionModel;
 use super::observations::{Observation, StepObservations};
@@ -446,7 +446,7 @@ impl<'a> FastSlam2<'a> {
     fn select(&mut self, rng: &mut ChaCha8Rng) -> f64 {
         self.weighted_steps += 1;
         let weights = self.normalised_weights();
-        self.best = argmax(&weights); // before resampling
+        self.best = particle::argmax(&weights); // before resampling
         let neff = resample::effective_sample_size(&weights);
         if neff < self.params.neff_threshold {
             self.resample(&weights, rng);
@@ -456,32 +456,19 @@ impl<'a> FastSlam2<'a> {
         neff
     }
 
-    /// Normalised weights from the log weights (max-shifted). All weights zero (or a weight not
-    /// a number) is a numerical failure: counted, and the weights made uniform.
+    /// Normalised weights; all weights unusable is a numerical failure, counted, and the weights
+    /// made uniform.
     fn normalised_weights(&mut self) -> Vec<f64> {
-        let m = self.particles.len();
-        let max = self.particles.iter().map(|p| p.log_weight).fold(f64::NEG_INFINITY, f64::max);
-        if !max.is_finite() || self.particles.iter().any(|p| p.log_weight.is_nan()) {
+        particle::normalised_weights(&mut self.particles).unwrap_or_else(|| {
             self.numerical_failures += 1;
-            for p in &mut self.particles {
-                p.log_weight = 0.0;
-            }
-            return vec![1.0 / m as f64; m];
-        }
-        for p in &mut self.particles {
-            p.log_weight -= max; // keeps the logs bounded; ratios unchanged
-        }
-        let w: Vec<f64> = self.particles.iter().map(|p| p.log_weight.exp()).collect();
-        let sum: f64 = w.iter().sum();
-        w.into_iter().map(|x| x / sum).collect()
+            vec![1.0 / self.particles.len() as f64; self.particles.len()]
+        })
     }
 
     /// Systematic resampling; the maps are shared, not copied.
     fn resample(&mut self, weights: &[f64], rng: &mut ChaCha8Rng) {
         let ancestors = resample::low_variance(weights, rng);
-        // Follow the best particle: systematic resampling keeps ≥ 1 copy of any w ≥ 1/M.
-        self.best = ancestors.iter().position(|&a| a == self.best).unwrap_or(0);
-        self.particles = ancestors.iter().map(|&a| Particle { log_weight: 0.0, ..self.particles[a].clone() }).collect();
+        (self.particles, self.best) = particle::resampled(&self.particles, &ancestors, self.best);
         self.weights = vec![1.0 / ancestors.len() as f64; ancestors.len()];
         self.resamples += 1;
     }
@@ -497,9 +484,6 @@ impl<'a> FastSlam2<'a> {
     }
 }
 
-fn argmax(w: &[f64]) -> usize {
-    w.iter().enumerate().fold(0, |best, (i, &x)| if x > w[best] { i } else { best })
-}
 
 /// Runs FastSLAM 2.0 over a world's odometry and an observation stream (in step order).
 /// `points_as_corners`: point landmarks are laser corners (else the map's point landmarks, with

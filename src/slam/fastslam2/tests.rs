@@ -224,7 +224,7 @@ fn resampling_keeps_the_particle_count_and_follows_the_best_particle() {
         if z.is_empty() {
             continue;
         }
-        let best = argmax(&f.particles.iter().map(|p| p.log_weight).collect::<Vec<_>>());
+        let best = particle::argmax(&f.particles.iter().map(|p| p.log_weight).collect::<Vec<_>>());
         let (pose, map) = (f.particles[best].pose, Arc::clone(&f.particles[best].map));
         let before = f.resamples;
         f.select(&mut rng);
