@@ -4,7 +4,7 @@
 //! `spec` (TOML as written) → `plan` (validated, expanded, hashed) → `run` (rayon; per run:
 //! `world::generate` → algorithm in `slam` → `metrics::compute`) → `store` (Parquet) →
 //! `report` (HTML, LaTeX, SVG, CSV); real logs enter through `dataset` (the run layer calls it).
-//! `geom`, `world`, `slam` and `metrics` are pure: no IO, no
+//! `geom`, `world`, `features`, `slam`, `scanmatch` and `metrics` are pure: no IO, no
 //! printing, no threads, no global RNG.
 
 pub mod cli;
@@ -16,6 +16,7 @@ pub mod metrics;
 pub mod plan;
 pub mod report;
 pub mod run;
+pub mod scanmatch;
 pub mod slam;
 pub mod source;
 pub mod spec;

@@ -10,11 +10,15 @@
 //!   and steering with the Ackermann model, tree detections from a SICK laser, GPS only as a
 //!   partial position reference, no landmark identities and no landmark ground truth.
 //!
+//! - [`intel_lab`]: Intel Research Lab (Hähnel, 2003), the CARMEN log with GMapping-corrected
+//!   poses — 910 laser scans for scan matching against the corrected relative poses.
+//!
 //! This is the one place real-log IO happens: [`load`] reads the files and hands their text to
 //! pure parsers (`&str` → records, errors carry the line number) and pure assemblers (records →
 //! [`World`]). Dataset files are read, never copied into the repository; [`DatasetSpec::files`]
 //! lists them so that the run layer can hash their contents.
 
+pub mod intel_lab;
 pub mod mrclam;
 pub mod victoria_park;
 
@@ -89,6 +93,21 @@ pub enum DatasetSpec {
         #[serde(default = "victoria_park_max_range")]
         max_range_m: f64,
     },
+    /// Intel Research Lab, corrected CARMEN log ([`intel_lab`]): laser scans only.
+    IntelLab {
+        /// The folder holding `intel-corrected.log.gz`, relative to the repository root.
+        #[serde(default = "default_intel_lab_path")]
+        path: String,
+        /// Index of the first scan used (0-based).
+        #[serde(default)]
+        first_scan: usize,
+        /// How many consecutive scans; 0 = to the end of the log.
+        #[serde(default)]
+        scans: usize,
+        /// Ranges at or beyond this [m] are no return (the log writes 81.83 m for none).
+        #[serde(default = "intel_lab_max_range")]
+        max_range_m: f64,
+    },
 }
 
 fn default_mrclam_path() -> String {
@@ -114,6 +133,12 @@ fn victoria_park_range_sigma() -> f64 {
 }
 fn victoria_park_bearing_sigma() -> f64 {
     victoria_park::DEFAULT_BEARING_SIGMA_RAD
+}
+fn default_intel_lab_path() -> String {
+    "../shared/data/intel-lab".to_string()
+}
+fn intel_lab_max_range() -> f64 {
+    intel_lab::DEFAULT_MAX_RANGE_M
 }
 fn victoria_park_max_range() -> f64 {
     victoria_park::DEFAULT_MAX_RANGE_M
@@ -151,7 +176,7 @@ impl DatasetSpec {
     /// The dataset folder, resolved against the repository root.
     pub fn folder(&self, root: &Path) -> PathBuf {
         match self {
-            DatasetSpec::Mrclam { path, .. } | DatasetSpec::VictoriaPark { path, .. } => root.join(path),
+            DatasetSpec::Mrclam { path, .. } | DatasetSpec::VictoriaPark { path, .. } | DatasetSpec::IntelLab { path, .. } => root.join(path),
         }
     }
 
@@ -161,6 +186,15 @@ impl DatasetSpec {
         match self {
             DatasetSpec::Mrclam { robot, .. } => mrclam::file_names(*robot).into_iter().map(|f| folder.join(f)).collect(),
             DatasetSpec::VictoriaPark { .. } => victoria_park::FILE_NAMES.iter().map(|f| folder.join(f)).collect(),
+            DatasetSpec::IntelLab { .. } => vec![folder.join(intel_lab::FILE_NAME)],
+        }
+    }
+
+    /// What the dataset's sensor sees: laser scans (Intel lab) or point landmarks.
+    pub fn world_kind(&self) -> crate::slam::WorldKind {
+        match self {
+            DatasetSpec::IntelLab { .. } => crate::slam::WorldKind::Laser,
+            DatasetSpec::Mrclam { .. } | DatasetSpec::VictoriaPark { .. } => crate::slam::WorldKind::Points,
         }
     }
 
@@ -182,6 +216,10 @@ impl DatasetSpec {
                 c.non_negative("duration_s", *duration_s);
                 c.positive("range_sigma_m", *range_sigma_m);
                 c.positive("bearing_sigma_rad", *bearing_sigma_rad);
+                c.positive("max_range_m", *max_range_m);
+            }
+            DatasetSpec::IntelLab { path, max_range_m, .. } => {
+                c.require(!path.trim().is_empty(), "path", || "must name the dataset folder".to_string());
                 c.positive("max_range_m", *max_range_m);
             }
         }
@@ -256,6 +294,11 @@ pub fn load_with_stats(spec: &DatasetSpec, root: &Path) -> Result<(World, LoadSt
             let window = victoria_park::Window { start_s, duration_s, max_range_m };
             victoria_park::load(&folder, &window, noise(range_sigma_m, bearing_sigma_rad))
         }
+        DatasetSpec::IntelLab { first_scan, scans, max_range_m, .. } => {
+            let world = intel_lab::load(&folder, first_scan, scans, max_range_m)?;
+            let stats = LoadStats { steps: world.odometry.len(), truth_known: world.truth.len(), ..LoadStats::default() };
+            Ok((world, stats))
+        }
     }
 }
 
@@ -278,6 +321,18 @@ fn read_text(path: &Path) -> Result<String, DatasetError> {
         std::io::ErrorKind::NotFound => missing(path.to_path_buf()),
         _ => DatasetError::Io { path: path.to_path_buf(), source },
     })
+}
+
+/// Reads one gzip-compressed dataset file as text.
+fn read_gz_text(path: &Path) -> Result<String, DatasetError> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => missing(path.to_path_buf()),
+        _ => DatasetError::Io { path: path.to_path_buf(), source },
+    })?;
+    let mut text = String::new();
+    flate2::read::GzDecoder::new(std::io::BufReader::new(file)).read_to_string(&mut text).map_err(|source| DatasetError::Io { path: path.to_path_buf(), source })?;
+    Ok(text)
 }
 
 /// A parse error in a text table: 1-based line number and what is wrong. The loader adds the

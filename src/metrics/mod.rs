@@ -62,6 +62,23 @@ pub const METRICS: &[MetricDef] = &[
     },
     MetricDef { name: "neff_mean", title: "Mean N̂eff", unit: "particles", description: "effective sample size 1/Σw², averaged over the steps that weighted the particles", lower_is_better: false },
     MetricDef { name: "resamples", title: "Resamples", unit: "count", description: "how many times the particles were resampled", lower_is_better: false },
+    // Scan matching ([EP] §5): errors of each match's estimated pose change in the reference frame.
+    MetricDef { name: "ax_mean_mm", title: "Mean |ax|", unit: "mm", description: "[EP] ax: mean over the matches of |x error| of the estimated pose change, in the reference frame", lower_is_better: true },
+    MetricDef { name: "ax_max_mm", title: "Max |ax|", unit: "mm", description: "largest |x error| of a match's pose change", lower_is_better: true },
+    MetricDef { name: "ay_mean_mm", title: "Mean |ay|", unit: "mm", description: "[EP] ay: mean over the matches of |y error| of the estimated pose change, in the reference frame", lower_is_better: true },
+    MetricDef { name: "ay_max_mm", title: "Max |ay|", unit: "mm", description: "largest |y error| of a match's pose change", lower_is_better: true },
+    MetricDef { name: "atheta_mean_deg", title: "Mean |aθ|", unit: "deg", description: "[EP] atheta: mean over the matches of |heading error| of the estimated pose change", lower_is_better: true },
+    MetricDef { name: "atheta_max_deg", title: "Max |aθ|", unit: "deg", description: "largest |heading error| of a match's pose change", lower_is_better: true },
+    MetricDef { name: "match_trans_rmse_mm", title: "Match translation RMSE", unit: "mm", description: "root mean square over the matches of the position error √(ax² + ay²)", lower_is_better: true },
+    MetricDef { name: "match_rot_rmse_deg", title: "Match rotation RMSE", unit: "deg", description: "root mean square over the matches of the heading error", lower_is_better: true },
+    MetricDef { name: "initial_trans_mean_mm", title: "Mean initial-guess error", unit: "mm", description: "mean over the matches of the position error of the initial guess (the odometry): what the matcher had to correct", lower_is_better: true },
+    MetricDef { name: "f_mean", title: "Mean f", unit: "cm²", description: "[EP] Eq. 4 at the final pose, mean over the matches: mean squared range residual of the valid pairs (see the README for the units)", lower_is_better: true },
+    MetricDef { name: "f_max", title: "Max f", unit: "cm²", description: "largest final f of a match", lower_is_better: true },
+    MetricDef { name: "evals_mean", title: "Evaluations per match", unit: "count", description: "objective evaluations (projections of the current scan) per match: the deterministic cost measure (times are in `make bench`)", lower_is_better: true },
+    MetricDef { name: "pairs_mean", title: "Valid pairs", unit: "count", description: "valid (reference, current) range pairs at the final pose, mean over the matches", lower_is_better: false },
+    MetricDef { name: "match_failure_rate", title: "Failed matches", unit: "fraction", description: "share of matches without a finite estimate or f (too few pairs, singular systems)", lower_is_better: true },
+    MetricDef { name: "fallback_rate", title: "f-check fallbacks", unit: "fraction", description: "share of matches where the f-check kept the odometry guess ([EP] §6.4)", lower_is_better: false },
+    MetricDef { name: "matches", title: "Matches", unit: "count", description: "scan matches in the run", lower_is_better: false },
 ];
 
 pub const LANDMARK_ERROR: &str = "landmark_error_m";
@@ -105,12 +122,47 @@ pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
     if !trace.pose_cov.is_empty() {
         out.extend(nees_metrics(&world.truth, &trace.estimate, &trace.pose_cov));
     }
+    if !trace.matches.is_empty() {
+        out.extend(match_metrics(&trace.matches));
+    }
     let neff: Vec<f64> = trace.neff.iter().flatten().copied().collect();
     if !neff.is_empty() {
         out.push(("neff_mean", neff.iter().sum::<f64>() / neff.len() as f64));
         out.push(("resamples", trace.resamples as f64));
     }
     out
+}
+
+/// [EP] §5's per-match errors, aggregated as its tables (mean and max of absolute values), plus
+/// RMS errors, cost and failure counts. Failed matches count in the failure rate only.
+pub fn match_metrics(matches: &[crate::scanmatch::track::MatchRecord]) -> RunMetrics {
+    let ok: Vec<&crate::scanmatch::track::MatchRecord> = matches.iter().filter(|m| m.succeeded()).collect();
+    let errors: Vec<(f64, f64, f64)> = ok.iter().map(|m| m.error()).collect();
+    let mean = |v: &mut dyn Iterator<Item = f64>| {
+        let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+        if n == 0 { f64::NAN } else { s / n as f64 }
+    };
+    let max = |v: &mut dyn Iterator<Item = f64>| v.fold(f64::NAN, f64::max);
+    const MM: f64 = 1e3;
+    let n = matches.len() as f64;
+    vec![
+        ("ax_mean_mm", mean(&mut errors.iter().map(|e| e.0.abs() * MM))),
+        ("ax_max_mm", max(&mut errors.iter().map(|e| e.0.abs() * MM))),
+        ("ay_mean_mm", mean(&mut errors.iter().map(|e| e.1.abs() * MM))),
+        ("ay_max_mm", max(&mut errors.iter().map(|e| e.1.abs() * MM))),
+        ("atheta_mean_deg", mean(&mut errors.iter().map(|e| e.2.abs().to_degrees()))),
+        ("atheta_max_deg", max(&mut errors.iter().map(|e| e.2.abs().to_degrees()))),
+        ("match_trans_rmse_mm", mean(&mut errors.iter().map(|e| e.0 * e.0 + e.1 * e.1)).sqrt() * MM),
+        ("match_rot_rmse_deg", mean(&mut errors.iter().map(|e| e.2 * e.2)).sqrt().to_degrees()),
+        ("initial_trans_mean_mm", mean(&mut matches.iter().map(|m| (m.initial.x - m.truth.x).hypot(m.initial.y - m.truth.y) * MM))),
+        ("f_mean", mean(&mut ok.iter().map(|m| m.f))),
+        ("f_max", max(&mut ok.iter().map(|m| m.f))),
+        ("evals_mean", mean(&mut matches.iter().map(|m| m.evaluations as f64))),
+        ("pairs_mean", mean(&mut ok.iter().map(|m| m.pairs as f64))),
+        ("match_failure_rate", (matches.len() - ok.len()) as f64 / n),
+        ("fallback_rate", matches.iter().filter(|m| m.fallback).count() as f64 / n),
+        ("matches", n),
+    ]
 }
 
 /// The [FT] §5 landmark metrics and their extensions, for a final map against the truth.

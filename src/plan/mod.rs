@@ -36,6 +36,8 @@ pub struct MapEntry {
 pub struct SweepGroup {
     pub kind: SweepKind,
     pub params: Vec<String>,
+    /// The group's points are named cells (a zip sweep with `labels`).
+    pub named: bool,
 }
 
 /// One parameter set of the study.
@@ -195,34 +197,35 @@ fn expand(spec: &LoadedSpec) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecE
     // Each candidate: assignments with, for error placement, the key of each value.
     type Candidate = Vec<(String, toml::Value, String)>;
     let mut groups = Vec::new();
-    let mut candidates: Vec<(Candidate, usize)> = Vec::new();
+    // (assignments, group, name of a named cell)
+    let mut candidates: Vec<(Candidate, usize, Option<String>)> = Vec::new();
     if spec.sweeps.is_empty() {
-        groups.push(SweepGroup { kind: SweepKind::OneAtATime, params: Vec::new() });
-        candidates.push((Vec::new(), 0));
+        groups.push(SweepGroup { kind: SweepKind::OneAtATime, params: Vec::new(), named: false });
+        candidates.push((Vec::new(), 0, None));
     }
     for block in &spec.sweeps {
         let at = |p: &crate::spec::SweptParam, i: usize| (p.path.clone(), p.values[i].clone(), format!("{}[{i}]", p.key));
         match block.kind {
             SweepKind::OneAtATime => {
                 for p in &block.params {
-                    groups.push(SweepGroup { kind: block.kind, params: vec![p.path.clone()] });
+                    groups.push(SweepGroup { kind: block.kind, params: vec![p.path.clone()], named: false });
                     for i in 0..p.values.len() {
-                        candidates.push((vec![at(p, i)], groups.len() - 1));
+                        candidates.push((vec![at(p, i)], groups.len() - 1, None));
                     }
                 }
             }
             SweepKind::Grid => {
-                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect() });
+                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect(), named: false });
                 let mut combos: Vec<Candidate> = vec![Vec::new()];
                 for p in &block.params {
                     combos = combos.into_iter().flat_map(|c| (0..p.values.len()).map(move |i| [c.clone(), vec![at(p, i)]].concat())).collect();
                 }
-                candidates.extend(combos.into_iter().map(|c| (c, groups.len() - 1)));
+                candidates.extend(combos.into_iter().map(|c| (c, groups.len() - 1, None)));
             }
             SweepKind::Zip => {
-                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect() });
+                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect(), named: !block.labels.is_empty() });
                 for i in 0..block.params[0].values.len() {
-                    candidates.push((block.params.iter().map(|p| at(p, i)).collect(), groups.len() - 1));
+                    candidates.push((block.params.iter().map(|p| at(p, i)).collect(), groups.len() - 1, block.labels.get(i).cloned()));
                 }
             }
         }
@@ -230,7 +233,7 @@ fn expand(spec: &LoadedSpec) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecE
 
     let mut points: Vec<SweepPoint> = Vec::new();
     let mut errors = Vec::new();
-    for (assignments, group) in candidates {
+    for (assignments, group, name) in candidates {
         let params = match resolve(spec, &assignments) {
             Ok(p) => p,
             Err(e) => {
@@ -244,7 +247,9 @@ fn expand(spec: &LoadedSpec) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecE
             }
             continue;
         }
-        let label = if assignments.is_empty() {
+        let label = if let Some(name) = name {
+            name
+        } else if assignments.is_empty() {
             "base".to_string()
         } else {
             assignments.iter().map(|(p, v, _)| format!("{p}={}", format_value(v))).collect::<Vec<_>>().join(",")
@@ -376,7 +381,12 @@ fn reference(spec: &LoadedSpec) -> Result<Option<String>, SpecError> {
         if mine.is_empty() {
             return Err(fail(&key, format!("{} has no rows of experiment `{e}`", r.file)));
         }
-        if let Some(row) = mine.iter().find(|row| !swept.contains(&row.parameter.as_str())) {
+        // Long-layout rows name cells (sweep labels) instead of a parameter.
+        let labels: Vec<&str> = spec.sweeps.iter().flat_map(|b| &b.labels).map(String::as_str).collect();
+        if let Some(row) = mine.iter().find(|row| !row.cell.is_empty() && !labels.contains(&row.cell.as_str())) {
+            return Err(fail(&key, format!("its rows name the cell `{}`, which no sweep `labels` of this study names", row.cell)));
+        }
+        if let Some(row) = mine.iter().find(|row| row.cell.is_empty() && !swept.contains(&row.parameter.as_str())) {
             return Err(fail(&key, format!("its rows sweep `{}`, which this study does not sweep", row.parameter)));
         }
     }
@@ -425,6 +435,11 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
             // The world's parts this run reads: the point sensor's and the dataset loaders'
             // versions enter only the hashes of the runs that use them.
             let mut code_version = format!("{SCHEMA_VERSION}+{WORLD_CODE_VERSION}+{METRICS_VERSION}+{}", algorithm.code_version());
+            // The scan matchers share their code version and (by kind) their parameter
+            // sections: the algorithm's name keeps their runs apart.
+            if algorithm.is_scan_matcher() {
+                code_version.push_str(&format!(":{}", algorithm.name()));
+            }
             if map.map.dataset.is_some() {
                 code_version.push_str(&format!("+{}", crate::dataset::DATASET_CODE_VERSION));
             } else if algorithm.sensors(map.map.world_kind()).landmarks {

@@ -99,6 +99,8 @@ pub struct LineSeries {
     pub points: Vec<SeriesPoint>,
     /// Published values: dashed, without a band.
     pub dashed: bool,
+    /// Markers only (no line, no band): a scatter of separate cells.
+    pub scatter: bool,
 }
 
 /// Error (or any metric) against a swept parameter: mean line with a CI band per series.
@@ -185,6 +187,10 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
     for s in &fig.series {
         let color = rgb(s.color);
         let pts: Vec<&SeriesPoint> = LineFigure::drawable(&s.points).collect();
+        if s.scatter {
+            chart.draw_series(pts.iter().map(|p| Circle::new((fig.position(p.x), p.mean), 4, color.filled()))).map_err(|e| e.to_string())?;
+            continue;
+        }
         if s.dashed {
             let line: Vec<(f64, f64)> = pts.iter().map(|p| (fig.position(p.x), p.mean)).collect();
             chart.draw_series(plotters::series::DashedLineSeries::new(line.clone(), 6, 4, color.stroke_width(2))).map_err(|e| e.to_string())?;
@@ -368,6 +374,7 @@ mod tests {
                     SeriesPoint { x: 1.0, mean: f64::INFINITY, lo: f64::NAN, hi: f64::NAN },
                 ],
                 dashed: false,
+                scatter: false,
             }],
         }
     }

@@ -60,7 +60,7 @@ pub fn line_pgf(fig: &LineFigure) -> String {
     for (i, series) in fig.series.iter().enumerate() {
         let color = format!("slamlab{}", series.color % PALETTE.len());
         let pts: Vec<_> = series.points.iter().filter(|p| p.mean.is_finite() && p.x.is_finite()).collect();
-        let band: Vec<_> = pts.iter().filter(|p| p.lo.is_finite() && p.hi.is_finite() && !series.dashed).collect();
+        let band: Vec<_> = pts.iter().filter(|p| p.lo.is_finite() && p.hi.is_finite() && !series.dashed && !series.scatter).collect();
         if band.len() >= 2 {
             let coords = |f: &dyn Fn(&&&super::figure::SeriesPoint) -> f64| band.iter().map(|p| format!("({},{})", num(p.x), num(f(p)))).collect::<Vec<_>>().join(" ");
             let _ = writeln!(s, "\\addplot[name path=hi{i}, draw=none, forget plot] coordinates {{{}}};", coords(&|p| p.hi));
@@ -68,7 +68,13 @@ pub fn line_pgf(fig: &LineFigure) -> String {
             let _ = writeln!(s, "\\addplot[fill={color}, fill opacity=0.18, draw=none, forget plot] fill between[of=hi{i} and lo{i}];");
         }
         let coords: Vec<String> = pts.iter().map(|p| format!("({},{})", num(p.x), num(p.mean))).collect();
-        let style = if series.dashed { "dashed, thick, mark=o, mark size=1.5pt" } else { "thick, mark=*, mark size=1.5pt" };
+        let style = if series.scatter {
+            "only marks, mark=*, mark size=2pt"
+        } else if series.dashed {
+            "dashed, thick, mark=o, mark size=1.5pt"
+        } else {
+            "thick, mark=*, mark size=1.5pt"
+        };
         let _ = writeln!(s, "\\addplot[color={color}, {style}] coordinates {{{}}};", coords.join(" "));
         let _ = writeln!(s, "\\addlegendentry{{{}}}", escape(&series.label));
     }

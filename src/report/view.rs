@@ -62,6 +62,9 @@ pub struct GroupView {
     pub label_columns: usize,
     pub figures: Vec<FigureView>,
     pub table: TableView,
+    /// Named cells only: one table per metric, algorithms × cells, published values beside ours
+    /// (the layout of [EP]'s tables).
+    pub matrices: Vec<NamedTable>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -131,6 +134,12 @@ impl Study<'_> {
     /// The published row for (map, parameter = value), if the study shows a reference.
     fn published(&self, map: &str, param: &str, value: f64) -> Option<&ReferenceRow> {
         self.data.reference.iter().find(|r| r.map == map && r.parameter == param && (r.value - value).abs() <= 1e-9 * value.abs().max(1.0))
+    }
+
+    /// The published value of `metric` for (map, algorithm, named cell), from a long-layout
+    /// reference, with the table it comes from.
+    fn published_cell(&self, map: &str, algorithm: &str, cell: &str, metric: &str) -> Option<(f64, &str)> {
+        self.data.reference.iter().filter(|r| r.map == map && r.algorithm == algorithm && r.cell == cell).find_map(|r| r.metric(metric).map(|v| (v, r.table.as_str())))
     }
 
     fn reference_label(&self) -> &str {
@@ -626,7 +635,8 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
 
     let mut figures = Vec::new();
     if let Some(x_param) = group.params.first() {
-        let x_values: Vec<toml::Value> = points.iter().filter_map(|p| study.value_at(p, x_param)).collect();
+        let x_values: Vec<toml::Value> =
+            if group.named { points.iter().map(|p| toml::Value::String(p.label.clone())).collect() } else { points.iter().filter_map(|p| study.value_at(p, x_param)).collect() };
         if x_values.len() == points.len() {
             let (axis, xs, mut ticks) = x_axis(&x_values, spec.report.log_x.contains(x_param));
             ticks.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -655,12 +665,25 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                             if !other.is_empty() {
                                 label = format!("{label} ({other})");
                             }
-                            series.push(LineSeries { label, color: series.len(), points: pts, dashed: false });
+                            series.push(LineSeries { label, color: series.len(), points: pts, dashed: false, scatter: false });
+                        }
+                        // Named cells: the published values of this (map, algorithm), dashed, in its colour.
+                        if group.named {
+                            let pts: Vec<SeriesPoint> = points
+                                .iter()
+                                .zip(&xs)
+                                .filter_map(|(p, &x)| study.published_cell(map, algorithm.name(), &p.label, m.name).map(|(v, _)| SeriesPoint { x, mean: v, lo: f64::NAN, hi: f64::NAN }))
+                                .collect();
+                            if !pts.is_empty() {
+                                let color = series.len() - 1;
+                                let label = if spec.algorithms.len() > 1 { format!("{map} / {} ({})", algorithm.name(), study.reference_label()) } else { format!("{map} ({})", study.reference_label()) };
+                                series.push(LineSeries { label, color, points: pts, dashed: true, scatter: false });
+                            }
                         }
                     }
                 }
                 // Published values: dashed, in the colour of the map's (first algorithm's) series.
-                if let Some(x_param) = group.params.first() {
+                if let Some(x_param) = group.params.first().filter(|_| !group.named) {
                     for (mi, (map, _)) in study.maps.iter().enumerate() {
                         let color = mi * spec.algorithms.len();
                         let pts: Vec<SeriesPoint> = points
@@ -675,11 +698,17 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                         if !pts.is_empty() {
                             let mut pts = pts;
                             pts.sort_by(|a, b| a.x.total_cmp(&b.x));
-                            series.push(LineSeries { label: format!("{map} ({})", study.reference_label()), color, points: pts, dashed: true });
+                            series.push(LineSeries { label: format!("{map} ({})", study.reference_label()), color, points: pts, dashed: true, scatter: false });
                         }
                     }
                 }
-                let x_label = if group.kind == SweepKind::Zip { group.params.join(" / ") } else { x_param.clone() };
+                let x_label = if group.named {
+                    "cell".to_string()
+                } else if group.kind == SweepKind::Zip {
+                    group.params.join(" / ")
+                } else {
+                    x_param.clone()
+                };
                 let fig = LineFigure { x_label, y_label: format!("{} [{}]", m.title, m.unit), x_axis: axis.clone(), x_ticks: ticks.clone(), series };
                 let file = slug(&format!("{}--{}", group.params.join("-"), m.name));
                 figures.push(FigureView {
@@ -696,7 +725,106 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
             }
         }
     }
-    GroupView { title, label_columns: if show_algorithm { 2 } else { 1 }, figures, table, agreement }
+    let matrices = if group.named { cell_matrices(study, &points) } else { Vec::new() };
+    if group.named && spec.algorithms.len() > 1 {
+        figures.extend(cost_figure(study, &points, &slug(&group.params.join("-"))));
+    }
+    GroupView { title, label_columns: if show_algorithm { 2 } else { 1 }, figures, table, agreement, matrices }
+}
+
+/// Named cells: per metric, a table with one row per (map, algorithm) and one column per cell —
+/// ours as mean ± half-width of the 95 % CI, and under it the published value when the reference
+/// has one ([EP] Tables 2–5).
+fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Vec<NamedTable> {
+    let spec = study.spec();
+    let label = study.reference_label();
+    let mut out = Vec::new();
+    for m in &study.metrics {
+        let mut columns = vec!["Map".to_string(), "Algorithm".to_string()];
+        columns.extend(points.iter().map(|p| p.label.clone()));
+        let mut rows = Vec::new();
+        let mut agreement = (0, 0);
+        for (map, _) in &study.maps {
+            for algorithm in &spec.algorithms {
+                let mut ours = vec![map.clone(), algorithm.title().to_string()];
+                let mut published = vec![String::new(), String::new()];
+                let mut tables: Vec<&str> = Vec::new();
+                for p in points {
+                    let (s, ..) = study.cell(map, algorithm.name(), &p.label, m.name);
+                    let hw = (s.ci_high - s.ci_low) / 2.0;
+                    ours.push(if hw.is_finite() { format!("{} ± {}", sig(s.mean, TABLE_DIGITS), sig(hw, 2)) } else { sig(s.mean, TABLE_DIGITS) });
+                    match study.published_cell(map, algorithm.name(), &p.label, m.name) {
+                        Some((v, table)) => {
+                            let inside = s.ci_low.is_finite() && v >= s.ci_low && v <= s.ci_high;
+                            agreement.1 += 1;
+                            agreement.0 += inside as usize;
+                            published.push(format!("{}{}", sig(v, TABLE_DIGITS), if inside { "" } else { " ≠" }));
+                            if !tables.contains(&table) {
+                                tables.push(table);
+                            }
+                        }
+                        None => published.push(String::new()),
+                    }
+                }
+                rows.push(ours);
+                if tables.is_empty() {
+                    continue;
+                }
+                published[1] = format!("{label} Table {}", tables.join("/"));
+                rows.push(published);
+            }
+        }
+        let caption = if agreement.1 > 0 {
+            format!(
+                "Ours: mean ± half-width of the 95 % confidence interval over the replicates; under it the published value (one run per cell). The published value lies inside our CI in {} of {} cells (≠ marks the others).",
+                agreement.0, agreement.1
+            )
+        } else {
+            "Mean ± half-width of the 95 % confidence interval over the replicates.".to_string()
+        };
+        out.push(NamedTable { title: format!("{} [{}] per cell", m.title, m.unit), caption, table: TableView { columns, rows, align: format!("ll{}", "r".repeat(points.len())) } });
+    }
+    out
+}
+
+/// Cost against accuracy across the algorithms ([EP] Table 3's time/f trade-off): mean f against
+/// mean objective evaluations per match (log x), one point per (map, algorithm, cell). Evaluations
+/// stand in for time, which is not deterministic (times are measured by `make bench`).
+fn cost_figure(study: &Study<'_>, points: &[&crate::store::PointRecord], group_slug: &str) -> Option<FigureView> {
+    let spec = study.spec();
+    let mut series = Vec::new();
+    let mut all_x = Vec::new();
+    for (map, _) in &study.maps {
+        for algorithm in &spec.algorithms {
+            let mut pts: Vec<SeriesPoint> = points
+                .iter()
+                .filter_map(|p| {
+                    let (e, ..) = study.cell(map, algorithm.name(), &p.label, "evals_mean");
+                    let (f, ..) = study.cell(map, algorithm.name(), &p.label, "f_mean");
+                    (e.mean > 0.0 && e.mean.is_finite() && f.mean.is_finite()).then_some(SeriesPoint { x: e.mean, mean: f.mean, lo: f64::NAN, hi: f64::NAN })
+                })
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            pts.sort_by(|a, b| a.x.total_cmp(&b.x));
+            all_x.extend(pts.iter().map(|p| p.x));
+            let label = if study.maps.len() > 1 { format!("{map} / {}", algorithm.name()) } else { algorithm.name().to_string() };
+            series.push(LineSeries { label, color: series.len(), points: pts, dashed: false, scatter: true });
+        }
+    }
+    if series.is_empty() {
+        return None;
+    }
+    let (lo, hi) = all_x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+    let ticks: Vec<(f64, String)> = (lo.log10().floor() as i32..=hi.log10().ceil() as i32).map(|e| (10f64.powi(e), sig(10f64.powi(e), 1))).collect();
+    let fig = LineFigure { x_label: "objective evaluations per match".into(), y_label: "Mean f [cm²]".into(), x_axis: XAxis::Log, x_ticks: ticks, series };
+    Some(FigureView {
+        file: format!("{group_slug}--cost"),
+        caption: "Accuracy against cost: mean final f against mean objective evaluations per match, one point per cell of each algorithm. Evaluations stand in for time, which is not deterministic (per-match times are measured by make bench and listed in the README).".into(),
+        svg: figure::line_svg(&fig),
+        pgf: super::pgf::line_pgf(&fig),
+    })
 }
 
 /// One figure per map: truth and every algorithm's estimate for a representative replicate.

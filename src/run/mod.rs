@@ -10,7 +10,7 @@ use crate::metrics;
 use crate::plan::{ExperimentPlan, RunSpec, SCHEMA_VERSION};
 use crate::slam::{self, AlgorithmKind, SlamError, Trace, WorldKind};
 use crate::spec::params::flatten;
-use crate::store::{self, Cache, CachedRun, GroupRecord, LandmarkRow, Manifest, ParamValue, PointRecord, ResolvedStudy, RunLandmarks, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows};
+use crate::store::{self, Cache, CachedRun, GroupRecord, LandmarkRow, Manifest, MatchRows, ParamValue, PointRecord, ResolvedStudy, RunLandmarks, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows};
 use crate::world::{self, WorldError, WorldSpec, WORLD_CODE_VERSION};
 use progress::Progress;
 pub use provenance::Provenance;
@@ -188,12 +188,13 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     let timings: Vec<Timing> =
         outcomes.iter().map(|(o, cached)| Timing { run_id: o.row.run_id.clone(), wall_ms: o.wall_ms, steps: o.trace.truth.len().saturating_sub(1) as u32, cached: *cached }).collect();
     let landmarks: Vec<RunLandmarks> = outcomes.iter().map(|(o, _)| o.landmarks.clone()).collect();
+    let matches: Vec<MatchRows> = outcomes.iter().map(|(o, _)| o.matches.clone()).collect();
     let traces: Vec<TraceRows> = outcomes.into_iter().map(|(o, _)| o.trace).collect();
     let failed = rows.iter().filter(|r| r.status == RunStatus::Failed).count();
     let diverged = rows.iter().filter(|r| r.status == RunStatus::Diverged).count();
 
     let manifest = manifest(plan, provenance, rows.len(), failed + diverged);
-    store::write_study(&dir, &StudyOutput { runs: &rows, traces: &traces, landmarks: &landmarks, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps, reference: plan.reference.as_deref() })?;
+    store::write_study(&dir, &StudyOutput { runs: &rows, traces: &traces, landmarks: &landmarks, matches: &matches, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps, reference: plan.reference.as_deref() })?;
     Ok(StudySummary { study: plan.id().to_string(), dir, runs: rows.len(), computed: to_compute, failed, diverged })
 }
 
@@ -204,25 +205,26 @@ pub fn execute(plan: &ExperimentPlan, run: &RunSpec) -> CachedRun {
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut row = base_row(plan, run);
     let no_map = || RunLandmarks { run_id: run.run_id.clone(), landmarks: Vec::new() };
-    let (trace, landmarks) = match result {
-        Ok(Ok((trace_rows, landmarks, metrics, diverged))) => {
+    let no_matches = || MatchRows { run_id: run.run_id.clone(), matches: Vec::new() };
+    let (trace, landmarks, matches) = match result {
+        Ok(Ok((trace_rows, landmarks, matches, metrics, diverged))) => {
             row.status = if diverged { RunStatus::Diverged } else { RunStatus::Ok };
             row.metrics = metrics.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
-            (trace_rows, landmarks)
+            (trace_rows, landmarks, matches)
         }
         Ok(Err(message)) => {
             row.status = RunStatus::Failed;
             row.error = Some(message);
-            (TraceRows::empty(&run.run_id), no_map())
+            (TraceRows::empty(&run.run_id), no_map(), no_matches())
         }
         Err(panic) => {
             let message = panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_else(|| "panic".into());
             row.status = RunStatus::Failed;
             row.error = Some(format!("panicked: {message}"));
-            (TraceRows::empty(&run.run_id), no_map())
+            (TraceRows::empty(&run.run_id), no_map(), no_matches())
         }
     };
-    CachedRun { row, trace, landmarks, wall_ms }
+    CachedRun { row, trace, landmarks, matches, wall_ms }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -237,13 +239,13 @@ enum SimError {
 
 /// World → algorithm → metrics. Returns the trace, the final map, the metrics, and whether the
 /// estimate diverged.
-fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandmarks, metrics::RunMetrics, bool), String> {
+fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandmarks, MatchRows, metrics::RunMetrics, bool), String> {
     (|| -> Result<_, SimError> {
         let params = &plan.points[run.point].params;
         let map = &plan.maps[run.map].map;
         let kind = map.world_kind();
         let sensors = run.algorithm.sensors(kind);
-        let world = match &map.dataset {
+        let mut world = match &map.dataset {
             // Real data: read from its files (relative paths from the working directory, the
             // repository); the plan hashed their bytes.
             Some(dataset) => crate::dataset::load(dataset, Path::new(".")).map_err(|e| SimError::Dataset(e.to_string()))?,
@@ -258,8 +260,24 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
                 world::generate(&spec, run.world_seed)?
             }
         };
+        if let Some(crate::dataset::DatasetSpec::IntelLab { .. }) = &map.dataset {
+            // The log's increments are the corrected poses' (no raw odometry): the study's
+            // [odometry] model makes the initial guesses from them.
+            let mut rng = ChaCha8Rng::seed_from_u64(run.world_seed);
+            world.odometry = params.odometry.perturb(&world.odometry, &mut rng);
+        }
         let mut filter_rng = ChaCha8Rng::seed_from_u64(run.filter_seed);
-        let trace = run_algorithm(run.algorithm, &world, params, kind, &mut filter_rng)?;
+        let trace = if run.algorithm.is_scan_matcher() {
+            let start = Instant::now();
+            let mut clock = || start.elapsed().as_secs_f64();
+            let tracked = crate::scanmatch::track::track(&world, scan_matcher(run.algorithm, params), &params.scan_matching, run.filter_seed, &mut clock)?;
+            // The metrics cover the steps up to the last match.
+            world.truth.truncate(tracked.steps);
+            world.odometry.truncate(tracked.steps.saturating_sub(1));
+            tracked.trace
+        } else {
+            run_algorithm(run.algorithm, &world, params, kind, &mut filter_rng)?
+        };
         let metrics = metrics::compute(&world, &trace);
         let diverged = trace.estimate.iter().any(|p| !p.is_finite());
         let landmarks = RunLandmarks {
@@ -275,10 +293,23 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
                 })
                 .collect(),
         };
+        let matches = MatchRows { run_id: run.run_id.clone(), matches: trace.matches };
         let rows = TraceRows { run_id: run.run_id.clone(), dt_s: world.dt_s, truth: world.truth, estimate: trace.estimate, neff: trace.neff };
-        Ok((rows, landmarks, metrics, diverged))
+        Ok((rows, landmarks, matches, metrics, diverged))
     })()
     .map_err(|e| e.to_string())
+}
+
+/// A scan-matching algorithm with its parameters.
+fn scan_matcher(algorithm: AlgorithmKind, params: &crate::spec::Params) -> crate::scanmatch::track::Matcher<'_> {
+    use crate::scanmatch::track::Matcher;
+    match algorithm {
+        AlgorithmKind::PsmOriginal => Matcher::Psm { params: &params.psm, own_heuristics: true },
+        AlgorithmKind::Epsm => Matcher::Epsm(&params.epsm),
+        AlgorithmKind::BruteForce => Matcher::BruteForce(&params.brute_force),
+        AlgorithmKind::PoseSearch(optimizer) => Matcher::PoseSearch { optimizer, params: &params.pose_search },
+        _ => Matcher::Psm { params: &params.psm, own_heuristics: false },
+    }
 }
 
 /// The one place that maps an algorithm name to its implementation and its parameters: which
@@ -289,6 +320,7 @@ fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, params: &crate:
     let laser = kind == WorldKind::Laser;
     match (algorithm, kind) {
         (AlgorithmKind::Odometry, _) => Ok(slam::odometry::run(world)),
+        (AlgorithmKind::Psm | AlgorithmKind::PsmOriginal | AlgorithmKind::Epsm | AlgorithmKind::BruteForce | AlgorithmKind::PoseSearch(_), _) => unreachable!("scan matchers run through scanmatch::track"),
         (AlgorithmKind::OdometryMap, WorldKind::Laser) => slam::odometry::run_with_map(world, &params.fastslam, &params.features, filter_rng),
         (AlgorithmKind::OdometryMap, WorldKind::Points) => slam::odometry::run_with_point_map(world, &params.fastslam, &stream(world, Source::Points)?, filter_rng),
         (AlgorithmKind::Fastslam1, WorldKind::Laser) => slam::fastslam::run(world, &params.fastslam, &params.features, filter_rng),
@@ -334,6 +366,7 @@ fn relabel(cached: &mut CachedRun, plan: &ExperimentPlan, run: &RunSpec) {
     cached.row = RunRow { status: cached.row.status, error: cached.row.error.take(), metrics: std::mem::take(&mut cached.row.metrics), ..fresh };
     cached.trace.run_id = run.run_id.clone();
     cached.landmarks.run_id = run.run_id.clone();
+    cached.matches.run_id = run.run_id.clone();
 }
 
 fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -> Manifest {
@@ -382,7 +415,7 @@ fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
     // `spec.base` is already resolved: serialising it writes every default out.
     ResolvedStudy {
         spec: plan.spec.spec.clone(),
-        groups: plan.groups.iter().map(|g| GroupRecord { kind: g.kind, params: g.params.clone() }).collect(),
+        groups: plan.groups.iter().map(|g| GroupRecord { kind: g.kind, params: g.params.clone(), named: g.named }).collect(),
         points: plan
             .points
             .iter()

@@ -12,11 +12,11 @@ pub mod odometry;
 pub use fastslam::models;
 
 use crate::geom::{Line, Point2, Pose2};
+use crate::scanmatch::search::Optimizer;
 use serde::{Deserialize, Serialize};
 
 /// The algorithms a study can list under `algorithms = [...]`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum AlgorithmKind {
     /// Dead reckoning: integrate odometry, use no sensor ([FT] claim 15: the reference every SLAM
     /// result is compared against).
@@ -32,6 +32,35 @@ pub enum AlgorithmKind {
     Fastslam2,
     /// EKF-SLAM: one joint Gaussian over the pose and every landmark ([EV]; Thrun et al. 2005).
     EkfSlam,
+    /// Polar Scan Matching (Diosi & Kleeman) on scans prepared by the study's
+    /// `[scan_matching.segmentation]` ([EP]'s "Diosi": PSM on segmented scans).
+    Psm,
+    /// PSM with its own preprocessing heuristics, whatever the study's segmentation ([EP]
+    /// Table 4's "Diosi Original").
+    PsmOriginal,
+    /// E-PSM's alternating orientation/position search ([EP] §5.3.1).
+    Epsm,
+    /// The brute-force reference: a translation grid with E-PSM's orientation search ([EP] §6.1).
+    BruteForce,
+    /// Simultaneous (x, y, θ) search with one of NLopt's optimisers ([EP] §5.3.2); listed by the
+    /// optimiser's name (`crs2`, `direct_l`, …).
+    PoseSearch(Optimizer),
+}
+
+impl Serialize for AlgorithmKind {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for AlgorithmKind {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        AlgorithmKind::from_name(&name).ok_or_else(|| {
+            let known: Vec<&str> = AlgorithmKind::ALL.iter().map(|a| a.name()).collect();
+            serde::de::Error::custom(format!("unknown algorithm `{name}`, expected one of: {}", known.join(", ")))
+        })
+    }
 }
 
 /// What a world's landmarks are, which decides the sensor every landmark filter reads. A map
@@ -69,7 +98,28 @@ impl Sensors {
 }
 
 impl AlgorithmKind {
-    pub const ALL: &'static [AlgorithmKind] = &[AlgorithmKind::Odometry, AlgorithmKind::OdometryMap, AlgorithmKind::Fastslam1, AlgorithmKind::Fastslam2, AlgorithmKind::EkfSlam];
+    pub const ALL: &'static [AlgorithmKind] = &[
+        AlgorithmKind::Odometry,
+        AlgorithmKind::OdometryMap,
+        AlgorithmKind::Fastslam1,
+        AlgorithmKind::Fastslam2,
+        AlgorithmKind::EkfSlam,
+        AlgorithmKind::Psm,
+        AlgorithmKind::PsmOriginal,
+        AlgorithmKind::Epsm,
+        AlgorithmKind::BruteForce,
+        AlgorithmKind::PoseSearch(Optimizer::DirectL),
+        AlgorithmKind::PoseSearch(Optimizer::Crs2),
+        AlgorithmKind::PoseSearch(Optimizer::Isres),
+        AlgorithmKind::PoseSearch(Optimizer::MlslLds),
+        AlgorithmKind::PoseSearch(Optimizer::Cobyla),
+        AlgorithmKind::PoseSearch(Optimizer::Bobyqa),
+        AlgorithmKind::PoseSearch(Optimizer::Sbplx),
+        AlgorithmKind::PoseSearch(Optimizer::Slsqp),
+        AlgorithmKind::PoseSearch(Optimizer::Lbfgs),
+        AlgorithmKind::PoseSearch(Optimizer::Tnewton),
+        AlgorithmKind::PoseSearch(Optimizer::Var2),
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -78,7 +128,17 @@ impl AlgorithmKind {
             AlgorithmKind::Fastslam1 => "fastslam1",
             AlgorithmKind::Fastslam2 => "fastslam2",
             AlgorithmKind::EkfSlam => "ekf_slam",
+            AlgorithmKind::Psm => "psm",
+            AlgorithmKind::PsmOriginal => "psm_original",
+            AlgorithmKind::Epsm => "epsm",
+            AlgorithmKind::BruteForce => "brute_force",
+            AlgorithmKind::PoseSearch(o) => o.name(),
         }
+    }
+
+    /// Whether this is a scan matcher (laser odometry by matching consecutive scans).
+    pub fn is_scan_matcher(self) -> bool {
+        matches!(self, AlgorithmKind::Psm | AlgorithmKind::PsmOriginal | AlgorithmKind::Epsm | AlgorithmKind::BruteForce | AlgorithmKind::PoseSearch(_))
     }
 
     pub fn from_name(name: &str) -> Option<AlgorithmKind> {
@@ -93,6 +153,11 @@ impl AlgorithmKind {
             AlgorithmKind::Fastslam1 => "FastSLAM 1.0",
             AlgorithmKind::Fastslam2 => "FastSLAM 2.0",
             AlgorithmKind::EkfSlam => "EKF-SLAM",
+            AlgorithmKind::Psm => "PSM",
+            AlgorithmKind::PsmOriginal => "PSM (own heuristics)",
+            AlgorithmKind::Epsm => "E-PSM",
+            AlgorithmKind::BruteForce => "Brute force",
+            AlgorithmKind::PoseSearch(o) => o.title(),
         }
     }
 
@@ -104,6 +169,7 @@ impl AlgorithmKind {
             AlgorithmKind::Fastslam1 => fastslam::CODE_VERSION,
             AlgorithmKind::Fastslam2 => fastslam2::CODE_VERSION,
             AlgorithmKind::EkfSlam => ekf::CODE_VERSION,
+            _ => crate::scanmatch::track::CODE_VERSION,
         }
     }
 
@@ -111,6 +177,7 @@ impl AlgorithmKind {
     pub fn sensors(self, kind: WorldKind) -> Sensors {
         match (self, kind) {
             (AlgorithmKind::Odometry, _) => Sensors::default(),
+            (a, _) if a.is_scan_matcher() => Sensors { laser: true, landmarks: false },
             (_, WorldKind::Laser) => Sensors { laser: true, landmarks: false },
             (_, WorldKind::Points) => Sensors { laser: false, landmarks: true },
         }
@@ -128,6 +195,10 @@ impl AlgorithmKind {
             (AlgorithmKind::Fastslam2, WorldKind::Points) => &["fastslam", "motion_model"],
             (AlgorithmKind::EkfSlam, WorldKind::Laser) => &["features", "ekf", "motion_model"],
             (AlgorithmKind::EkfSlam, WorldKind::Points) => &["ekf", "motion_model"],
+            (AlgorithmKind::Psm | AlgorithmKind::PsmOriginal, _) => &["scan_matching", "psm"],
+            (AlgorithmKind::Epsm, _) => &["scan_matching", "epsm"],
+            (AlgorithmKind::BruteForce, _) => &["scan_matching", "brute_force"],
+            (AlgorithmKind::PoseSearch(_), _) => &["scan_matching", "pose_search"],
         }
     }
 
@@ -180,6 +251,8 @@ pub struct Trace {
     /// The filter's own pose covariance at every step (EKF: P_rr; particle filters: the
     /// weighted spread of the particles), for NEES. Empty when the algorithm has none.
     pub pose_cov: Vec<Option<nalgebra::Matrix3<f64>>>,
+    /// Scan matchers: one record per match, in order. Empty for the other algorithms.
+    pub matches: Vec<crate::scanmatch::track::MatchRecord>,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -145,6 +145,11 @@ pub struct ReferenceSpec {
 pub struct SweepSpec {
     pub kind: SweepKind,
     pub values: toml::Table,
+    /// Names of a zip sweep's points, one per position (e.g. [EP] Table 1's noise cells
+    /// `none`, `odo1`, …): they label the points (and run ids), the columns of the report's
+    /// per-cell tables and the categorical x axis of its plots.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub labels: Vec<String>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
@@ -206,6 +211,8 @@ pub struct SweptParam {
 pub struct SweepBlock {
     pub kind: SweepKind,
     pub params: Vec<SweptParam>,
+    /// Point names (zip sweeps with `labels`), else empty.
+    pub labels: Vec<String>,
 }
 
 /// A parsed, validated spec with what is needed to place later errors in its text.
@@ -368,7 +375,23 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
             let lens: Vec<_> = swept.iter().map(|p| format!("{} has {}", p.path, p.values.len())).collect();
             err(&format!("sweeps[{i}].values"), format!("a zip sweep needs lists of equal length ({})", lens.join(", ")));
         }
-        sweeps.push(SweepBlock { kind: block.kind, params: swept });
+        if !block.labels.is_empty() {
+            let n = swept.first().map_or(0, |p| p.values.len());
+            let key = format!("sweeps[{i}].labels");
+            if block.kind != SweepKind::Zip {
+                err(&key, "only a zip sweep can name its points".into());
+            } else if block.labels.len() != n {
+                err(&key, format!("needs one name per point: {n} points, {} names", block.labels.len()));
+            }
+            for (j, l) in block.labels.iter().enumerate() {
+                if l.is_empty() || !l.chars().all(|c| c.is_ascii_alphanumeric() || "._-+".contains(c)) {
+                    err(&format!("{key}[{j}]"), format!("`{l}` must be non-empty letters, digits, `.`, `_`, `-` or `+`"));
+                } else if block.labels[..j].contains(l) {
+                    err(&format!("{key}[{j}]"), format!("`{l}` is used twice"));
+                }
+            }
+        }
+        sweeps.push(SweepBlock { kind: block.kind, params: swept, labels: block.labels.clone() });
     }
     for (i, p) in spec.report.log_x.iter().enumerate() {
         let values: Vec<&toml::Value> = sweeps.iter().flat_map(|b| &b.params).filter(|s| &s.path == p).flat_map(|s| &s.values).collect();
@@ -494,7 +517,7 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         assert_eq!(e[0].key, "sweeps[0].values.\"odometry.kk\"");
         assert_eq!(e[0].line, 16);
         let e = errs(&GOOD.replace("[\"odometry\"]", "[\"odometry\", \"magic\"]"));
-        assert!(e[0].message.contains("unknown variant `magic`"), "{}", e[0].message);
+        assert!(e[0].message.contains("unknown algorithm `magic`"), "{}", e[0].message);
         assert_eq!(e[0].line, 7);
     }
 

@@ -3,6 +3,11 @@
 
 use crate::config::{Checks, Violation};
 use crate::features::FeatureParams;
+use crate::scanmatch::brute::BruteForceParams;
+use crate::scanmatch::epsm::EpsmParams;
+use crate::scanmatch::psm::PsmParams;
+use crate::scanmatch::search::SearchParams;
+use crate::scanmatch::track::ScanMatchingParams;
 use crate::slam::ekf::EkfParams;
 use crate::slam::fastslam::FastSlamParams;
 use crate::slam::motion::MotionModel;
@@ -33,6 +38,16 @@ pub struct Params {
     pub motion_model: MotionModel,
     /// EKF-SLAM.
     pub ekf: EkfParams,
+    /// What every scan matcher shares: trigger, initial guess, segmentation, objective ([EP]).
+    pub scan_matching: ScanMatchingParams,
+    /// Polar Scan Matching (Diosi & Kleeman's constants).
+    pub psm: PsmParams,
+    /// E-PSM's alternating search ([EP] §5.3.1); also the brute force's orientation search.
+    pub epsm: EpsmParams,
+    /// Simultaneous (x, y, θ) search with NLopt ([EP] §5.3.2).
+    pub pose_search: SearchParams,
+    /// The brute-force reference ([EP] §6.1).
+    pub brute_force: BruteForceParams,
 }
 
 impl Params {
@@ -48,6 +63,11 @@ impl Params {
         c.nested("fastslam", self.fastslam.validate());
         c.nested("motion_model", self.motion_model.validate());
         c.nested("ekf", self.ekf.validate());
+        c.nested("scan_matching", self.scan_matching.validate());
+        c.nested("psm", self.psm.validate());
+        c.nested("epsm", self.epsm.validate());
+        c.nested("pose_search", self.pose_search.validate());
+        c.nested("brute_force", self.brute_force.validate());
         let in_use = [("laser", self.laser.rate_hz, sensors.laser), ("landmark_sensor", self.landmark_sensor.rate_hz, sensors.landmarks)];
         for (section, rate, used) in in_use {
             if used && rate > 0.0 && self.sim.dt_s > 0.0 && sensor_period_steps(rate, self.sim.dt_s).is_none() {

@@ -172,6 +172,13 @@ pub struct RunLandmarks {
     pub landmarks: Vec<LandmarkRow>,
 }
 
+/// A scan-matching run's matches (empty for the other algorithms).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MatchRows {
+    pub run_id: String,
+    pub matches: Vec<crate::scanmatch::track::MatchRecord>,
+}
+
 /// Wall-clock time of a run (when it was computed; `cached` = taken from the cache this time),
 /// and its number of odometry steps (wall_ms / steps = time per step).
 #[derive(Debug, Clone, PartialEq)]
@@ -210,6 +217,9 @@ pub struct Manifest {
 pub struct GroupRecord {
     pub kind: SweepKind,
     pub params: Vec<String>,
+    /// The points are named cells (a zip sweep with `labels`): the report tabulates them as columns.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub named: bool,
 }
 
 /// A sweep point of `resolved.toml`.
@@ -251,6 +261,7 @@ pub struct StudyOutput<'a> {
     pub runs: &'a [RunRow],
     pub traces: &'a [TraceRows],
     pub landmarks: &'a [RunLandmarks],
+    pub matches: &'a [MatchRows],
     pub timings: &'a [Timing],
     pub resolved: &'a ResolvedStudy,
     pub manifest: &'a Manifest,
@@ -269,6 +280,8 @@ pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> 
         parquet::write(&tmp.join("traces.parquet"), &mut traces)?;
         let mut landmarks = parquet::landmarks_frame(out.landmarks).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("landmarks.parquet"), &mut landmarks)?;
+        let mut matches = parquet::matches_frame(out.matches).map_err(|e| StoreError::format(dir, e))?;
+        parquet::write(&tmp.join("matches.parquet"), &mut matches)?;
         let mut timings = parquet::timings_frame(out.timings).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("timings.parquet"), &mut timings)?;
         let resolved = toml::to_string(out.resolved).map_err(|e| StoreError::format(dir, e))?;
@@ -360,6 +373,15 @@ pub fn read_landmarks(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<Run
     parquet::read_landmarks(&dir.join("landmarks.parquet"), keep)
 }
 
+/// Per-match rows of a study's scan-matching runs (none for studies written before them).
+pub fn read_matches(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<MatchRows>, StoreError> {
+    let path = dir.join("matches.parquet");
+    if !path.is_file() {
+        return Ok(Vec::new());
+    }
+    parquet::read_matches(&path, keep)
+}
+
 pub fn read_timings(dir: &Path) -> Result<Vec<Timing>, StoreError> {
     parquet::read_timings(&dir.join("timings.parquet"))
 }
@@ -397,6 +419,7 @@ pub struct CachedRun {
     pub row: RunRow,
     pub trace: TraceRows,
     pub landmarks: RunLandmarks,
+    pub matches: MatchRows,
     pub wall_ms: f64,
 }
 
@@ -425,7 +448,13 @@ impl Cache {
         row.metrics.retain(|(k, _)| k != CACHE_WALL_MS);
         let trace = parquet::read_traces(&dir.join("trace.parquet"), &|_| true).ok()?.pop().unwrap_or_else(|| TraceRows::empty(&row.run_id));
         let landmarks = parquet::read_landmarks(&dir.join("landmarks.parquet"), &|_| true).ok()?.pop().unwrap_or_else(|| RunLandmarks { run_id: row.run_id.clone(), landmarks: Vec::new() });
-        Some(CachedRun { row, trace, landmarks, wall_ms })
+        // Entries written before scan matching existed have no matches file: no matches.
+        let matches = match dir.join("matches.parquet") {
+            p if p.is_file() => parquet::read_matches(&p, &|_| true).ok()?.pop().unwrap_or_default(),
+            _ => MatchRows::default(),
+        };
+        let matches = MatchRows { run_id: row.run_id.clone(), ..matches };
+        Some(CachedRun { row, trace, landmarks, matches, wall_ms })
     }
 
     /// Stores a run. An existing entry is kept unless `replace` (a forced recomputation, or an
@@ -442,6 +471,10 @@ impl Cache {
             parquet::write(&tmp.join("run.parquet"), &mut df)?;
             let mut df = parquet::landmarks_frame(std::slice::from_ref(&run.landmarks)).map_err(|e| StoreError::format(&dir, e))?;
             parquet::write(&tmp.join("landmarks.parquet"), &mut df)?;
+            if !run.matches.matches.is_empty() {
+                let mut df = parquet::matches_frame(std::slice::from_ref(&run.matches)).map_err(|e| StoreError::format(&dir, e))?;
+                parquet::write(&tmp.join("matches.parquet"), &mut df)?;
+            }
             let mut df = parquet::traces_frame(std::slice::from_ref(&run.trace)).map_err(|e| StoreError::format(&dir, e))?;
             parquet::write(&tmp.join("trace.parquet"), &mut df)
         })
@@ -570,7 +603,7 @@ mod tests {
         let cache = Cache::new(dir.path());
         assert!(!cache.contains("abcdef"));
         let landmarks = RunLandmarks { run_id: "a".into(), landmarks: vec![LandmarkRow::Line { rho_m: 1.0, theta_rad: -1.5 }, LandmarkRow::Corner { x_m: 2.0, y_m: 3.0 }] };
-        let run = CachedRun { row: row("a", RunStatus::Ok), trace: TraceRows { neff: vec![], ..TraceRows::empty("a") }, landmarks, wall_ms: 12.5 };
+        let run = CachedRun { row: row("a", RunStatus::Ok), trace: TraceRows { neff: vec![], ..TraceRows::empty("a") }, landmarks, matches: MatchRows::default(), wall_ms: 12.5 };
         cache.put("abcdef", &run, false).unwrap();
         assert!(cache.contains("abcdef"));
         let back = cache.get("abcdef").unwrap();

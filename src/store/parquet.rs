@@ -1,7 +1,8 @@
 //! Typed rows ⇄ Parquet. The only polars code in slamlab. Column names and units are documented
 //! in the README ("Results schema").
 
-use super::{LandmarkRow, ParamValue, RunLandmarks, RunRow, RunStatus, StoreError, Timing, TraceRows};
+use super::{LandmarkRow, MatchRows, ParamValue, RunLandmarks, RunRow, RunStatus, StoreError, Timing, TraceRows};
+use crate::scanmatch::track::MatchRecord;
 use crate::geom::Pose2;
 use polars::prelude::*;
 use std::path::Path;
@@ -254,6 +255,79 @@ pub(super) fn read_landmarks(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result
             _ => LandmarkRow::Corner { x_m: x[i], y_m: y[i] },
         };
         out.last_mut().expect("just pushed").landmarks.push(l);
+    }
+    Ok(out)
+}
+
+/// Scan matches: one row per match, poses of the current scan in the reference frame.
+const MATCH_POSE_COLUMNS: [&str; 9] = ["truth_dx_m", "truth_dy_m", "truth_dtheta_rad", "initial_dx_m", "initial_dy_m", "initial_dtheta_rad", "est_dx_m", "est_dy_m", "est_dtheta_rad"];
+
+pub(super) fn matches_frame(runs: &[MatchRows]) -> PolarsResult<DataFrame> {
+    let rows: Vec<(&str, usize, &MatchRecord)> = runs.iter().flat_map(|r| r.matches.iter().enumerate().map(move |(i, m)| (r.run_id.as_str(), i, m))).collect();
+    let f = |g: &dyn Fn(&MatchRecord) -> f64| rows.iter().map(|(_, _, m)| g(m)).collect::<Vec<f64>>();
+    let pose = |m: &MatchRecord, i: usize| {
+        let p = [m.truth, m.initial, m.estimate][i / 3];
+        [p.x, p.y, p.theta][i % 3]
+    };
+    let mut columns = vec![
+        Column::new("run_id".into(), rows.iter().map(|(id, _, _)| *id).collect::<Vec<_>>()),
+        Column::new("match".into(), rows.iter().map(|(_, i, _)| *i as u32).collect::<Vec<_>>()),
+        Column::new("reference_step".into(), rows.iter().map(|(_, _, m)| m.reference_step as u32).collect::<Vec<_>>()),
+        Column::new("current_step".into(), rows.iter().map(|(_, _, m)| m.current_step as u32).collect::<Vec<_>>()),
+    ];
+    for (i, name) in MATCH_POSE_COLUMNS.iter().enumerate() {
+        columns.push(Column::new((*name).into(), f(&|m| pose(m, i))));
+    }
+    columns.extend([
+        Column::new("f".into(), f(&|m| m.f)),
+        Column::new("f_initial".into(), f(&|m| m.f_initial)),
+        Column::new("pairs".into(), rows.iter().map(|(_, _, m)| m.pairs).collect::<Vec<_>>()),
+        Column::new("iterations".into(), rows.iter().map(|(_, _, m)| m.iterations).collect::<Vec<_>>()),
+        Column::new("evaluations".into(), rows.iter().map(|(_, _, m)| m.evaluations).collect::<Vec<_>>()),
+        Column::new("fallback".into(), rows.iter().map(|(_, _, m)| m.fallback).collect::<Vec<_>>()),
+        Column::new("stop".into(), rows.iter().map(|(_, _, m)| m.stop.as_str()).collect::<Vec<_>>()),
+        Column::new("time_s".into(), f(&|m| m.time_s)),
+    ]);
+    DataFrame::new(rows.len(), columns)
+}
+
+pub(super) fn read_matches(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<MatchRows>, StoreError> {
+    let df = read(path)?;
+    let e = |x: PolarsError| err(path, x);
+    let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
+    let f = |name: &str| -> Result<Vec<f64>, StoreError> { Ok(df.column(name).map_err(e)?.f64().map_err(e)?.iter().map(|v| v.unwrap_or(f64::NAN)).collect()) };
+    let u = |name: &str| -> Result<Vec<u32>, StoreError> { Ok(df.column(name).map_err(e)?.u32().map_err(e)?.iter().map(|v| v.unwrap_or(0)).collect()) };
+    let poses: Vec<Vec<f64>> = MATCH_POSE_COLUMNS.iter().map(|c| f(c)).collect::<Result<_, _>>()?;
+    let (fv, fi, time) = (f("f")?, f("f_initial")?, f("time_s")?);
+    let (rs, cs, pairs, iters) = (u("reference_step")?, u("current_step")?, u("pairs")?, u("iterations")?);
+    let evals: Vec<u64> = df.column("evaluations").map_err(e)?.u64().map_err(e)?.iter().map(|v| v.unwrap_or(0)).collect();
+    let fallback: Vec<bool> = df.column("fallback").map_err(e)?.bool().map_err(e)?.iter().map(|v| v.unwrap_or(false)).collect();
+    let stop = df.column("stop").map_err(e)?.str().map_err(e)?;
+    let mut out: Vec<MatchRows> = Vec::new();
+    for i in 0..df.height() {
+        let id = ids.get(i).unwrap_or_default();
+        if !keep(id) {
+            continue;
+        }
+        if out.last().is_none_or(|r| r.run_id != id) {
+            out.push(MatchRows { run_id: id.to_string(), matches: Vec::new() });
+        }
+        let pose = |k: usize| Pose2::new(poses[3 * k][i], poses[3 * k + 1][i], poses[3 * k + 2][i]);
+        out.last_mut().expect("just pushed").matches.push(MatchRecord {
+            reference_step: rs[i] as usize,
+            current_step: cs[i] as usize,
+            truth: pose(0),
+            initial: pose(1),
+            estimate: pose(2),
+            f: fv[i],
+            f_initial: fi[i],
+            pairs: pairs[i],
+            iterations: iters[i],
+            evaluations: evals[i],
+            fallback: fallback[i],
+            stop: stop.get(i).unwrap_or_default().to_string(),
+            time_s: time[i],
+        });
     }
     Ok(out)
 }

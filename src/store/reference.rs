@@ -2,6 +2,11 @@
 //! text → rows. Key columns `experiment, table, map, parameter, value`; a column named after a
 //! slamlab metric holds the published mean, `<metric>_var` its published variance; other
 //! columns document provenance.
+//!
+//! A second, long layout holds per-cell tables such as [EP]'s (`epsm-tables.csv`): key columns
+//! `table, map, algorithm, cell, stat, metric, value`, one published number per line. Its rows
+//! become [`ReferenceRow`]s with `experiment` = `table`, the named cell in `cell`, and the
+//! number under slamlab's metric name ([`cell_metric_name`]).
 
 use crate::metrics::metric_def;
 
@@ -15,6 +20,9 @@ pub struct ReferenceRow {
     pub value: f64,
     /// (metric or `<metric>_var`, value), in column order.
     pub metrics: Vec<(String, f64)>,
+    /// Long layout only: the algorithm and the named cell (sweep label) of the number.
+    pub algorithm: String,
+    pub cell: String,
 }
 
 impl ReferenceRow {
@@ -32,8 +40,49 @@ fn number(field: &str) -> Option<f64> {
     }
 }
 
-/// Parses a reference file; errors name the line (1-based) and column.
+/// slamlab's metric name for a long-layout (metric, stat): `ax_mm` + `mean` → `ax_mean_mm`,
+/// `f` + `max` → `f_max` (the unit stays last).
+pub fn cell_metric_name(metric: &str, stat: &str) -> String {
+    match metric.rsplit_once('_') {
+        Some((base, unit)) => format!("{base}_{stat}_{unit}"),
+        None => format!("{metric}_{stat}"),
+    }
+}
+
+const CELL_KEYS: [&str; 7] = ["table", "map", "algorithm", "cell", "stat", "metric", "value"];
+
+/// Parses the long (per-cell) layout.
+fn parse_cells(text: &str) -> Result<Vec<ReferenceRow>, String> {
+    let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines.next().ok_or("the file is empty")?;
+    let columns: Vec<&str> = header.split(',').map(str::trim).collect();
+    let keys: Vec<usize> = CELL_KEYS.iter().map(|k| columns.iter().position(|c| c == k).ok_or_else(|| format!("line 1: missing column `{k}`"))).collect::<Result<_, _>>()?;
+    let mut rows = Vec::new();
+    for (n, line) in lines {
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        if fields.len() != columns.len() {
+            return Err(format!("line {}: {} fields, the header has {}", n + 1, fields.len(), columns.len()));
+        }
+        let value = number(fields[keys[6]]).ok_or_else(|| format!("line {}: column `value` is not a number: {:?}", n + 1, fields[keys[6]]))?;
+        rows.push(ReferenceRow {
+            experiment: fields[keys[0]].to_string(),
+            table: fields[keys[0]].to_string(),
+            map: fields[keys[1]].to_string(),
+            parameter: String::new(),
+            value: f64::NAN,
+            metrics: vec![(cell_metric_name(fields[keys[5]], fields[keys[4]]), value)],
+            algorithm: fields[keys[2]].to_string(),
+            cell: fields[keys[3]].to_string(),
+        });
+    }
+    Ok(rows)
+}
+
+/// Parses a reference file (either layout); errors name the line (1-based) and column.
 pub fn parse(text: &str) -> Result<Vec<ReferenceRow>, String> {
+    if text.lines().next().is_some_and(|h| h.split(',').any(|c| c.trim() == "cell")) {
+        return parse_cells(text);
+    }
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let (_, header) = lines.next().ok_or("the file is empty")?;
     let columns: Vec<&str> = header.split(',').map(str::trim).collect();
@@ -59,6 +108,8 @@ pub fn parse(text: &str) -> Result<Vec<ReferenceRow>, String> {
             parameter: fields[keys[3]].to_string(),
             value,
             metrics,
+            algorithm: String::new(),
+            cell: String::new(),
         });
     }
     Ok(rows)
@@ -68,7 +119,8 @@ pub fn parse(text: &str) -> Result<Vec<ReferenceRow>, String> {
 pub fn select(text: &str, experiments: &[String]) -> String {
     let mut lines = text.lines();
     let header = lines.next().unwrap_or_default();
-    let at = header.split(',').position(|c| c.trim() == "experiment").unwrap_or(0);
+    // The long layout's experiments are its tables.
+    let at = header.split(',').position(|c| c.trim() == "experiment").or_else(|| header.split(',').position(|c| c.trim() == "table")).unwrap_or(0);
     let mut out = format!("{header}\n");
     for l in lines.filter(|l| l.split(',').nth(at).map(str::trim).is_some_and(|e| experiments.iter().any(|x| x == e))) {
         out.push_str(l);
@@ -108,6 +160,21 @@ mod tests {
         let s = select(TEXT, &["lmin".to_string()]);
         assert_eq!(s.lines().count(), 2);
         assert!(s.ends_with("lmin,10.4,bigloop,features.lmin_m,10,inf,0,0,L3-4\n"));
+    }
+
+    #[test]
+    fn long_layout_names_metrics_and_cells() {
+        let text = "table,map,algorithm,cell,stat,metric,value,source_lines\n2,ep_rect_column,epsm,odo10,mean,ax_mm,2.8446,L376\n2,ep_rect_column,epsm,odo10,max,f,54.265,L376\n5,ep_bigmap,crs2,none,mean,ax_mm,3.40E-06,L530\n";
+        let rows = parse(text).unwrap();
+        assert_eq!(rows.len(), 3);
+        assert_eq!((rows[0].algorithm.as_str(), rows[0].cell.as_str()), ("epsm", "odo10"));
+        assert_eq!(rows[0].metric("ax_mean_mm"), Some(2.8446));
+        assert_eq!(rows[1].metric("f_max"), Some(54.265));
+        assert_eq!(rows[2].metric("ax_mean_mm"), Some(3.4e-6));
+        assert_eq!(select(text, &["5".to_string()]).lines().count(), 2);
+        assert!(parse(&text.replace("54.265", "x")).unwrap_err().starts_with("line 3:"));
+        assert_eq!(cell_metric_name("atheta_deg", "max"), "atheta_max_deg");
+        assert_eq!(cell_metric_name("evals", "mean"), "evals_mean");
     }
 
     #[test]

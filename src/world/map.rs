@@ -174,7 +174,11 @@ impl Map {
 
     /// Point-landmark world (point landmarks or a dataset) or laser world (walls only).
     pub fn world_kind(&self) -> crate::slam::WorldKind {
-        if self.point_landmarks.is_empty() && self.dataset.is_none() { crate::slam::WorldKind::Laser } else { crate::slam::WorldKind::Points }
+        match &self.dataset {
+            Some(d) => d.world_kind(),
+            None if self.point_landmarks.is_empty() => crate::slam::WorldKind::Laser,
+            None => crate::slam::WorldKind::Points,
+        }
     }
 
     /// Number of ground-truth landmarks of the laser world (lines + corners).

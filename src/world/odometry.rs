@@ -136,8 +136,53 @@ impl OdometryNoise {
     }
 }
 
+impl OdometryNoise {
+    /// Noisy copies of exact body-frame `increments` (a log whose odometry is its ground truth,
+    /// e.g. the Intel lab's corrected poses): each increment (dx, dy, dθ) of length d gets
+    /// independent errors of σ = s(k, d) on dx and dy and s(k, |dθ|) on dθ (`proportional`;
+    /// `systematic` adds its heading bias b·d and its slip s·|dθ| along x), or the `pose` model's
+    /// σx, σy, σθ. Three normals per increment, whatever the model.
+    pub fn perturb(&self, increments: &[Pose2], rng: &mut ChaCha8Rng) -> Vec<Pose2> {
+        increments
+            .iter()
+            .map(|d| {
+                let z: [f64; 3] = [rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal)];
+                let length = d.x.hypot(d.y);
+                let (sx, sy, st, bias_x, bias_t) = match *self {
+                    OdometryNoise::None {} => (0.0, 0.0, 0.0, 0.0, 0.0),
+                    OdometryNoise::Proportional { k, k_is } => {
+                        let s = |x: f64| match k_is {
+                            Spread::Std => k * x,
+                            Spread::Variance => (k * x).sqrt(),
+                        };
+                        (s(length), s(length), s(d.theta.abs()), 0.0, 0.0)
+                    }
+                    OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => (var_x_m2.sqrt(), var_y_m2.sqrt(), var_theta_rad2.sqrt(), 0.0, 0.0),
+                    OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => {
+                        (k * length, k * length, k * d.theta.abs(), turn_slip_m_per_rad * d.theta.abs(), -heading_bias_deg_per_m.to_radians() * length)
+                    }
+                };
+                Pose2::new(d.x + bias_x + sx * z[0], d.y + sy * z[1], crate::geom::wrap_angle(d.theta + bias_t + st * z[2]))
+            })
+            .collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn perturb_scales_with_the_increment_and_keeps_exact_without_noise() {
+        let increments = vec![Pose2::new(0.5, 0.0, 0.2); 20_000];
+        assert_eq!(OdometryNoise::None {}.perturb(&increments, &mut rng()), increments);
+        let noisy = OdometryNoise::Proportional { k: 0.1, k_is: Spread::Std }.perturb(&increments, &mut rng());
+        let std = |f: &dyn Fn(&Pose2) -> f64| {
+            let m = noisy.iter().map(f).sum::<f64>() / noisy.len() as f64;
+            (noisy.iter().map(|p| (f(p) - m).powi(2)).sum::<f64>() / (noisy.len() - 1) as f64).sqrt()
+        };
+        assert!((std(&|p| p.x) - 0.05).abs() < 0.002 && (std(&|p| p.y) - 0.05).abs() < 0.002);
+        assert!((std(&|p| p.theta) - 0.02).abs() < 0.001);
+    }
     use super::*;
     use rand::SeedableRng;
 

@@ -500,6 +500,7 @@ pub fn run(world: &World, motion: &MotionModel, params: &EkfParams, observations
         resamples: 0,
         weighted_steps: filter.weighted_steps,
         pose_cov,
+        matches: Vec::new(),
     })
 }
 

@@ -425,6 +425,7 @@ pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionMode
         resamples: filter.resamples,
         weighted_steps: filter.weighted_steps,
         pose_cov,
+        matches: Vec::new(),
     })
 }
 

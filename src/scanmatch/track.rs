@@ -1,0 +1,232 @@
+//! Laser odometry by scan matching: a [`World`]'s scans → a chained trajectory and one
+//! [`MatchRecord`] per match ([EP] ch. 3, Fig. 1). Pure: the caller passes the clock that times
+//! each match.
+//!
+//! The procedure ([EP] §3 and its gaps filled, each a `[scan_matching]` parameter):
+//! - **Trigger** ([EP] §3: "when odometry reports a significant pose change, or after a fixed
+//!   time"): a scan is matched against the reference scan (the scan of the previous match) once
+//!   the odometry since the reference has moved `trigger_distance_m` or turned
+//!   `trigger_angle_deg`, or `trigger_timeout_s` has passed.
+//! - **Initial guess**: the odometry increment since the reference (or the identity).
+//! - **Chaining**: the estimate of the matched scan's pose is the reference's estimate composed
+//!   with the match; between matches the estimate follows the odometry. A match whose estimate is
+//!   not finite keeps the odometry's guess (and counts as failed).
+//! - **Run length**: the run stops after `max_matches` matches ([EP]: 100 per run); the trajectory
+//!   metrics cover the steps up to the last match.
+//! - **Errors** ([EP] §5): a match's error is its estimated pose change minus the true one, in the
+//!   reference frame: ax, ay [mm], aθ [deg].
+
+use super::objective::{Objective, ObjectiveParams};
+use super::search::Optimizer;
+use super::segment::{prepare, Segmentation, SegmentationParams};
+use super::MatchResult;
+use crate::config::{Checks, Violation};
+use crate::geom::Pose2;
+use crate::slam::{SlamError, Trace};
+use crate::world::laser::{LaserGeometry, Scan};
+use crate::world::World;
+use serde::{Deserialize, Serialize};
+
+/// Part of every scan-matching run's content hash: bump when a matcher's output changes.
+pub const CODE_VERSION: &str = "scanmatch-1";
+
+/// Where a match starts from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InitialGuess {
+    /// The odometry increment since the reference scan ([EP]).
+    Odometry,
+    /// No motion (pure laser odometry, no prior).
+    Identity,
+}
+
+/// `[base.scan_matching]`: what every scan matcher shares.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ScanMatchingParams {
+    /// Match once the odometry since the reference scan has moved this far [m].
+    pub trigger_distance_m: f64,
+    /// … or turned this much [deg].
+    pub trigger_angle_deg: f64,
+    /// … or this much time has passed [s] (0 = never on time alone).
+    pub trigger_timeout_s: f64,
+    /// Stop after this many matches ([EP] ran 100 per run); 0 = match until the end of the path
+    /// (the [EP] studies: their paths give about 100 matches, and every algorithm, dead
+    /// reckoning included, is scored over the same steps).
+    pub max_matches: u32,
+    pub initial_guess: InitialGuess,
+    /// Preprocessing of every scan (`psm_original` always uses PSM's own heuristics).
+    pub segmentation: SegmentationParams,
+    /// The objective f every matcher is scored by.
+    pub objective: ObjectiveParams,
+}
+
+impl Default for ScanMatchingParams {
+    fn default() -> Self {
+        Self {
+            trigger_distance_m: 0.5,
+            trigger_angle_deg: 30.0,
+            trigger_timeout_s: 0.0,
+            max_matches: 0,
+            initial_guess: InitialGuess::Odometry,
+            segmentation: SegmentationParams::default(),
+            objective: ObjectiveParams::default(),
+        }
+    }
+}
+
+impl ScanMatchingParams {
+    pub fn validate(&self) -> Vec<Violation> {
+        let mut c = Checks::new();
+        c.non_negative("trigger_distance_m", self.trigger_distance_m);
+        c.non_negative("trigger_angle_deg", self.trigger_angle_deg);
+        c.non_negative("trigger_timeout_s", self.trigger_timeout_s);
+        c.require(self.trigger_distance_m > 0.0 || self.trigger_angle_deg > 0.0 || self.trigger_timeout_s > 0.0, "trigger_distance_m", || {
+            "at least one of trigger_distance_m, trigger_angle_deg and trigger_timeout_s must be > 0".to_string()
+        });
+        c.nested("segmentation", self.segmentation.validate());
+        c.nested("objective", self.objective.validate());
+        c.finish()
+    }
+}
+
+/// Which matcher runs, with its parameters.
+#[derive(Debug, Clone, Copy)]
+pub enum Matcher<'a> {
+    /// PSM on the study's segmentation (`own_heuristics = false`) or on its own heuristics.
+    Psm { params: &'a super::psm::PsmParams, own_heuristics: bool },
+    Epsm(&'a super::epsm::EpsmParams),
+    BruteForce(&'a super::brute::BruteForceParams),
+    PoseSearch { optimizer: Optimizer, params: &'a super::search::SearchParams },
+}
+
+/// One match, as stored per match.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatchRecord {
+    /// Step of the reference scan and of the current scan.
+    pub reference_step: usize,
+    pub current_step: usize,
+    /// True, initial-guess and estimated pose of the current scan in the reference frame.
+    pub truth: Pose2,
+    pub initial: Pose2,
+    pub estimate: Pose2,
+    /// f at the estimate and at the initial guess [cm²].
+    pub f: f64,
+    pub f_initial: f64,
+    pub pairs: u32,
+    pub iterations: u32,
+    pub evaluations: u64,
+    /// The f-check kept the initial guess.
+    pub fallback: bool,
+    /// Why the matcher stopped.
+    pub stop: String,
+    /// Wall time of the match [s] (not deterministic: kept out of metrics and reports).
+    pub time_s: f64,
+}
+
+impl MatchRecord {
+    /// Estimate minus truth in the reference frame: (ax [m], ay [m], aθ [rad]).
+    pub fn error(&self) -> (f64, f64, f64) {
+        (self.estimate.x - self.truth.x, self.estimate.y - self.truth.y, crate::geom::wrap_angle(self.estimate.theta - self.truth.theta))
+    }
+
+    /// Whether the matcher produced a usable estimate.
+    pub fn succeeded(&self) -> bool {
+        self.estimate.is_finite() && self.f.is_finite()
+    }
+}
+
+/// A scan-matching run's output: the trace (estimate over `steps` steps) and its matches.
+#[derive(Debug, Clone)]
+pub struct Tracked {
+    pub trace: Trace,
+    /// Steps covered (the world's truth is cut to this length for the metrics).
+    pub steps: usize,
+}
+
+/// Prepares one scan for matching.
+fn prepared(scan: &Scan, geometry: &LaserGeometry, segmentation: &SegmentationParams) -> super::scan::PolarScan {
+    prepare(&scan.ranges_m, geometry.angle_min_rad, geometry.angle_increment_rad, geometry.max_range_m, segmentation)
+}
+
+/// Runs `matcher` along the world's scans (see the module doc). `seed` seeds the stochastic
+/// optimisers (one derived seed per match); `clock` returns seconds.
+pub fn track(world: &World, matcher: Matcher<'_>, params: &ScanMatchingParams, seed: u64, clock: &mut dyn FnMut() -> f64) -> Result<Tracked, SlamError> {
+    let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
+    let segmentation = match matcher {
+        Matcher::Psm { own_heuristics: true, .. } => SegmentationParams { method: Segmentation::PsmHeuristics, ..params.segmentation.clone() },
+        _ => params.segmentation.clone(),
+    };
+    let mut estimate = vec![world.truth[0]];
+    let mut matches = Vec::new();
+    let Some(first) = world.scans.first() else {
+        return Err(SlamError::MissingSensor("laser"));
+    };
+    let mut reference = (first.step, prepared(first, &geometry, &segmentation));
+    let mut steps = world.truth.len();
+    for scan in &world.scans[1..] {
+        // Dead-reckon up to this scan.
+        while estimate.len() <= scan.step {
+            let k = estimate.len() - 1;
+            estimate.push(estimate[k].compose(world.odometry[k]));
+        }
+        let odometry = world.odometry[reference.0..scan.step].iter().fold(Pose2::IDENTITY, |acc, d| acc.compose(*d));
+        let elapsed_s = (scan.step - reference.0) as f64 * world.dt_s;
+        let moved = odometry.x.hypot(odometry.y) >= params.trigger_distance_m && params.trigger_distance_m > 0.0;
+        let turned = odometry.theta.abs() >= params.trigger_angle_deg.to_radians() && params.trigger_angle_deg > 0.0;
+        let timed_out = params.trigger_timeout_s > 0.0 && elapsed_s >= params.trigger_timeout_s;
+        if !(moved || turned || timed_out) {
+            continue;
+        }
+        let initial = match params.initial_guess {
+            InitialGuess::Odometry => odometry,
+            InitialGuess::Identity => Pose2::IDENTITY,
+        };
+        let current = prepared(scan, &geometry, &segmentation);
+        let match_seed = seed ^ (matches.len() as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let start = clock();
+        let result = run_matcher(matcher, &reference.1, &current, initial, &params.objective, match_seed);
+        let time_s = clock() - start;
+        let truth = world.truth[scan.step].relative_to(world.truth[reference.0]);
+        let record = MatchRecord {
+            reference_step: reference.0,
+            current_step: scan.step,
+            truth,
+            initial,
+            estimate: result.pose,
+            f: result.f,
+            f_initial: result.f_initial,
+            pairs: result.pairs as u32,
+            iterations: result.iterations,
+            evaluations: result.evaluations,
+            fallback: result.fallback,
+            stop: format!("{:?}", result.stop),
+            time_s,
+        };
+        let delta = if record.estimate.is_finite() { record.estimate } else { initial };
+        estimate[scan.step] = estimate[reference.0].compose(delta);
+        matches.push(record);
+        reference = (scan.step, current);
+        if params.max_matches > 0 && matches.len() >= params.max_matches as usize {
+            steps = scan.step + 1;
+            break;
+        }
+    }
+    while estimate.len() < steps {
+        let k = estimate.len() - 1;
+        estimate.push(estimate[k].compose(world.odometry[k]));
+    }
+    estimate.truncate(steps);
+    Ok(Tracked { trace: Trace { estimate, matches, ..Trace::default() }, steps })
+}
+
+fn run_matcher(matcher: Matcher<'_>, reference: &super::scan::PolarScan, current: &super::scan::PolarScan, initial: Pose2, objective: &ObjectiveParams, seed: u64) -> MatchResult {
+    let mut cost = Objective::new(reference, current, objective);
+    match matcher {
+        // Both scans come from one laser, so the geometries always agree.
+        Matcher::Psm { params, .. } => super::psm::psm(reference, current, initial, params, &mut cost).expect("scans of one laser share their beam geometry"),
+        Matcher::Epsm(params) => super::epsm::epsm(&mut cost, initial, params),
+        Matcher::BruteForce(params) => super::brute::brute_force(&mut cost, initial, params),
+        Matcher::PoseSearch { optimizer, params } => super::search::simultaneous(&mut cost, initial, optimizer, params, seed),
+    }
+}
