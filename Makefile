@@ -30,7 +30,7 @@ test:
 
 ## Benchmarks: criterion micro-benchmarks, then the whole pipeline from scratch.
 bench: build
-	$(CARGO) bench --locked --bench world --bench slam --bench landmark_filters
+	$(CARGO) bench --locked --bench world --bench slam --bench landmark_filters --bench scanmatch
 	@tmp=$$(mktemp -d); \
 	start=$$(date +%s.%N); \
 	$(BIN) run --quiet --results $$tmp/results --cache $$tmp/cache $(SPECS); \

@@ -54,6 +54,7 @@ pub fn escape(text: &str) -> String {
             '⊕' => out.push_str("\\ensuremath{\\oplus}"),
             '⊖' => out.push_str("\\ensuremath{\\ominus}"),
             '∈' => out.push_str("\\ensuremath{\\in}"),
+            '∝' => out.push_str("\\ensuremath{\\propto}"),
             '§' => out.push_str("\\S{}"),
             'ᵀ' => out.push_str("\\ensuremath{^{\\top}}"),
             '⁻' => out.push_str("\\ensuremath{^{-}}"),
@@ -120,6 +121,8 @@ mod tests {
         assert_eq!(escape("a_b & 50% #1 $x$"), "a\\_b \\& 50\\% \\#1 \\$x\\$");
         assert_eq!(escape("σ ≥ 0"), "\\ensuremath{\\sigma} \\ensuremath{\\geq} 0");
         assert_eq!(escape("{x}\\"), "\\{x\\}\\textbackslash{}");
+        // [EP]'s "σ ∝ range" broke pdflatex ("Unicode character ∝ (U+221D)")
+        assert_eq!(escape("σ ∝ r"), "\\ensuremath{\\sigma} \\ensuremath{\\propto} r");
     }
 
     #[test]

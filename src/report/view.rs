@@ -295,6 +295,99 @@ fn filter_choices(study: &Study<'_>, kinds: &[crate::slam::WorldKind]) -> Vec<St
             }
         ));
     }
+    out.extend(scan_matching_choices(study));
+    out
+}
+
+/// The scan matchers' settings ([EP] leaves most of them open).
+fn scan_matching_choices(study: &Study<'_>) -> Vec<String> {
+    use crate::slam::AlgorithmKind as A;
+    let algos = &study.spec().algorithms;
+    if !algos.iter().any(|a| a.is_scan_matcher()) {
+        return Vec::new();
+    }
+    let b = &study.spec().base;
+    let sm = &b.scan_matching;
+    let mut out = vec![format!(
+        "Scan matching: a scan is matched against the scan of the previous match once the odometry since it has moved {} m or turned {}°{}; the initial guess is {}; between matches the estimate follows the odometry, and each match resets it to the reference's estimate ⊕ the match ({}).",
+        sm.trigger_distance_m,
+        sm.trigger_angle_deg,
+        if sm.trigger_timeout_s > 0.0 { format!(" or {} s have passed", sm.trigger_timeout_s) } else { String::new() },
+        match sm.initial_guess {
+            crate::scanmatch::track::InitialGuess::Odometry => "the odometry increment since the reference scan",
+            crate::scanmatch::track::InitialGuess::Identity => "no motion",
+        },
+        if sm.max_matches > 0 { format!("at most {} matches per run", sm.max_matches) } else { "matching to the end of the path".to_string() }
+    )];
+    let o = &sm.objective;
+    out.push(format!(
+        "Objective f ([EP] Eq. 4, its normalisation lost in the source): the {} of the squared range residuals r_ref − r̂_cur in cm² over the valid pairs — current points projected into the reference frame (Eq. 1–2), interpolated {} between consecutive points of one segment, the nearest kept per bearing (z-buffer), reference points behind the current pose dropped (Eq. 3{}), pairs with |residual| > {} dropped (PSM's PM_MAX_ERROR), and f = ∞ below {} pairs. The cm² reading fits [EP]'s magnitudes (f < 1 at 1 mm / 0.1° errors, 20–45 at σ = 20 mm). Every matcher is scored by this f.",
+        match o.normalisation {
+            crate::scanmatch::objective::Normalisation::Mean => "mean",
+            crate::scanmatch::objective::Normalisation::Sum => "sum",
+        },
+        match o.interpolation {
+            crate::scanmatch::objective::Interpolation::Linear => "linearly in bearing",
+            crate::scanmatch::objective::Interpolation::Chord => "on the chord",
+        },
+        if o.occlusion_rule { "" } else { ": off" },
+        o.max_residual_m.map_or("∞".to_string(), |g| format!("{g} m")),
+        o.min_pairs
+    ));
+    let seg = &sm.segmentation;
+    out.push(format!(
+        "Preprocessing ({}): [EP]'s Cuadra line segmentation cannot be rebuilt from the source, so `lines` is a noise-aware split-and-merge — runs split at range jumps, recursive splits at the point farthest from the chord while it lies more than {} σ off (σ = k·r, k estimated from the scan by a robust median), weighted line fits, adjacent collinear pieces merged by a χ² test at α = {}, pieces under {} points invalid — and every beam in a segment gets the range where its ray meets the fitted line. `psm_original` always uses PSM's own heuristics (median filter of 5, 20 cm jump segmentation).",
+        match seg.method {
+            crate::scanmatch::segment::Segmentation::Lines => "lines",
+            crate::scanmatch::segment::Segmentation::PsmHeuristics => "PSM's heuristics",
+            crate::scanmatch::segment::Segmentation::None => "none",
+        },
+        seg.lines.split_sigmas,
+        seg.lines.merge_alpha,
+        seg.lines.min_points
+    ));
+    if algos.iter().any(|a| matches!(a, A::Psm | A::PsmOriginal)) {
+        out.push("PSM: Diosi & Kleeman's published algorithm and constants (orientation by shifting the range array ±20 beams with the parabolic refinement on even iterations; Dudek-weighted least-squares translation, C = 70² cm² divided by 50 from iteration 10; stop after 3 small corrections or 30 iterations), with the proper symmetric 2 × 2 inverse instead of the C code's quirk.".into());
+    }
+    if algos.iter().any(|a| matches!(a, A::Epsm)) {
+        let e = &b.epsm;
+        out.push(format!(
+            "E-PSM ([EP] §5.3.1): orientation on a {}° grid over ±{}° (expanded while f falls), then {}° over ±{}°; position by {}; at least {} and at most {} half-iterations, converged when |δx| + |δy| < {} mm and |δθ| < {}° for {} cycles; f-check {}.",
+            e.orientation.coarse_step_deg,
+            e.orientation.coarse_half_window_deg,
+            e.orientation.fine_step_deg,
+            e.orientation.fine_half_window_deg,
+            match e.position_step {
+                crate::scanmatch::epsm::PositionStep::GaussNewton => format!("an unweighted Gauss–Newton step with a central-difference Jacobian ({} mm)", e.fd_step_m * 1e3),
+                crate::scanmatch::epsm::PositionStep::Bobyqa => "NLopt's BOBYQA on f(x, y | θ) ([EP] Fig. 7)".to_string(),
+            },
+            e.min_iter,
+            e.max_iter,
+            e.tol_xy_m * 1e3,
+            e.tol_theta_deg,
+            e.small_cycles,
+            if e.f_check { "on: an estimate whose f is not below the initial guess's is replaced by the guess ([EP] §6.4)" } else { "off" }
+        ));
+    }
+    if algos.iter().any(|a| matches!(a, A::BruteForce)) {
+        let bf = &b.brute_force;
+        out.push(format!(
+            "Brute force ([EP] §6.1): E-PSM's orientation search at every cell of a {} m grid over ±{} m around the guess; the best cell is found by a grid sweep then steepest descent over neighbouring cells, which gives the same cell as the exhaustive nested search (tested) at about 1 % of its cost.",
+            bf.step_m, bf.half_window_m
+        ));
+    }
+    if algos.iter().any(|a| matches!(a, A::PoseSearch(_))) {
+        let p = &b.pose_search;
+        out.push(format!(
+            "Simultaneous search ([EP] §5.3.2) with the real NLopt 2.9: box ±{} m, ±{}° around the guess, xtol {} mm / {}°, at most {} evaluations; gradient optimisers get central-difference gradients; MLSL-LDS uses MMA as its local solver; CRS2 and ISRES are seeded from the run seed before every match (NLopt's generator is thread-local in this build, so results do not depend on the thread count).",
+            p.half_window_m,
+            p.half_window_deg,
+            p.xtol_m * 1e3,
+            p.xtol_deg,
+            p.maxeval
+        ));
+    }
+    out.push("Errors ([EP] §5): ax, ay [mm] and aθ [deg] are the estimated minus the true pose change of each match, in the reference frame; tables give the mean and max of their absolute values over a run's matches. Cost is counted in objective evaluations (deterministic); times per match are measured by `make bench`.".into());
     out
 }
 
@@ -556,6 +649,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
     let points: Vec<&crate::store::PointRecord> = study.data.resolved.points.iter().filter(|p| p.groups.contains(&gi)).collect();
     let title = match (group.kind, group.params.len()) {
         (_, 0) => "Base configuration".to_string(),
+        (SweepKind::Zip, _) if group.named => format!("Named cells of {}", group.params.join(", ")),
         (SweepKind::OneAtATime, _) => format!("Varying {} (others at base)", group.params[0]),
         (SweepKind::Grid, _) => format!("Grid over {}", group.params.join(" × ")),
         (SweepKind::Zip, _) => format!("Varying {} together", group.params.join(", ")),
@@ -715,7 +809,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                     caption: format!(
                         "{} against {}: mean over the n successful replicates of each cell, band = {:.0} % confidence interval of the mean (Student t).",
                         m.title,
-                        x_param,
+                        if group.named { "the named cell" } else { x_param.as_str() },
                         stats::CONFIDENCE * 100.0
                     ),
                     svg: figure::line_svg(&fig),

@@ -1,0 +1,108 @@
+//! Scan matching ([EP]) time per match.
+//!
+//! - `objective`: one evaluation of f (projection, interpolation, z-buffer, occlusion rule) on a
+//!   181-beam pair of the synthetic room.
+//! - `synthetic`: one match of every matcher on a noise-free room pair (true change 0.2 m,
+//!   −0.1 m, 3°; initial guess 5 cm and 2° off), preparation included.
+//! - `intel`: consecutive pairs of the Intel lab log (`../shared/data/intel-lab`, skipped with a
+//!   message when absent), initial guess = the corrected increment: the peer figure is Diosi's C
+//!   PSM at ≈ 0.19 ms per match on these scans on this machine ([EP] issue brief); targets: PSM no
+//!   slower, E-PSM ≤ 5 ms, CRS2 ≤ 20 ms.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use slamlab::geom::Pose2;
+use slamlab::scanmatch::brute::{brute_force, BruteForceParams};
+use slamlab::scanmatch::epsm::{epsm, EpsmParams};
+use slamlab::scanmatch::objective::{Objective, ObjectiveParams};
+use slamlab::scanmatch::psm::{psm, PsmParams};
+use slamlab::scanmatch::scan::testing::{raw_pair, rect_room_with_column, Beams, MAX_RANGE_M, ROOM_REFERENCE_POSE};
+use slamlab::scanmatch::scan::PolarScan;
+use slamlab::scanmatch::search::{simultaneous, Optimizer, SearchParams};
+use slamlab::scanmatch::segment::{prepare, Segmentation, SegmentationParams};
+use slamlab::scanmatch::Cost;
+use std::hint::black_box;
+use std::path::Path;
+
+const TRUTH: Pose2 = Pose2::new(0.2, -0.1, 0.052_359_877_559_829_88);
+const GUESS: Pose2 = Pose2::new(0.25, -0.1, 0.017_453_292_519_943_295);
+
+/// The matchers benchmarked, by their study names.
+const MATCHERS: [&str; 6] = ["psm_original", "psm", "epsm", "epsm_table5", "crs2", "brute_force"];
+
+fn segmentation(matcher: &str) -> SegmentationParams {
+    let method = if matcher == "psm_original" { Segmentation::PsmHeuristics } else { Segmentation::Lines };
+    SegmentationParams { method, ..SegmentationParams::default() }
+}
+
+/// Prepares both scans and runs one match; returns the final f (to keep the work alive).
+fn run(matcher: &str, raw: (&[Option<f64>], &[Option<f64>]), geometry: (f64, f64, f64), initial: Pose2) -> f64 {
+    let seg = segmentation(matcher);
+    let (min, inc, max) = geometry;
+    let (r, c): (PolarScan, PolarScan) = (prepare(raw.0, min, inc, max, &seg), prepare(raw.1, min, inc, max, &seg));
+    let params = ObjectiveParams::default();
+    let mut cost = Objective::new(&r, &c, &params);
+    let m = match matcher {
+        "psm_original" | "psm" => psm(&r, &c, initial, &PsmParams::default(), &mut cost).expect("one laser"),
+        "epsm" => epsm(&mut cost, initial, &EpsmParams::default()),
+        "epsm_table5" => epsm(&mut cost, initial, &EpsmParams::table5()),
+        "crs2" => simultaneous(&mut cost, initial, Optimizer::Crs2, &SearchParams::default(), 7),
+        _ => brute_force(&mut cost, initial, &BruteForceParams::default()),
+    };
+    m.f
+}
+
+fn objective(c: &mut Criterion) {
+    let beams = Beams::lms200();
+    let (r, cur) = raw_pair(&rect_room_with_column(), ROOM_REFERENCE_POSE, TRUTH, &beams);
+    let seg = segmentation("epsm");
+    let prep = |raw: &[Option<f64>]| prepare(raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, &seg);
+    let (r, cur) = (prep(&r), prep(&cur));
+    let params = ObjectiveParams::default();
+    let mut cost = Objective::new(&r, &cur, &params);
+    c.bench_function("scanmatch/objective_181_beams", |b| b.iter(|| black_box(cost.f(black_box(GUESS)))));
+}
+
+fn synthetic(c: &mut Criterion) {
+    let beams = Beams::lms200();
+    let (r, cur) = raw_pair(&rect_room_with_column(), ROOM_REFERENCE_POSE, TRUTH, &beams);
+    let geometry = (beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M);
+    let mut group = c.benchmark_group("scanmatch/synthetic_match");
+    group.sample_size(10);
+    for matcher in MATCHERS {
+        group.bench_with_input(BenchmarkId::from_parameter(matcher), &matcher, |b, m| b.iter(|| black_box(run(m, (&r, &cur), geometry, GUESS))));
+    }
+    group.finish();
+}
+
+/// Consecutive pairs of the Intel lab log.
+const INTEL_PAIRS: usize = 50;
+
+fn intel(c: &mut Criterion) {
+    let folder = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/intel-lab");
+    if !folder.is_dir() {
+        eprintln!("skipped: scanmatch/intel: {} is absent", folder.display());
+        return;
+    }
+    let world = slamlab::dataset::intel_lab::load(&folder, 100, INTEL_PAIRS + 1, slamlab::dataset::intel_lab::DEFAULT_MAX_RANGE_M).expect("the Intel log reads");
+    let g = world.laser.expect("laser");
+    let geometry = (g.angle_min_rad, g.angle_increment_rad, g.max_range_m);
+    let mut group = c.benchmark_group("scanmatch/intel_match");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(INTEL_PAIRS as u64));
+    for matcher in ["psm_original", "psm", "epsm", "crs2"] {
+        group.bench_with_input(BenchmarkId::from_parameter(matcher), &matcher, |b, m| {
+            b.iter(|| {
+                let mut total = 0.0;
+                for k in 0..INTEL_PAIRS {
+                    let f = run(m, (&world.scans[k].ranges_m, &world.scans[k + 1].ranges_m), geometry, world.odometry[k]);
+                    total += if f.is_finite() { f } else { 0.0 };
+                }
+                black_box(total)
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, objective, synthetic, intel);
+criterion_main!(benches);
