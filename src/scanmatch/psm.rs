@@ -227,20 +227,37 @@ fn interpolated_ok(interpolated: &[f64], reversed: &[bool], j: usize) -> bool {
 /// [rad], or `None` when no shift has a pair. Assumes that a rotation is a pure shift of the range
 /// array (the invariance [EP] L151 drops).
 pub(crate) fn orientation_search(reference: &PolarScan, interpolated: &[f64], reversed: &[bool], params: &PsmParams) -> Option<f64> {
-    let n = reference.len() as isize;
+    let n = reference.len();
     let w = params.search_window_beams as isize;
+    // Branch-free form of the pair test: unusable beams get weight 0 (and a finite value), so
+    // that each shift's sum is a plain multiply-add loop the compiler vectorises.
+    let (mut cur, mut cur_w) = (vec![0.0; n], vec![0.0; n]);
+    for i in 0..n {
+        if interpolated_ok(interpolated, reversed, i) {
+            cur[i] = interpolated[i];
+            cur_w[i] = 1.0;
+        }
+    }
+    let (mut refr, mut ref_w) = (vec![0.0; n], vec![0.0; n]);
+    for k in 0..n {
+        if reference.valid[k] && reference.ranges[k].is_finite() {
+            refr[k] = reference.ranges[k];
+            ref_w[k] = 1.0;
+        }
+    }
     let errors: Vec<f64> = (-w..=w)
         .map(|di| {
-            let (lo, hi) = if di <= 0 { (-di, n) } else { (0, n - di) };
-            let (mut e, mut count) = (0.0, 0usize);
-            for i in lo.max(0)..hi.max(0) {
-                let (i, k) = (i as usize, (i + di) as usize);
-                if interpolated_ok(interpolated, reversed, i) && reference.valid[k] {
-                    e += (interpolated[i] - reference.ranges[k]).abs();
-                    count += 1;
-                }
+            // pairs (i, i + di) with both indices inside the scan
+            let shift = di.unsigned_abs().min(n);
+            let (i0, k0, len) = if di <= 0 { (shift, 0, n - shift) } else { (0, shift, n - shift) };
+            let (c, cw, r, rw) = (&cur[i0..i0 + len], &cur_w[i0..i0 + len], &refr[k0..k0 + len], &ref_w[k0..k0 + len]);
+            let (mut e, mut count) = (0.0, 0.0);
+            for t in 0..len {
+                let m = cw[t] * rw[t];
+                e += m * (c[t] - r[t]).abs();
+                count += m;
             }
-            if count > 0 { e / count as f64 } else { f64::INFINITY }
+            if count > 0.0 { e / count } else { f64::INFINITY }
         })
         .collect();
     let (imin, &emin) = errors.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))?;
