@@ -20,6 +20,7 @@
 
 pub mod intel_lab;
 pub mod mrclam;
+pub mod psm_samples;
 pub mod victoria_park;
 
 use crate::config::{Checks, Violation};

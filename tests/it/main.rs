@@ -10,6 +10,7 @@ mod layering;
 mod nlopt_threads;
 mod pipeline;
 mod point_worlds;
+mod psm_samples;
 mod scan_matching;
 mod specs;
 mod util;
