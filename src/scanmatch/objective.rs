@@ -83,8 +83,8 @@ pub struct ObjectiveParams {
     /// occlusions that Eq. 3 misses (a near object moving against the background: the z-buffer
     /// keeps the object where the reference saw the wall 5 m behind it) dominate f: on
     /// `ep_rect_column` a noise-free pair scored f ≈ 1 800 cm² at the true pose and 12 cm² at a
-    /// pose 5 cm off, so every search was pulled away from the truth. `max_residual_m = inf`
-    /// (written as a very large number) restores the ungated objective.
+    /// pose 5 cm off, so every search was pulled away from the truth. A very large value (say
+    /// 1e9) restores the ungated objective.
     pub max_residual_m: Option<f64>,
 }
 
