@@ -5,7 +5,7 @@ CARGO ?= cargo
 BIN   := $(or $(CARGO_TARGET_DIR),target)/release/slamlab
 SPECS := $(sort $(wildcard experiments/*.toml))
 
-.PHONY: all build report run test bench validate clean-results
+.PHONY: all build report run test bench validate clean-results check-reports check-html pdf
 
 all: report
 
@@ -43,6 +43,24 @@ bench: build
 	awk -v a=$$start -v b=$$mid -v c=$$cached -v d=$$end -v n=$$runs 'BEGIN { \
 	  printf "pipeline: %d runs of %d studies from scratch in %.2f s; all cached in %.2f s; reports rendered in %.2f s\n", n, $(words $(SPECS)), b-a, c-b, d-c }'; \
 	rm -rf $$tmp
+
+## Regenerate the reports from the results into a temporary folder and compare them, byte for
+## byte, with the committed reports/ (run `make run` first on a fresh clone).
+check-reports: build
+	@tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
+	cp -r reports "$$tmp/reports"; \
+	$(BIN) report --specs experiments --out "$$tmp/reports" >/dev/null; \
+	if diff -r reports "$$tmp/reports" >/dev/null; then echo "check-reports: reports/ is up to date"; \
+	else diff -rq reports "$$tmp/reports"; echo "check-reports: reports/ differs from what the results give (make report)" >&2; exit 1; fi
+
+## Open every report in headless Chromium: console errors or missing images fail (screenshots in
+## target/reports-html/). Needs Debian's chromium.
+check-html:
+	tests/tools/check_html.sh reports target/reports-html
+
+## Compile every study's .tex to PDF with pdflatex (into target/reports-pdf/). Needs texlive.
+pdf:
+	tests/tools/pdf.sh reports target/reports-pdf
 
 ## Remove generated results and the run cache (reports/ is committed and stays).
 clean-results:

@@ -1,4 +1,4 @@
-//! Command line: `slamlab run|report|validate|plan|export-tum`. Flags change how things run
+//! Command line: `slamlab run|report|validate|plan|diff|export-tum`. Flags change how things run
 //! (threads, cache, directories), never what is computed: the spec is the complete record.
 //! Exit status: 0 success, 2 invalid input (spec or map), 1 any other failure.
 
@@ -70,6 +70,27 @@ enum Command {
         #[arg(long)]
         force: bool,
     },
+    /// Compare two result sets (e.g. from two branches): parameter differences, then one row per
+    /// (study, cell, metric) with paired statistics and a verdict. Exit status 0 whatever the
+    /// verdicts (use the output, e.g. `--md` in a pull request).
+    Diff {
+        /// BASE results: a results root (holding <study>/ folders) or one study's folder.
+        base: PathBuf,
+        /// NEW results, likewise.
+        new: PathBuf,
+        /// Markdown instead of the terminal table.
+        #[arg(long)]
+        md: bool,
+        /// Significance level of the Holm-adjusted p-values.
+        #[arg(long, default_value_t = 0.05)]
+        alpha: f64,
+        /// Smallest change that counts, as a fraction of |BASE mean|.
+        #[arg(long, default_value_t = 0.01)]
+        min_effect: f64,
+        /// Compare every stored metric, not only each study's report metrics.
+        #[arg(long)]
+        all_metrics: bool,
+    },
     /// Write <run-id>.gt.tum and <run-id>.est.tum for every run of a study (or of every study
     /// under a results root), for evaluation with evo.
     ExportTum {
@@ -132,6 +153,15 @@ fn dispatch(command: Command) -> Result<()> {
             for id in &summary.kept {
                 eprintln!("{id}: no results here; its previous report is kept");
             }
+            Ok(())
+        }
+        Command::Diff { base, new, md, alpha, min_effect, all_metrics } => {
+            if !(alpha > 0.0 && alpha < 1.0) || !(min_effect >= 0.0) {
+                bail!("--alpha must be in (0, 1) and --min-effect ≥ 0");
+            }
+            let opts = crate::diff::DiffOptions { alpha, min_effect_rel: min_effect, all_metrics, ..crate::diff::DiffOptions::default() };
+            let d = crate::diff::diff(&base, &new, &opts)?;
+            print!("{}", if md { crate::diff::to_markdown(&d) } else { crate::diff::to_text(&d) });
             Ok(())
         }
         Command::Validate { specs, maps } => {

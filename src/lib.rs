@@ -10,6 +10,7 @@
 pub mod cli;
 pub mod config;
 pub mod dataset;
+pub mod diff;
 pub mod features;
 pub mod geom;
 pub mod metrics;

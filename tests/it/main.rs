@@ -3,6 +3,7 @@
 mod bad_input;
 mod code_versions;
 mod determinism;
+mod diff;
 mod export_tum;
 mod fastslam;
 mod ft_maps;
