@@ -122,10 +122,12 @@ fn studies(dir: &Path) -> Result<BTreeMap<String, PathBuf>, DiffError> {
 /// Compares the result sets `base` and `new` (results roots or single study folders).
 pub fn diff(base: &Path, new: &Path, opts: &DiffOptions) -> Result<Diff, DiffError> {
     let (a, b) = (studies(base)?, studies(new)?);
+    let mut judging: BTreeMap<String, crate::spec::DiffSpec> = BTreeMap::new();
     let mut out = Diff { only_base: a.keys().filter(|k| !b.contains_key(*k)).cloned().collect(), only_new: b.keys().filter(|k| !a.contains_key(*k)).cloned().collect(), ..Diff::default() };
     for (id, dir_a) in &a {
         let Some(dir_b) = b.get(id) else { continue };
         let (sa, sb) = (store::read_study(dir_a)?, store::read_study(dir_b)?);
+        judging.insert(id.clone(), sb.resolved.spec.report.diff.clone());
         let changes = spec_changes(&sa, &sb);
         if !changes.is_empty() {
             out.spec_changes.push((id.clone(), changes));
@@ -140,8 +142,9 @@ pub fn diff(base: &Path, new: &Path, opts: &DiffOptions) -> Result<Diff, DiffErr
         let r = &mut out.rows[i];
         r.p_holm = p;
         let lower = metric_def(&r.metric).is_none_or(|m| m.lower_is_better);
-        let min_effect = opts.min_effect_rel * r.base.mean.abs();
-        r.verdict = stats::verdict(false, p, opts.alpha, r.delta_ci, min_effect, lower);
+        // the NEW side's `[report.diff]` decides (a change of criteria is listed with the specs)
+        let (alpha, min_effect_rel) = judging.get(&r.study).map_or((opts.alpha, opts.min_effect_rel), |d| d.for_metric(&r.metric, (opts.alpha, opts.min_effect_rel)));
+        r.verdict = stats::verdict(false, p, alpha, r.delta_ci, min_effect_rel * r.base.mean.abs(), lower);
     }
     Ok(out)
 }

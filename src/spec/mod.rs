@@ -177,6 +177,51 @@ pub struct ReportSpec {
     /// Published per-landmark errors (e.g. [EV] Tables 4.1–4.3): the report shows, for each, a
     /// table of our per-landmark errors at that sweep point beside the published ones.
     pub landmark_reference: Vec<LandmarkReference>,
+    /// How `slamlab diff` judges this study's changes (absent: the command's `--alpha` and
+    /// `--min-effect`).
+    #[serde(skip_serializing_if = "DiffSpec::is_empty")]
+    pub diff: DiffSpec,
+}
+
+/// `[report.diff]`: significance level and smallest relevant change for `slamlab diff`, for the
+/// whole study and per metric (`[report.diff.metrics.<name>]`).
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DiffSpec {
+    /// Significance level of the Holm-adjusted p-values, in (0, 1).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f64>,
+    /// Smallest change that counts, as a fraction of |BASE mean| (≥ 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub min_effect: Option<f64>,
+    /// Per-metric overrides.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub metrics: std::collections::BTreeMap<String, MetricDiffSpec>,
+}
+
+/// One metric's `alpha` / `min_effect`.
+#[derive(Debug, Clone, PartialEq, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MetricDiffSpec {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub min_effect: Option<f64>,
+}
+
+impl DiffSpec {
+    pub fn is_empty(&self) -> bool {
+        *self == DiffSpec::default()
+    }
+
+    /// (alpha, min_effect) for `metric`: its own, else the study's, else `defaults`.
+    pub fn for_metric(&self, metric: &str, defaults: (f64, f64)) -> (f64, f64) {
+        let m = self.metrics.get(metric);
+        (
+            m.and_then(|m| m.alpha).or(self.alpha).unwrap_or(defaults.0),
+            m.and_then(|m| m.min_effect).or(self.min_effect).unwrap_or(defaults.1),
+        )
+    }
 }
 
 /// A published per-landmark error table of one sweep point.
@@ -193,7 +238,13 @@ pub struct LandmarkReference {
 
 impl Default for ReportSpec {
     fn default() -> Self {
-        Self { metrics: vec!["ate_rmse_m".into(), "final_position_error_m".into(), "final_heading_error_deg".into()], log_x: Vec::new(), reference: None, landmark_reference: Vec::new() }
+        Self {
+            metrics: vec!["ate_rmse_m".into(), "final_position_error_m".into(), "final_heading_error_deg".into()],
+            log_x: Vec::new(),
+            reference: None,
+            landmark_reference: Vec::new(),
+            diff: DiffSpec::default(),
+        }
     }
 }
 
@@ -329,6 +380,22 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     }
     for v in spec.base.validate(crate::slam::Sensors::union(&spec.algorithms, &crate::slam::WorldKind::ALL)) {
         err(&format!("base.{}", v.key), v.message);
+    }
+    let d = &spec.report.diff;
+    let check_diff = |key: String, alpha: Option<f64>, min_effect: Option<f64>, err: &mut dyn FnMut(&str, String)| {
+        if let Some(a) = alpha.filter(|a| !(*a > 0.0 && *a < 1.0)) {
+            err(&format!("{key}.alpha"), format!("must be in (0, 1), got {a}"));
+        }
+        if let Some(m) = min_effect.filter(|m| !(m.is_finite() && *m >= 0.0)) {
+            err(&format!("{key}.min_effect"), format!("must be a finite number ≥ 0, got {m}"));
+        }
+    };
+    check_diff("report.diff".into(), d.alpha, d.min_effect, &mut err);
+    for (name, m) in &d.metrics {
+        if metric_def(name).is_none() {
+            err(&format!("report.diff.metrics.{name}"), format!("unknown metric `{name}`"));
+        }
+        check_diff(format!("report.diff.metrics.{name}"), m.alpha, m.min_effect, &mut err);
     }
     for (i, m) in spec.report.metrics.iter().enumerate() {
         if metric_def(m).is_none() {
@@ -545,5 +612,16 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
     fn display_is_file_line_column_key_message() {
         let err = parse(Path::new("experiments/x.toml"), &GOOD.replace("replicates = 2", "replicates = 0")).unwrap_err();
         assert_eq!(err.to_string(), "experiments/x.toml:5:1: key `replicates`: must be ≥ 1");
+    }
+
+    #[test]
+    fn diff_criteria_are_checked_and_resolved_per_metric() {
+        let text = format!("{GOOD}\n[report.diff]\nalpha = 0.01\n[report.diff.metrics.ate_rmse_m]\nmin_effect = 0.05\n");
+        let spec = parse(Path::new("t.toml"), &text).unwrap().spec;
+        assert_eq!(spec.report.diff.for_metric("ate_rmse_m", (0.05, 0.01)), (0.01, 0.05));
+        assert_eq!(spec.report.diff.for_metric("ate_mean_m", (0.05, 0.01)), (0.01, 0.01));
+        let e = errs(&format!("{GOOD}\n[report.diff]\nalpha = 1.5\n[report.diff.metrics.nope]\nmin_effect = -1.0\n"));
+        let keys: Vec<&str> = e.iter().map(|e| e.key.as_str()).collect();
+        assert_eq!(keys, ["report.diff.alpha", "report.diff.metrics.nope", "report.diff.metrics.nope.min_effect"]);
     }
 }
