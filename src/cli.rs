@@ -90,6 +90,9 @@ enum Command {
         /// Compare every stored metric, not only each study's report metrics.
         #[arg(long)]
         all_metrics: bool,
+        /// Also write an HTML and LaTeX diff report with BASE-vs-NEW plots into this folder.
+        #[arg(long)]
+        report: Option<PathBuf>,
     },
     /// Write <run-id>.gt.tum and <run-id>.est.tum for every run of a study (or of every study
     /// under a results root), for evaluation with evo.
@@ -155,13 +158,17 @@ fn dispatch(command: Command) -> Result<()> {
             }
             Ok(())
         }
-        Command::Diff { base, new, md, alpha, min_effect, all_metrics } => {
+        Command::Diff { base, new, md, alpha, min_effect, all_metrics, report } => {
             if !(alpha > 0.0 && alpha < 1.0) || !(min_effect >= 0.0) {
                 bail!("--alpha must be in (0, 1) and --min-effect ≥ 0");
             }
             let opts = crate::diff::DiffOptions { alpha, min_effect_rel: min_effect, all_metrics, ..crate::diff::DiffOptions::default() };
             let d = crate::diff::diff(&base, &new, &opts)?;
             print!("{}", if md { crate::diff::to_markdown(&d) } else { crate::diff::to_text(&d) });
+            if let Some(out) = report {
+                crate::report::diff_page::render_diff(&d, &base, &new, &out).context("writing the diff report")?;
+                eprintln!("diff report written to {}", out.display());
+            }
             Ok(())
         }
         Command::Validate { specs, maps } => {

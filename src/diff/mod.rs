@@ -310,6 +310,11 @@ fn side_text(s: &Side) -> String {
     if s.ci.0.is_finite() { format!("{} [{}, {}] ({})", num(s.mean), num(s.ci.0), num(s.ci.1), s.n) } else { format!("{} ({})", num(s.mean), s.n) }
 }
 
+/// Header and cells of the changed rows (identical ones are only counted), for the reports.
+pub fn table_cells(d: &Diff) -> (Vec<&'static str>, Vec<Vec<String>>) {
+    table(d, false)
+}
+
 /// Header and cells of the table (shared by the terminal and Markdown renderings).
 fn table(d: &Diff, show_identical: bool) -> (Vec<&'static str>, Vec<Vec<String>>) {
     let header = vec!["study", "cell", "metric", "BASE mean [95 % CI] (n)", "NEW mean [95 % CI] (n)", "Δ [95 % CI]", "Δ %", "p (Holm)", "p perm", "test", "verdict"];
@@ -336,7 +341,8 @@ fn table(d: &Diff, show_identical: bool) -> (Vec<&'static str>, Vec<Vec<String>>
     (header, rows)
 }
 
-fn summary(d: &Diff) -> String {
+/// One line: comparisons by verdict and the number of tests.
+pub fn summary(d: &Diff) -> String {
     let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
     for r in &d.rows {
         *counts.entry(r.verdict.as_str()).or_default() += 1;

@@ -4,6 +4,7 @@
 //! absolute paths, explicit ordering, fixed significant figures.
 
 pub mod claims;
+pub mod diff_page;
 pub mod figure;
 pub mod latex;
 pub mod pgf;
@@ -58,6 +59,8 @@ fn environment() -> Environment<'static> {
         ("index.html", include_str!("../../templates/index.html.j2")),
         ("study.html", include_str!("../../templates/study.html.j2")),
         ("study.tex", include_str!("../../templates/study.tex.j2")),
+        ("diff.html", include_str!("../../templates/diff.html.j2")),
+        ("diff.tex", include_str!("../../templates/diff.tex.j2")),
     ] {
         env.add_template(name, source).expect("bundled templates parse");
     }

@@ -76,6 +76,13 @@ fn same_code_is_identical_and_a_particle_cut_regresses() {
     // the smoke study is untouched: only identical rows, which the table does not list
     assert!(!text.lines().any(|l| l.starts_with("smoke ")), "{text}");
 
+    // the HTML/LaTeX diff report overlays BASE and NEW
+    let report = c.path().join("diff-report");
+    ok(&["diff", s(&base), s(&cut), "--report", s(&report)]);
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    assert!(html.contains("base.fastslam.particles: 50 → 1") && html.contains("(BASE)") && html.contains("(NEW)") && html.contains("<svg"), "diff report lacks its parts");
+    assert!(report.join("diff.tex").is_file() && report.join("figures/diff-fastslam--g0--ate-rmse-m.tex").is_file());
+
     let md = String::from_utf8(ok(&["diff", s(&base), s(&cut), "--md"]).stdout).unwrap();
     assert!(md.starts_with("## slamlab diff") && md.contains("| diff-fastslam |") && md.contains("regressed"), "{md}");
 }
