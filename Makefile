@@ -5,7 +5,7 @@ CARGO ?= cargo
 BIN   := $(or $(CARGO_TARGET_DIR),target)/release/slamlab
 SPECS := $(sort $(wildcard experiments/*.toml))
 
-.PHONY: all build report run test bench validate clean-results check-reports check-html pdf
+.PHONY: all build report run test bench validate clean-results check-reports check-html pdf install-checkers
 
 all: report
 
@@ -61,6 +61,11 @@ check-html:
 ## Compile every study's .tex to PDF with pdflatex (into target/reports-pdf/). Needs texlive.
 pdf:
 	tests/tools/pdf.sh reports target/reports-pdf
+
+## Install what check-html and pdf need (Debian/Ubuntu, with apt; about 1 GB).
+install-checkers:
+	@SUDO=""; [ "$$(id -u)" -ne 0 ] && SUDO="sudo"; \
+	$$SUDO apt-get update -q && $$SUDO apt-get install -y -q --no-install-recommends chromium texlive-latex-extra texlive-pictures texlive-science lmodern
 
 ## Remove generated results and the run cache (reports/ is committed and stays).
 clean-results:
