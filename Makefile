@@ -24,9 +24,10 @@ run: build
 validate: build
 	$(BIN) validate $(SPECS)
 
-## Unit and integration tests.
+## Unit and integration tests (and the benchmarks must compile).
 test:
 	$(CARGO) test --release --locked
+	$(CARGO) build --release --locked --benches
 
 ## Benchmarks: criterion micro-benchmarks, then the whole pipeline from scratch.
 bench: build

@@ -48,7 +48,7 @@ fn worlds(c: &mut Criterion) {
 
 fn figures(c: &mut Criterion) {
     let series = (0..5)
-        .map(|s| LineSeries { label: format!("map {s}"), color: s, points: (0..7).map(|i| SeriesPoint { x: i as f64, mean: (i * s) as f64, lo: 0.0, hi: (i * s + 1) as f64 }).collect(), dashed: false })
+        .map(|s| LineSeries { label: format!("map {s}"), color: s, points: (0..7).map(|i| SeriesPoint { x: i as f64, mean: (i * s) as f64, lo: 0.0, hi: (i * s + 1) as f64 }).collect(), dashed: false, scatter: false })
         .collect();
     let fig = LineFigure { x_label: "x".into(), y_label: "y".into(), x_axis: XAxis::Linear, x_ticks: vec![], series };
     c.bench_function("line_figure_svg/5_series_7_points", |b| b.iter(|| line_svg(black_box(&fig))));
