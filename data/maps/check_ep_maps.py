@@ -12,7 +12,7 @@ and prints the map's size, wall count, path length, number of spins on the spot 
 the number of scan matches (one per 0.5 m travelled or 30 deg turned, whichever comes first).
 
 It writes one SVG per map (walls black, planned legs blue, simulated path red, waypoints as dots)
-to --out (default /tmp/ep_maps), never into the repository. Standard library only (Python >= 3.11).
+to --out (default: a fresh temporary folder), never into the repository. Standard library only (Python >= 3.11).
 
     python3 data/maps/check_ep_maps.py [--out DIR]
 
@@ -22,6 +22,7 @@ Exit status 1 if any check fails.
 import argparse
 import math
 import sys
+import tempfile
 import tomllib
 from pathlib import Path
 
@@ -239,8 +240,10 @@ def check(path, out_dir):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=Path("/tmp/ep_maps"), help="folder for the SVGs (default /tmp/ep_maps)")
+    ap.add_argument("--out", type=Path, default=None, help="folder for the SVGs (default: a fresh temporary folder)")
     args = ap.parse_args()
+    if args.out is None:
+        args.out = Path(tempfile.mkdtemp(prefix="ep_maps-"))
     here = Path(__file__).resolve().parent
     failed = False
     for name in MAPS:

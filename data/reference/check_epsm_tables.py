@@ -11,8 +11,8 @@
 2. Derived numbers: the percentages, ratios, ranges and counts that the write-up states (§6
    "Derived" rows, §8 claims C1-C6, the Fig 16-19 captions, the Table 3 notes) are recomputed from
    the CSV. A wrong digit in the CSV almost always breaks one of them.
-3. Second pass, when the write-up is available (default: /work/shared/reference/..., i.e.
-   ../../../shared/reference/epsm-scan-matching.md from this file; skipped if absent): every
+3. Second pass, when the write-up is available (default: ../shared/reference/epsm-scan-matching.md
+   next to the repository, i.e. ../../../shared/reference/ from this file; skipped if absent): every
    group of 7 or 8 CSV values is written back as the markdown table row it came from and that
    exact line must appear under the right heading of the write-up.
 
