@@ -166,7 +166,7 @@ fn dispatch(command: Command) -> Result<()> {
             let d = crate::diff::diff(&base, &new, &opts)?;
             print!("{}", if md { crate::diff::to_markdown(&d) } else { crate::diff::to_text(&d) });
             if let Some(out) = report {
-                crate::report::diff_page::render_diff(&d, &base, &new, &out).context("writing the diff report")?;
+                crate::report::diff_page::render_diff(&d, &out).context("writing the diff report")?;
                 eprintln!("diff report written to {}", out.display());
             }
             Ok(())

@@ -191,6 +191,12 @@ impl DatasetSpec {
         }
     }
 
+    /// Whether the log's odometry is its ground truth (the Intel lab's corrected poses, no raw
+    /// odometry): a study then makes its odometry by perturbing it with its `[odometry]` model.
+    pub fn odometry_is_truth(&self) -> bool {
+        matches!(self, DatasetSpec::IntelLab { .. })
+    }
+
     /// What the dataset's sensor sees: laser scans (Intel lab) or point landmarks.
     pub fn world_kind(&self) -> crate::slam::WorldKind {
         match self {

@@ -58,7 +58,8 @@ pub struct DiffRow {
     /// Raw and Holm-adjusted p of the deciding test (NaN when identical).
     pub p: f64,
     pub p_holm: f64,
-    /// Exact sign-flip permutation p of the paired differences (NaN when unpaired or identical).
+    /// The distribution-free check: the exact sign-flip permutation p of the paired differences, or
+    /// Mann–Whitney's p when unpaired (NaN when identical).
     pub p_perm: f64,
     /// "paired" (n pairs), "unpaired", or "identical".
     pub test: String,
@@ -91,6 +92,8 @@ pub struct Diff {
     /// Studies in only one side.
     pub only_base: Vec<String>,
     pub only_new: Vec<String>,
+    /// The studies compared: (id, BASE folder, NEW folder).
+    pub compared: Vec<(String, PathBuf, PathBuf)>,
     pub rows: Vec<DiffRow>,
     pub rates: Vec<RateRow>,
     /// Tests run (the Holm family size).
@@ -128,6 +131,7 @@ pub fn diff(base: &Path, new: &Path, opts: &DiffOptions) -> Result<Diff, DiffErr
         let Some(dir_b) = b.get(id) else { continue };
         let (sa, sb) = (store::read_study(dir_a)?, store::read_study(dir_b)?);
         judging.insert(id.clone(), sb.resolved.spec.report.diff.clone());
+        out.compared.push((id.clone(), dir_a.clone(), dir_b.clone()));
         let changes = spec_changes(&sa, &sb);
         if !changes.is_empty() {
             out.spec_changes.push((id.clone(), changes));
@@ -203,8 +207,8 @@ fn cells(runs: &[RunRow]) -> BTreeMap<CellKey, Vec<&RunRow>> {
 }
 
 fn side(values: &[f64]) -> Side {
-    let (mean, lo, hi) = stats::mean_ci(values, 0.95);
-    Side { mean, ci: (lo, hi), n: values.len() }
+    let s = crate::report::stats::summarize(values);
+    Side { mean: s.mean, ci: (s.ci_low, s.ci_high), n: s.n }
 }
 
 fn compare_study(id: &str, a: &StudyData, b: &StudyData, opts: &DiffOptions, out: &mut Diff) {
@@ -272,33 +276,15 @@ fn compare_study(id: &str, a: &StudyData, b: &StudyData, opts: &DiffOptions, out
                 let xs: Vec<f64> = paired.iter().map(|p| p.0).collect();
                 let ys: Vec<f64> = paired.iter().map(|p| p.1).collect();
                 let ci = stats::paired_bootstrap_ci(&d, 0.95, opts.resamples, stats::seed_from_data(&xs, &ys));
-                out.rows.push(row(sa, sb, stats::mean(&d), ci, paired_t_p(&d), stats::sign_flip_p(&d), format!("paired t ({})", d.len()), Verdict::NoChange));
+                out.rows.push(row(sa, sb, stats::mean(&d), ci, stats::paired_t_p(&d), stats::sign_flip_p(&d), format!("paired t ({})", d.len()), Verdict::NoChange));
             } else if va.len() >= 2 && vb.len() >= 2 {
                 let (delta, lo, hi, p) = stats::welch_p(&va, &vb);
-                out.rows.push(row(sa, sb, delta, (lo, hi), p, f64::NAN, "unpaired (Welch)".into(), Verdict::NoChange));
+                out.rows.push(row(sa, sb, delta, (lo, hi), p, stats::mann_whitney_p(&va, &vb), "unpaired (Welch)".into(), Verdict::NoChange));
             } else {
                 out.rows.push(row(sa, sb, sb.mean - sa.mean, (f64::NAN, f64::NAN), 1.0, f64::NAN, "too few runs".into(), Verdict::NoChange));
             }
         }
     }
-}
-
-/// Two-sided p of the paired t-test of mean(d) = 0 (n − 1 degrees of freedom). Constant d: p = 0
-/// when it is not zero, 1 when it is.
-pub fn paired_t_p(d: &[f64]) -> f64 {
-    use statrs::distribution::{ContinuousCDF, StudentsT};
-    let n = d.len() as f64;
-    if d.len() < 2 {
-        return 1.0;
-    }
-    let m = stats::mean(d);
-    let sd = (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-    if sd == 0.0 {
-        return if m == 0.0 { 1.0 } else { 0.0 };
-    }
-    let t = m / (sd / n.sqrt());
-    let dist = StudentsT::new(0.0, 1.0, n - 1.0).expect("n ≥ 2 gives a valid t distribution");
-    (2.0 * (1.0 - dist.cdf(t.abs()))).min(1.0)
 }
 
 /// Significant figures of the diff's numbers.
@@ -317,7 +303,7 @@ pub fn table_cells(d: &Diff) -> (Vec<&'static str>, Vec<Vec<String>>) {
 
 /// Header and cells of the table (shared by the terminal and Markdown renderings).
 fn table(d: &Diff, show_identical: bool) -> (Vec<&'static str>, Vec<Vec<String>>) {
-    let header = vec!["study", "cell", "metric", "BASE mean [95 % CI] (n)", "NEW mean [95 % CI] (n)", "Δ [95 % CI]", "Δ %", "p (Holm)", "p perm", "test", "verdict"];
+    let header = vec!["study", "cell", "metric", "BASE mean [95 % CI] (n)", "NEW mean [95 % CI] (n)", "Δ [95 % CI]", "Δ %", "p (Holm)", "p dist-free", "test", "verdict"];
     let rows = d
         .rows
         .iter()
@@ -408,19 +394,4 @@ pub fn to_markdown(d: &Diff) -> String {
     }
     let _ = writeln!(s, "{}", summary(d));
     s
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Paired t-test against a textbook value: d = [1, 2, 3, 4, 5] has t = 3/(√2.5/√5) = 4.2426
-    /// with 4 degrees of freedom, two-sided p = 0.013236 (scipy.stats.ttest_1samp).
-    #[test]
-    fn paired_t_matches_the_textbook() {
-        assert!((paired_t_p(&[1.0, 2.0, 3.0, 4.0, 5.0]) - 0.013_236).abs() < 1e-5);
-        assert_eq!(paired_t_p(&[0.5, 0.5, 0.5]), 0.0);
-        assert_eq!(paired_t_p(&[0.0, 0.0]), 1.0);
-        assert_eq!(paired_t_p(&[1.0]), 1.0);
-    }
 }

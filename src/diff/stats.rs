@@ -3,7 +3,7 @@
 //!
 //! Runs are seeded by (study, map, replicate), so replicate k of BASE and NEW saw the same world: the
 //! primary comparison is *paired*, on the per-replicate differences `d_k = new_k − base_k`
-//! ([`paired_bootstrap_ci`], [`sign_flip_p`], [`wilcoxon_signed_rank_p`]). When the replicate sets differ
+//! ([`paired_bootstrap_ci`], [`paired_t_p`], [`sign_flip_p`]). When the replicate sets differ
 //! the caller falls back to the *unpaired* tests ([`welch_p`], [`mann_whitney_p`]). Failure counts are
 //! compared with Fisher's exact test ([`rate_test`]); the p-values of one diff are adjusted together with
 //! [`holm`].
@@ -12,8 +12,7 @@
 //! - [ET] Efron & Tibshirani, *An Introduction to the Bootstrap*, 1993, §13.3 (percentile interval).
 //! - [G] Good, *Permutation, Parametric and Bootstrap Tests of Hypotheses*, 3rd ed. 2005, §3.6.2
 //!   (one-sample sign-flip / Fisher–Pitman test).
-//! - [HW] Hollander & Wolfe, *Nonparametric Statistical Methods*, 2nd ed. 1999, §3.1 (signed rank:
-//!   null distribution, large-sample approximation Eq. 3.6–3.7 with ties Eq. 3.13), §4.1 (rank sum).
+//! - [HW] Hollander & Wolfe, *Nonparametric Statistical Methods*, 2nd ed. 1999, §4.1 (rank sum).
 //! - [W] Welch 1947, *Biometrika* 34:28–35; Satterthwaite 1946 (effective degrees of freedom).
 //! - [H] Holm 1979, *Scand. J. Statist.* 6:65–70.
 //! - [F] Fisher, *The Design of Experiments*, 1935, §2 (lady tasting tea); Agresti, *Categorical Data
@@ -42,9 +41,6 @@ pub const SIGN_FLIP_MC_FLIPS: usize = 100_000;
 /// Relative tolerance (of Σ|d|) under which a permuted |Σ d| counts as a tie with the observed one, so that
 /// floating-point rounding of mathematically equal sums (e.g. 0.1 + 0.2 vs 0.3) is not lost.
 pub const SIGN_FLIP_REL_TOL: f64 = 1e-9;
-/// Largest n (after dropping zeros) for which [`wilcoxon_signed_rank_p`] uses the exact null distribution
-/// when there are no ties (2^25 subsets fit a `u64` count exactly).
-pub const WILCOXON_EXACT_MAX_N: usize = 25;
 /// Relative tolerance for "no more likely than the observed table" in [`rate_test`] (as R's
 /// `fisher.test`, which uses 1 + 1e-7).
 pub const FISHER_REL_TOL: f64 = 1e-7;
@@ -83,22 +79,8 @@ fn t_quantile(confidence: f64, df: f64) -> f64 {
     }
 }
 
-/// Student t confidence interval of the mean: `(mean, lo, hi)` with
-/// `mean ± t_{1−α/2, n−1} · s/√n`, α = 1 − confidence.
-///
-/// n < 2 (or confidence ∉ (0, 1)) ⇒ NaN bounds; n = 0 ⇒ NaN mean too. Zero spread ⇒ `(m, m, m)`.
-pub fn mean_ci(x: &[f64], confidence: f64) -> (f64, f64, f64) {
-    let m = mean(x);
-    let n = x.len();
-    if n < 2 {
-        return (m, f64::NAN, f64::NAN);
-    }
-    let half = t_quantile(confidence, (n - 1) as f64) * (sample_variance(x) / n as f64).sqrt();
-    (m, m - half, m + half)
-}
-
 // ---------------------------------------------------------------------------------------------------
-// Paired: bootstrap CI, sign-flip test, Wilcoxon signed rank
+// Paired: bootstrap CI, sign-flip test, paired t
 // ---------------------------------------------------------------------------------------------------
 
 /// FNV-1a 64-bit offset basis and prime (Fowler–Noll–Vo, IETF draft-eastlake-fnv).
@@ -267,44 +249,21 @@ fn normal_p_continuity(stat: f64, mu: f64, var: f64) -> f64 {
     normal_two_sided(z)
 }
 
-/// Two-sided Wilcoxon signed-rank test of symmetry about 0 for paired differences ([HW] §3.1).
-///
-/// - Zeros are dropped first (Wilcoxon's original convention, scipy `zero_method="wilcox"`), so n is
-///   the count of non-zero differences. n = 0 ⇒ p = 1.
-/// - |d| are ranked with average ranks for ties (exact equality); W+ = Σ ranks of positive d.
-/// - n ≤ [`WILCOXON_EXACT_MAX_N`] and no ties: exact null distribution of W+ by dynamic programming over
-///   subsets of {1..n}; p = min(1, 2·min(P(W+ ≤ w), P(W+ ≥ w))).
-/// - Otherwise: normal approximation, E = n(n+1)/4, Var = n(n+1)(2n+1)/24 − Σ(t³ − t)/48
-///   ([HW] Eq. 3.13), continuity correction 0.5.
-pub fn wilcoxon_signed_rank_p(d: &[f64]) -> f64 {
-    let nz: Vec<f64> = d.iter().copied().filter(|v| *v != 0.0).collect();
-    let n = nz.len();
-    if n == 0 {
+/// Two-sided p of the paired t-test of mean(d) = 0 (n − 1 degrees of freedom). Constant d: p = 0
+/// when it is not zero, 1 when it is; n < 2 ⇒ 1.
+pub fn paired_t_p(d: &[f64]) -> f64 {
+    if d.len() < 2 {
         return 1.0;
     }
-    let abs: Vec<f64> = nz.iter().map(|v| v.abs()).collect();
-    let (ranks, tie_sum) = average_ranks(&abs);
-    let w_plus: f64 = nz.iter().zip(&ranks).filter(|(v, _)| **v > 0.0).map(|(_, r)| r).sum();
-    if n <= WILCOXON_EXACT_MAX_N && tie_sum == 0.0 {
-        // counts[s] = number of subsets of {1..n} with rank sum s.
-        let max_sum = n * (n + 1) / 2;
-        let mut counts = vec![0u64; max_sum + 1];
-        counts[0] = 1;
-        for r in 1..=n {
-            for s in (r..=max_sum).rev() {
-                counts[s] += counts[s - r];
-            }
-        }
-        let w = w_plus.round() as usize; // integer without ties
-        let total = (1u64 << n) as f64;
-        let le: u64 = counts[..=w].iter().sum();
-        let ge: u64 = counts[w..].iter().sum();
-        return (2.0 * le.min(ge) as f64 / total).min(1.0);
+    let n = d.len() as f64;
+    let m = mean(d);
+    let sd = sample_variance(d).sqrt();
+    if sd == 0.0 {
+        return if m == 0.0 { 1.0 } else { 0.0 };
     }
-    let nf = n as f64;
-    let mu = nf * (nf + 1.0) / 4.0;
-    let var = nf * (nf + 1.0) * (2.0 * nf + 1.0) / 24.0 - tie_sum / 48.0;
-    normal_p_continuity(w_plus, mu, var)
+    let t = m / (sd / n.sqrt());
+    let dist = StudentsT::new(0.0, 1.0, n - 1.0).expect("n ≥ 2 gives a valid t distribution");
+    (2.0 * (1.0 - dist.cdf(t.abs()))).min(1.0)
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -470,20 +429,6 @@ mod tests {
         (a - b).abs() <= tol
     }
 
-    /// Student t CI of x = [1, 2, 3, 4, 5] at 95 %: mean 3, s² = 2.5, t_{0.975,4} = 2.776445
-    /// (any t table; scipy `t.ppf(0.975, 4)` = 2.7764451051977934) ⇒ half-width
-    /// 2.776445·√2.5/√5 = 1.963243161337696. n < 2 gives NaN bounds.
-    #[test]
-    fn diffstats_mean_ci_textbook() {
-        let (m, lo, hi) = mean_ci(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.95);
-        assert_eq!(m, 3.0);
-        assert!(close(lo, 3.0 - 1.963243161337696, 1e-9), "lo = {lo}");
-        assert!(close(hi, 3.0 + 1.963243161337696, 1e-9), "hi = {hi}");
-        let (m1, lo1, hi1) = mean_ci(&[4.0], 0.95);
-        assert_eq!(m1, 4.0);
-        assert!(lo1.is_nan() && hi1.is_nan());
-        assert!(mean(&[]).is_nan());
-    }
 
     /// Hand enumeration: d = [1, 2, 3, 4], observed |mean| = 2.5; flipping any non-empty proper subset
     /// lowers |Σ| (all d > 0), so only ++++ and −−−− reach it ⇒ p = 2/16 = 0.125.
@@ -528,35 +473,8 @@ mod tests {
         assert_eq!(mc, sign_flip_p(&d));
     }
 
-    /// scipy.stats.wilcoxon documentation example (scipy ≥ 1.9, "Examples"): the 15 paired differences
-    /// below give W− = 24 and two-sided exact p = 0.041259765625 (= 1352/32768; re-checked with
-    /// scipy 1.17.1).
-    #[test]
-    fn diffstats_wilcoxon_exact_scipy_example() {
-        let d = [6.0, 8.0, 14.0, 16.0, 23.0, 24.0, 28.0, 29.0, 41.0, -48.0, 49.0, 56.0, 60.0, -67.0, 75.0];
-        assert!(close(wilcoxon_signed_rank_p(&d), 0.041259765625, 1e-12));
-    }
 
-    /// Normal approximation, n = 30 > 25, no ties: d_i = ±i with every third negative.
-    /// Hand: W− = 3·(1+…+10) = 165, E = 30·31/4 = 232.5, Var = 30·31·61/24 = 2363.75, sd = 48.6184;
-    /// z = (67.5 − 0.5)/48.6184 = 1.37808 ⇒ p = 2(1 − Φ(z)) = 0.16818
-    /// (scipy `wilcoxon(d, method="approx", correction=True)` = 0.1681789797233525).
-    #[test]
-    fn diffstats_wilcoxon_normal_large_n() {
-        let d: Vec<f64> = (1..=30).map(|i| if i % 3 == 0 { -(i as f64) } else { i as f64 }).collect();
-        assert!(close(wilcoxon_signed_rank_p(&d), 0.1681789797233525, 1e-9));
-    }
 
-    /// Ties and a zero force the normal approximation: d = [1,1,2,−2,3,3,3,−4,5,5,0]; the zero is
-    /// dropped (n = 10), tie groups of sizes 2,2,3,2 ⇒ Σ(t³−t) = 6+6+24+6 = 42, W− = 11.5.
-    /// Reference: scipy `wilcoxon(d, method="approx", correction=True, zero_method="wilcox")`
-    /// = 0.11248161417523894. Also n = 0 (all zeros) ⇒ p = 1.
-    #[test]
-    fn diffstats_wilcoxon_ties_and_zeros() {
-        let d = [1.0, 1.0, 2.0, -2.0, 3.0, 3.0, 3.0, -4.0, 5.0, 5.0, 0.0];
-        assert!(close(wilcoxon_signed_rank_p(&d), 0.11248161417523894, 1e-9));
-        assert_eq!(wilcoxon_signed_rank_p(&[0.0, 0.0]), 1.0);
-    }
 
     /// Wikipedia "Welch's t-test", Examples, example 1 (A1, A2 with n = 15 each): |t| = 2.46,
     /// ν ≈ 25.0, p = 0.021. Precise reference (scipy `ttest_ind(A2, A1, equal_var=False)`):
@@ -652,5 +570,15 @@ mod tests {
         }
         assert_eq!(Regressed.as_str(), "regressed");
         assert_eq!(WithinNoise.as_str(), "within_noise");
+    }
+
+    /// Paired t-test against a textbook value: d = [1, 2, 3, 4, 5] has t = 3/(√2.5/√5) = 4.2426
+    /// with 4 degrees of freedom, two-sided p = 0.013236 (scipy.stats.ttest_1samp).
+    #[test]
+    fn diffstats_paired_t_matches_the_textbook() {
+        assert!((paired_t_p(&[1.0, 2.0, 3.0, 4.0, 5.0]) - 0.013_236).abs() < 1e-5);
+        assert_eq!(paired_t_p(&[0.5, 0.5, 0.5]), 0.0);
+        assert_eq!(paired_t_p(&[0.0, 0.0]), 1.0);
+        assert_eq!(paired_t_p(&[1.0]), 1.0);
     }
 }

@@ -10,7 +10,6 @@ use crate::diff::stats::Verdict;
 use crate::diff::Diff;
 use crate::store::{self, RunStatus, StudyData};
 use serde::Serialize;
-use std::collections::BTreeMap;
 use std::path::Path;
 
 #[derive(Debug, Clone, Serialize)]
@@ -87,17 +86,9 @@ fn study_figures(id: &str, a: &StudyData, b: &StudyData, changed: &[&str]) -> Ve
 }
 
 /// Writes `index.html`, `diff.tex` and `figures/` into `out` (created; existing files replaced).
-pub fn render_diff(d: &Diff, base: &Path, new: &Path, out: &Path) -> Result<(), ReportError> {
-    let studies = |dir: &Path| -> Result<BTreeMap<String, std::path::PathBuf>, ReportError> {
-        if dir.join("runs.parquet").is_file() {
-            return Ok(BTreeMap::from([(dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(), dir.to_path_buf())]));
-        }
-        Ok(store::list_studies(dir)?.into_iter().map(|p| (p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(), p)).collect())
-    };
-    let (sa, sb) = (studies(base)?, studies(new)?);
+pub fn render_diff(d: &Diff, out: &Path) -> Result<(), ReportError> {
     let mut figures = Vec::new();
-    for (id, dir_b) in &sb {
-        let Some(dir_a) = sa.get(id) else { continue };
+    for (id, dir_a, dir_b) in &d.compared {
         let mut changed: Vec<&str> = d.rows.iter().filter(|r| &r.study == id && r.verdict != Verdict::Identical).map(|r| r.metric.as_str()).collect();
         changed.sort();
         changed.dedup();

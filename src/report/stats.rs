@@ -90,6 +90,20 @@ pub fn sig_ascii(v: f64, digits: usize) -> String {
 mod tests {
     use super::*;
 
+    /// Student t CI of x = [1, 2, 3, 4, 5] at 95 %: mean 3, s² = 2.5, t_{0.975,4} = 2.776445
+    /// (any t table; scipy `t.ppf(0.975, 4)` = 2.7764451051977934) ⇒ half-width
+    /// 2.776445·√2.5/√5 = 1.963243161337696. n < 2 gives NaN bounds.
+    #[test]
+    fn mean_ci_textbook() {
+        let s = summarize(&[1.0, 2.0, 3.0, 4.0, 5.0]);
+        assert_eq!(s.mean, 3.0);
+        assert!((s.ci_low - (3.0 - 1.963243161337696)).abs() < 1e-9, "lo = {}", s.ci_low);
+        assert!((s.ci_high - (3.0 + 1.963243161337696)).abs() < 1e-9, "hi = {}", s.ci_high);
+        let one = summarize(&[4.0]);
+        assert_eq!(one.mean, 4.0);
+        assert!(one.ci_low.is_nan() && one.ci_high.is_nan());
+    }
+
     #[test]
     fn t_quantiles_match_tables() {
         // Standard two-sided 95 % critical values.

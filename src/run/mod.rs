@@ -260,9 +260,9 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
                 world::generate(&spec, run.world_seed)?
             }
         };
-        if let Some(crate::dataset::DatasetSpec::IntelLab { .. }) = &map.dataset {
-            // The log's increments are the corrected poses' (no raw odometry): the study's
-            // [odometry] model makes the initial guesses from them.
+        if map.dataset.as_ref().is_some_and(|d| d.odometry_is_truth()) {
+            // A log without raw odometry (its increments are the truth's): the study's
+            // [odometry] model makes the odometry from them.
             let mut rng = ChaCha8Rng::seed_from_u64(run.world_seed);
             world.odometry = params.odometry.perturb(&world.odometry, &mut rng);
         }
