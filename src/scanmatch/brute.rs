@@ -270,12 +270,9 @@ fn norm2((i, j): Cell) -> i32 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::search::synthetic::{NanCost, PointCost};
+    use super::super::search::synthetic::{truth, NanCost, PointCost};
     use super::*;
 
-    fn truth() -> Pose2 {
-        Pose2::new(0.2, -0.1, 3f64.to_radians())
-    }
 
     fn guess() -> Pose2 {
         Pose2::new(0.253, -0.064, 1f64.to_radians())

@@ -489,16 +489,8 @@ fn bobyqa_step(cost: &mut impl Cost, pose: Pose2, params: &BobyqaParams) -> Resu
 
 #[cfg(test)]
 mod tests {
-    use super::super::search::synthetic::{NanCost, PointCost};
+    use super::super::search::synthetic::{guess, truth, NanCost, PointCost};
     use super::*;
-
-    fn truth() -> Pose2 {
-        Pose2::new(0.2, -0.1, 3f64.to_radians())
-    }
-
-    fn guess() -> Pose2 {
-        Pose2::new(0.25, -0.06, 1f64.to_radians())
-    }
 
     #[test]
     fn defaults_validate_and_serde_is_strict() {
