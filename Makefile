@@ -12,10 +12,12 @@ all: report
 build:
 	$(CARGO) build --release --locked
 
-## Run every study in experiments/ (cached, parallel, deterministic) and render reports/.
+## Run every study in experiments/ (cached, parallel, deterministic) and render reports/; the
+## README's fidelity block is then refreshed from reports/fidelity/summary.md.
 report: build
 	$(BIN) run $(SPECS)
 	$(BIN) report --specs experiments
+	tests/tools/readme_block.sh write README.md reports/fidelity/summary.md
 
 ## Only (re)run the studies, without rendering.
 run: build
@@ -46,13 +48,15 @@ bench: build
 	rm -rf $$tmp
 
 ## Regenerate the reports from the results into a temporary folder and compare them, byte for
-## byte, with the committed reports/ (run `make run` first on a fresh clone).
+## byte, with the committed reports/, and the README's fidelity block with the regenerated
+## scoreboard (run `make run` first on a fresh clone).
 check-reports: build
 	@tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
 	cp -r reports "$$tmp/reports"; \
 	$(BIN) report --specs experiments --out "$$tmp/reports" >/dev/null; \
 	if diff -r reports "$$tmp/reports" >/dev/null; then echo "check-reports: reports/ is up to date"; \
-	else diff -rq reports "$$tmp/reports"; echo "check-reports: reports/ differs from what the results give (make report)" >&2; exit 1; fi
+	else diff -rq reports "$$tmp/reports"; echo "check-reports: reports/ differs from what the results give (make report)" >&2; exit 1; fi; \
+	tests/tools/readme_block.sh check README.md "$$tmp/reports/fidelity/summary.md"
 
 ## Open every report in headless Chromium: console errors or missing images fail (screenshots in
 ## target/reports-html/). Needs Debian's chromium.

@@ -49,6 +49,10 @@ enum Command {
         /// keep their previous report instead of losing it.
         #[arg(long)]
         specs: Option<PathBuf>,
+        /// Published result items classified by the fidelity scoreboard (`reports/fidelity/`);
+        /// the default file is skipped when absent.
+        #[arg(long)]
+        published: Option<PathBuf>,
     },
     /// Check specs (and the maps they name) without running anything.
     Validate {
@@ -130,6 +134,9 @@ impl std::fmt::Display for InvalidInput {
 }
 impl std::error::Error for InvalidInput {}
 
+/// The published result items the scoreboard classifies, relative to the working folder.
+const DEFAULT_PUBLISHED: &str = "data/reference/published-results.toml";
+
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     match dispatch(cli.command) {
@@ -149,9 +156,11 @@ pub fn main() -> ExitCode {
 fn dispatch(command: Command) -> Result<()> {
     match command {
         Command::Run { specs, dirs, threads, force, quiet } => cmd_run(&specs, &dirs, threads, force, quiet),
-        Command::Report { results, out, specs } => {
+        Command::Report { results, out, specs, published } => {
             let keep: Vec<String> = specs.as_deref().map(spec_ids).unwrap_or_default();
-            let summary = crate::report::render_all(&results, &out, &keep).context("rendering reports")?;
+            let default = PathBuf::from(DEFAULT_PUBLISHED);
+            let published = published.or_else(|| default.is_file().then_some(default));
+            let summary = crate::report::render_all(&results, &out, &keep, published.as_deref()).context("rendering reports")?;
             eprintln!("rendered {} studies into {}", summary.studies.len(), out.display());
             for id in &summary.kept {
                 eprintln!("{id}: no results here; its previous report is kept");

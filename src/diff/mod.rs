@@ -2,9 +2,8 @@
 //! metric) with paired statistics and a criterion-style verdict, after the parameter differences.
 //!
 //! Runs are seeded by (study, map, replicate): replicate k of both sides saw the same world, so
-//! cells are compared on per-replicate differences — a paired bootstrap CI of the mean difference
-//! (its RNG seeded from the data, so the diff is deterministic), the paired t-test's p for the
-//! verdict, and the exact sign-flip permutation p beside it — falling back to Welch's test when the
+//! cells are compared on per-replicate differences — the paired t interval of the mean difference
+//! ([`paired_ci`]), the paired t-test's p for the verdict, and the exact sign-flip permutation p beside it — falling back to Welch's test when the
 //! replicate sets differ. Why the t-test decides: an exact permutation (or Wilcoxon) test of n pairs
 //! cannot go below p = 2^(1−n), so with the 5–6 replicates of many studies it can never reach
 //! α = 0.05 once Holm-adjusted, however large the change; the permutation p stays in the table as
@@ -12,12 +11,12 @@
 //! are "identical" without a test; failure rates are compared as k/n (Fisher's exact test); p-values
 //! are Holm-adjusted over every test of the diff. Reads the store only.
 
-pub mod stats;
 
 use crate::metrics::metric_def;
 use crate::spec::params::flatten;
 use crate::store::{self, RunRow, RunStatus, StudyData};
-use stats::Verdict;
+use crate::judge::change::{self, Verdict};
+use crate::stats::{compare, hypothesis as stats};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -29,15 +28,13 @@ pub struct DiffOptions {
     pub alpha: f64,
     /// Smallest change that counts, as a fraction of |BASE mean| (criterion's noise threshold).
     pub min_effect_rel: f64,
-    /// Bootstrap resamples of the paired CI.
-    pub resamples: usize,
     /// Compare every stored metric, not only the study's report metrics.
     pub all_metrics: bool,
 }
 
 impl Default for DiffOptions {
     fn default() -> Self {
-        Self { alpha: 0.05, min_effect_rel: 0.01, resamples: 2000, all_metrics: false }
+        Self { alpha: 0.05, min_effect_rel: 0.01, all_metrics: false }
     }
 }
 
@@ -148,7 +145,7 @@ pub fn diff(base: &Path, new: &Path, opts: &DiffOptions) -> Result<Diff, DiffErr
         let lower = metric_def(&r.metric).is_none_or(|m| m.lower_is_better);
         // the NEW side's `[report.diff]` decides (a change of criteria is listed with the specs)
         let (alpha, min_effect_rel) = judging.get(&r.study).map_or((opts.alpha, opts.min_effect_rel), |d| d.for_metric(&r.metric, (opts.alpha, opts.min_effect_rel)));
-        r.verdict = stats::verdict(false, p, alpha, r.delta_ci, min_effect_rel * r.base.mean.abs(), lower);
+        r.verdict = change::verdict(false, p, alpha, r.delta_ci, min_effect_rel * r.base.mean.abs(), lower);
     }
     Ok(out)
 }
@@ -207,7 +204,7 @@ fn cells(runs: &[RunRow]) -> BTreeMap<CellKey, Vec<&RunRow>> {
 }
 
 fn side(values: &[f64]) -> Side {
-    let s = crate::report::stats::summarize(values);
+    let s = crate::stats::summarize(values);
     Side { mean: s.mean, ci: (s.ci_low, s.ci_high), n: s.n }
 }
 
@@ -273,9 +270,7 @@ fn compare_study(id: &str, a: &StudyData, b: &StudyData, opts: &DiffOptions, out
             let same_sets = pa.len() == pb.len() && pa.keys().eq(pb.keys());
             if same_sets && paired.len() >= 2 {
                 let d: Vec<f64> = paired.iter().map(|(x, y)| y - x).collect();
-                let xs: Vec<f64> = paired.iter().map(|p| p.0).collect();
-                let ys: Vec<f64> = paired.iter().map(|p| p.1).collect();
-                let ci = stats::paired_bootstrap_ci(&d, 0.95, opts.resamples, stats::seed_from_data(&xs, &ys));
+                let ci = paired_ci(&d);
                 out.rows.push(row(sa, sb, stats::mean(&d), ci, stats::paired_t_p(&d), stats::sign_flip_p(&d), format!("paired t ({})", d.len()), Verdict::NoChange));
             } else if va.len() >= 2 && vb.len() >= 2 {
                 let (delta, lo, hi, p) = stats::welch_p(&va, &vb);
@@ -287,9 +282,19 @@ fn compare_study(id: &str, a: &StudyData, b: &StudyData, opts: &DiffOptions, out
     }
 }
 
+/// Confidence of the interval of NEW − BASE.
+pub const DELTA_CONFIDENCE: f64 = 0.95;
+
+/// The interval of the mean paired difference: the paired Student t interval, whose coverage is
+/// nominal at small n for normal differences (a percentile bootstrap covers about 84 % at n = 5
+/// and 75 % at n = 3 — `delta_interval_has_nominal_coverage` checks this one by simulation).
+pub fn paired_ci(d: &[f64]) -> (f64, f64) {
+    compare::t_interval(d, DELTA_CONFIDENCE)
+}
+
 /// Significant figures of the diff's numbers.
 fn num(v: f64) -> String {
-    crate::report::stats::sig(v, 3)
+    crate::stats::sig(v, 3)
 }
 
 fn side_text(s: &Side) -> String {
@@ -394,4 +399,33 @@ pub fn to_markdown(d: &Diff) -> String {
     }
     let _ = writeln!(s, "{}", summary(d));
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    /// The interval of Δ covers the true mean difference 95 % of the time at the small replicate
+    /// counts studies use (3 and 5 normal paired differences), within ±1.5 points over 4 000 draws
+    /// (the percentile bootstrap it replaces covered 75 % and 84 %).
+    #[test]
+    fn delta_interval_has_nominal_coverage() {
+        let mut rng = ChaCha8Rng::seed_from_u64(2026);
+        let d = Normal::new(0.3, 1.0).unwrap();
+        for n in [3, 5, 8] {
+            let trials = 4000;
+            let hits = (0..trials)
+                .filter(|_| {
+                    let x: Vec<f64> = (0..n).map(|_| d.sample(&mut rng)).collect();
+                    let (lo, hi) = paired_ci(&x);
+                    lo <= 0.3 && 0.3 <= hi
+                })
+                .count();
+            let rate = hits as f64 / trials as f64;
+            assert!((rate - DELTA_CONFIDENCE).abs() < 0.015, "n = {n}: coverage {rate}");
+        }
+    }
 }

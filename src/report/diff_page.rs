@@ -3,10 +3,10 @@
 //! and NEW (solid) overlaid — as a self-contained HTML page and a LaTeX document with pgfplots.
 
 use super::figure::{self, LineFigure, LineSeries, SeriesPoint, XAxis};
-use super::stats::{self, sig};
+use crate::stats::{self, sig};
 use super::view::{FigureView, TableView};
 use super::ReportError;
-use crate::diff::stats::Verdict;
+use crate::judge::change::Verdict;
 use crate::diff::Diff;
 use crate::store::{self, RunStatus, StudyData};
 use serde::Serialize;

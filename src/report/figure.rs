@@ -97,7 +97,7 @@ pub struct LineSeries {
     pub label: String,
     pub color: usize,
     pub points: Vec<SeriesPoint>,
-    /// Published values: dashed, without a band.
+    /// Published values: dashed, with error bars (lo, hi) where the publication prints a spread.
     pub dashed: bool,
     /// Markers only (no line, no band): a scatter of separate cells.
     pub scatter: bool,
@@ -195,6 +195,9 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
             let line: Vec<(f64, f64)> = pts.iter().map(|p| (fig.position(p.x), p.mean)).collect();
             chart.draw_series(plotters::series::DashedLineSeries::new(line.clone(), 6, 4, color.stroke_width(2))).map_err(|e| e.to_string())?;
             chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.stroke_width(1)))).map_err(|e| e.to_string())?;
+            // The published dispersion, where printed: vertical error bars.
+            let bars = pts.iter().filter(|p| p.lo.is_finite() && p.hi.is_finite()).map(|p| PathElement::new(vec![(fig.position(p.x), p.lo), (fig.position(p.x), p.hi)], color.stroke_width(1)));
+            chart.draw_series(bars).map_err(|e| e.to_string())?;
             continue;
         }
         let band: Vec<&SeriesPoint> = pts.iter().copied().filter(|p| p.lo.is_finite() && p.hi.is_finite()).collect();

@@ -3,14 +3,14 @@
 //! Reads only the store. Output is byte-identical for identical results: no timestamps, no
 //! absolute paths, explicit ordering, fixed significant figures.
 
-pub mod claims;
 pub mod diff_page;
+pub mod fidelity;
 pub mod figure;
 pub mod latex;
 pub mod pgf;
-pub mod stats;
 pub mod view;
 
+use crate::judge::claims::ClaimResult;
 use crate::store::{self, StoreError};
 use minijinja::{AutoEscape, Environment, UndefinedBehavior};
 use std::path::Path;
@@ -23,6 +23,8 @@ pub enum ReportError {
     NotOurs(std::path::PathBuf),
     #[error("template {template}: {message}")]
     Template { template: String, message: String },
+    #[error("{path}: {message}")]
+    Items { path: std::path::PathBuf, message: String },
 }
 
 /// Marks a folder as written by `slamlab report` (it is replaced as a whole).
@@ -61,6 +63,8 @@ fn environment() -> Environment<'static> {
         ("study.tex", include_str!("../../templates/study.tex.j2")),
         ("diff.html", include_str!("../../templates/diff.html.j2")),
         ("diff.tex", include_str!("../../templates/diff.tex.j2")),
+        ("fidelity.html", include_str!("../../templates/fidelity.html.j2")),
+        ("fidelity.tex", include_str!("../../templates/fidelity.tex.j2")),
     ] {
         env.add_template(name, source).expect("bundled templates parse");
     }
@@ -96,12 +100,23 @@ pub struct ReportSummary {
     pub kept: Vec<String>,
 }
 
-/// Renders every study under `results_dir` into `reports_dir` (replaced atomically as a whole).
+/// Renders every study under `results_dir` into `reports_dir` (replaced atomically as a whole),
+/// and the fidelity scoreboard (`fidelity/`) from the published result items in `published`
+/// (when given) and every study's judged claims.
 /// A study of `keep` that has no results but a previous report (with its `entry.json`) keeps
-/// that report byte for byte: real-data studies on a machine without the data.
-pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String]) -> Result<ReportSummary, ReportError> {
+/// that report byte for byte: real-data studies on a machine without the data; its claims
+/// (`claims.json`) still enter the scoreboard.
+pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], published: Option<&Path>) -> Result<ReportSummary, ReportError> {
     let env = environment();
+    let items = match published {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).map_err(|e| StoreError::Io { path: path.to_path_buf(), source: e })?;
+            crate::judge::scoreboard::parse_items(&text).map_err(|message| ReportError::Items { path: path.to_path_buf(), message })?
+        }
+        None => Vec::new(),
+    };
     let mut pages = Vec::new();
+    let mut studies = Vec::new();
     for dir in store::list_studies(results_dir)? {
         let data = store::read_study(&dir)?;
         let trace_error = std::cell::RefCell::new(None);
@@ -120,22 +135,29 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String]) -> Re
             return Err(e.into());
         }
         pages.push(built);
+        studies.push(data);
     }
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     let rendered: Vec<&str> = pages.iter().map(|p| p.view.id.as_str()).collect();
     let mut kept: Vec<(String, view::IndexEntry)> = Vec::new();
+    let mut claims: Vec<ClaimResult> = pages.iter().flat_map(|p| p.view.claims.iter().cloned()).collect();
     for id in keep.iter().filter(|id| !rendered.contains(&id.as_str())) {
         let dir = reports_dir.join(id);
         let Some(entry) = std::fs::read(dir.join(ENTRY)).ok().and_then(|b| serde_json::from_slice::<view::IndexEntry>(&b).ok()) else { continue };
         for (rel, bytes) in read_tree(&dir)? {
+            if rel == CLAIMS {
+                claims.extend(serde_json::from_slice::<Vec<ClaimResult>>(&bytes).unwrap_or_default());
+            }
             files.push((format!("{id}/{rel}"), bytes));
         }
         kept.push((id.clone(), entry));
     }
+    claims.sort_by(|a, b| a.study.cmp(&b.study));
     let palette = pgf::palette_definitions();
     for p in &pages {
         let id = &p.view.id;
         files.push((format!("{id}/{ENTRY}"), serde_json::to_vec_pretty(&p.index).expect("an index entry serialises")));
+        files.push((format!("{id}/{CLAIMS}"), serde_json::to_vec_pretty(&p.view.claims).expect("claims serialise")));
         let ctx = minijinja::context! { study => &p.view, palette => minijinja::Value::from_safe_string(palette.clone()) };
         files.push((format!("{id}/index.html"), render(&env, "study.html", ctx.clone())?.into_bytes()));
         files.push((format!("{id}/{id}.tex"), render(&env, "study.tex", ctx)?.into_bytes()));
@@ -147,7 +169,17 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String]) -> Re
     }
     let mut index: Vec<&view::IndexEntry> = pages.iter().map(|p| &p.index).chain(kept.iter().map(|(_, e)| e)).collect();
     index.sort_by(|a, b| a.id.cmp(&b.id));
-    files.push(("index.html".into(), render(&env, "index.html", minijinja::context! { studies => index })?.into_bytes()));
+    // The fidelity scoreboard.
+    let by_id: std::collections::BTreeMap<String, &store::StudyData> = studies.iter().map(|d| (d.resolved.spec.id.clone(), d)).collect();
+    let classified = crate::judge::scoreboard::classify(&items, &by_id, &claims);
+    let linked: Vec<String> = index.iter().map(|e| e.id.clone()).collect();
+    let board = fidelity::build(&classified, &claims, linked);
+    let block = fidelity::readme_block(&board, &classified, &claims);
+    files.push(("fidelity/index.html".into(), render(&env, "fidelity.html", minijinja::Value::from_serialize(&board))?.into_bytes()));
+    files.push(("fidelity/fidelity.tex".into(), render(&env, "fidelity.tex", minijinja::Value::from_serialize(&board))?.into_bytes()));
+    files.push(("fidelity/summary.md".into(), block.clone().into_bytes()));
+    files.push(("fidelity/fidelity.md".into(), fidelity::full_markdown(&board, &block).into_bytes()));
+    files.push(("index.html".into(), render(&env, "index.html", minijinja::context! { studies => index, fidelity => &board })?.into_bytes()));
 
     // `reports_dir` is replaced as a whole: refuse to wipe a folder slamlab did not write.
     let foreign = std::fs::read_dir(reports_dir).map(|mut d| d.next().is_some()).unwrap_or(false) && !reports_dir.join(MARKER).is_file();
@@ -170,6 +202,8 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String]) -> Re
 
 /// A kept report's index line.
 const ENTRY: &str = "entry.json";
+/// A report's judged claims (what the scoreboard reads of a kept report).
+const CLAIMS: &str = "claims.json";
 
 /// Every file under `dir` as (relative path with `/`, bytes), sorted.
 fn read_tree(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, ReportError> {

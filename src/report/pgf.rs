@@ -18,7 +18,7 @@ pub fn palette_definitions() -> String {
 const PGF_DIGITS: usize = 6;
 
 fn num(v: f64) -> String {
-    super::stats::sig_ascii(v, PGF_DIGITS)
+    crate::stats::sig_ascii(v, PGF_DIGITS)
 }
 
 pub fn line_pgf(fig: &LineFigure) -> String {
@@ -67,9 +67,23 @@ pub fn line_pgf(fig: &LineFigure) -> String {
             let _ = writeln!(s, "\\addplot[name path=lo{i}, draw=none, forget plot] coordinates {{{}}};", coords(&|p| p.lo));
             let _ = writeln!(s, "\\addplot[fill={color}, fill opacity=0.18, draw=none, forget plot] fill between[of=hi{i} and lo{i}];");
         }
-        let coords: Vec<String> = pts.iter().map(|p| format!("({},{})", num(p.x), num(p.mean))).collect();
+        let bars = series.dashed && pts.iter().any(|p| p.lo.is_finite() && p.hi.is_finite());
+        let coords: Vec<String> = pts
+            .iter()
+            .map(|p| {
+                if bars && p.lo.is_finite() && p.hi.is_finite() {
+                    format!("({},{}) += (0,{}) -= (0,{})", num(p.x), num(p.mean), num(p.hi - p.mean), num(p.mean - p.lo))
+                } else if bars {
+                    format!("({},{}) += (0,0) -= (0,0)", num(p.x), num(p.mean))
+                } else {
+                    format!("({},{})", num(p.x), num(p.mean))
+                }
+            })
+            .collect();
         let style = if series.scatter {
             "only marks, mark=*, mark size=2pt"
+        } else if bars {
+            "dashed, thick, mark=o, mark size=1.5pt, error bars/.cd, y dir=both, y explicit, error bar style={solid, thin}"
         } else if series.dashed {
             "dashed, thick, mark=o, mark size=1.5pt"
         } else {

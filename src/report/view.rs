@@ -2,12 +2,13 @@
 //! Templates receive only these structs.
 
 use super::figure::{self, LineFigure, LineSeries, PathSeries, SeriesPoint, TrajectoryFigure, XAxis};
-use super::stats::{self, sig, sig_ascii, Summary};
+use crate::stats::{self, sig, sig_ascii, Summary};
 use crate::metrics::{metric_def, MetricDef};
 use crate::spec::params::flatten;
-use crate::spec::SweepKind;
+use crate::spec::{Bands, SweepKind};
 use crate::store::reference::ReferenceRow;
 use crate::store::{LandmarkRow, ParamValue, RunLandmarks, RunRow, RunStatus, StudyData, TraceRows};
+use crate::judge::agreement::{self, Published};
 use crate::world::map::Map;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -79,7 +80,7 @@ pub struct StudyView {
     pub choices: Vec<String>,
     pub notes: Vec<String>,
     pub groups: Vec<GroupView>,
-    pub claims: Vec<super::claims::ClaimView>,
+    pub claims: Vec<crate::judge::claims::ClaimResult>,
     pub trajectories: Vec<FigureView>,
     /// Per-landmark error tables beside published ones (`[report] landmark_reference`).
     pub landmark_tables: Vec<NamedTable>,
@@ -130,6 +131,40 @@ impl Study<'_> {
         let values: Vec<f64> = runs.iter().filter(|r| r.status == RunStatus::Ok).filter_map(|r| r.metric(metric)).collect();
         let failed = runs.iter().filter(|r| r.status != RunStatus::Ok).count();
         (stats::summarize(&values), failed, runs.len())
+    }
+    /// The successful replicates' values of a cell (run-id order).
+    fn values(&self, map: &str, algorithm: &str, point: &str, metric: &str) -> Vec<f64> {
+        self.runs_of(map, algorithm, point).filter(|r| r.status == RunStatus::Ok).filter_map(|r| r.metric(metric)).collect()
+    }
+    /// Runs behind each published mean.
+    fn published_runs(&self) -> u32 {
+        self.spec().report.reference.as_ref().map_or(1, |r| r.runs)
+    }
+    /// Whether a published value (with its variance, if printed) is compatible with our cell
+    /// (`judge::agreement`); None when it cannot be judged.
+    fn compatible(&self, mean: f64, var: Option<f64>, ours: &[f64]) -> Option<bool> {
+        agreement::judge(Published { mean, var, runs: self.published_runs() }, ours).compatible
+    }
+    /// The published dispersion drawn on the dashed series: the 95 % CI of the published mean
+    /// when its variance over its runs is printed ([FT]), else none.
+    fn published_bars(&self, mean: f64, var: Option<f64>) -> (f64, f64) {
+        let m = self.published_runs();
+        match var {
+            Some(v) if m >= 2 && mean.is_finite() => {
+                let half = stats::t_quantile(m as usize - 1) * (v / m as f64).sqrt();
+                (mean - half, mean + half)
+            }
+            _ => (f64::NAN, f64::NAN),
+        }
+    }
+    /// The sentence that says how ≠ is decided.
+    fn agreement_rule(&self) -> String {
+        let m = self.published_runs();
+        if m >= 2 {
+            format!("Welch's test of our replicates against the published mean and variance over its {m} runs (p < 0.05), or where no variance is printed, our 95 % prediction interval for the mean of {m} runs")
+        } else {
+            "our 95 % prediction interval for a single run (the source ran one run per cell)".to_string()
+        }
     }
     /// The published row for (map, parameter = value), if the study shows a reference.
     fn published(&self, map: &str, param: &str, value: f64) -> Option<&ReferenceRow> {
@@ -200,7 +235,7 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
         choices: modelling_choices(&study),
         notes: spec.notes.clone(),
         groups,
-        claims: super::claims::evaluate(data),
+        claims: crate::judge::claims::evaluate(data),
         trajectories,
         landmark_tables,
         failures: failures_table(data),
@@ -705,12 +740,14 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                     row.push(match published.and_then(|r| r.metric(m.name)) {
                         None => String::new(),
                         Some(v) => {
-                            let (ours, ..) = study.cell(map, algorithm.name(), &p.label, m.name);
-                            let inside = ours.ci_low.is_finite() && v >= ours.ci_low && v <= ours.ci_high || ours.mean == v;
-                            agreement[mi].1 += 1;
-                            agreement[mi].0 += inside as usize;
-                            let var = published.and_then(|r| r.metric(&format!("{}_var", m.name))).map(|w| format!(" (σ² {})", sig(w, 2))).unwrap_or_default();
-                            format!("{}{var}{}", sig(v, TABLE_DIGITS), if inside { "" } else { " ≠" })
+                            let var = published.and_then(|r| r.metric(&format!("{}_var", m.name)));
+                            let compatible = study.compatible(v, var, &study.values(map, algorithm.name(), &p.label, m.name));
+                            if let Some(c) = compatible {
+                                agreement[mi].1 += 1;
+                                agreement[mi].0 += c as usize;
+                            }
+                            let var = var.map(|w| format!(" (σ² {})", sig(w, 2))).unwrap_or_default();
+                            format!("{}{var}{}", sig(v, TABLE_DIGITS), if compatible == Some(false) { " ≠" } else { "" })
                         }
                     });
                 }
@@ -724,7 +761,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
         .iter()
         .zip(&agreement)
         .filter(|(_, (_, n))| *n > 0)
-        .map(|(m, (k, n))| format!("{}: the published value lies inside our 95 % CI in {k} of {n} cells (≠ marks the others).", m.title))
+        .map(|(m, (k, n))| format!("{}: the published value is compatible with ours in {k} of {n} cells (≠ marks the others) by {}.", m.title, study.agreement_rule()))
         .collect();
 
     let mut figures = Vec::new();
@@ -751,7 +788,11 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                             });
                             let (s, ..) = study.cell(map, algorithm.name(), &p.label, m.name);
                             let entry = by_key.entry(ki).or_insert_with(|| (other.clone(), Vec::new()));
-                            entry.1.push(SeriesPoint { x, mean: s.mean, lo: s.ci_low, hi: s.ci_high });
+                            let (lo, hi) = match spec.report.bands {
+                                Bands::Ci => (s.ci_low, s.ci_high),
+                                Bands::TwoSigma => (s.mean - 2.0 * s.std, s.mean + 2.0 * s.std),
+                            };
+                            entry.1.push(SeriesPoint { x, mean: s.mean, lo, hi });
                         }
                         for (_, (other, mut pts)) in by_key {
                             pts.sort_by(|a, b| a.x.total_cmp(&b.x));
@@ -785,8 +826,10 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                             .zip(&xs)
                             .filter_map(|(p, &x)| {
                                 let v = study.value_at(p, x_param).and_then(|v| ParamValue::from_toml(&v).as_f64())?;
-                                let published = study.published(map, x_param, v)?.metric(m.name)?;
-                                Some(SeriesPoint { x, mean: published, lo: f64::NAN, hi: f64::NAN })
+                                let row = study.published(map, x_param, v)?;
+                                let published = row.metric(m.name)?;
+                                let (lo, hi) = study.published_bars(published, row.metric(&format!("{}_var", m.name)));
+                                Some(SeriesPoint { x, mean: published, lo, hi })
                             })
                             .collect();
                         if !pts.is_empty() {
@@ -803,14 +846,25 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 } else {
                     x_param.clone()
                 };
+                let published_bars = series.iter().any(|s| s.dashed && s.points.iter().any(|p| p.lo.is_finite()));
                 let fig = LineFigure { x_label, y_label: format!("{} [{}]", m.title, m.unit), x_axis: axis.clone(), x_ticks: ticks.clone(), series };
                 let file = slug(&format!("{}--{}", group.params.join("-"), m.name));
+                let band = match spec.report.bands {
+                    Bands::Ci => format!("band = {:.0} % confidence interval of the mean (Student t)", stats::CONFIDENCE * 100.0),
+                    Bands::TwoSigma => "band = mean ± 2 sample standard deviations over the replicates (the spread of single runs, as the reference work's figures draw it; not a confidence interval)".to_string(),
+                };
+                let bars = if published_bars {
+                    format!("; dashed: published means with error bars = 95 % confidence interval of the published mean over its {} runs, from its printed variance", study.published_runs())
+                } else if fig.series.iter().any(|s| s.dashed) {
+                    "; dashed: published values (no dispersion printed)".to_string()
+                } else {
+                    String::new()
+                };
                 figures.push(FigureView {
                     caption: format!(
-                        "{} against {}: mean over the n successful replicates of each cell, band = {:.0} % confidence interval of the mean (Student t).",
+                        "{} against {}: mean over the n successful replicates of each cell, {band}{bars}.",
                         m.title,
                         if group.named { "the named cell" } else { x_param.as_str() },
-                        stats::CONFIDENCE * 100.0
                     ),
                     svg: figure::line_svg(&fig),
                     pgf: super::pgf::line_pgf(&fig),
@@ -849,10 +903,12 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
                     ours.push(if hw.is_finite() { format!("{} ± {}", sig(s.mean, TABLE_DIGITS), sig(hw, 2)) } else { sig(s.mean, TABLE_DIGITS) });
                     match study.published_cell(map, algorithm.name(), &p.label, m.name) {
                         Some((v, table)) => {
-                            let inside = s.ci_low.is_finite() && v >= s.ci_low && v <= s.ci_high;
-                            agreement.1 += 1;
-                            agreement.0 += inside as usize;
-                            published.push(format!("{}{}", sig(v, TABLE_DIGITS), if inside { "" } else { " ≠" }));
+                            let compatible = study.compatible(v, None, &study.values(map, algorithm.name(), &p.label, m.name));
+                            if let Some(c) = compatible {
+                                agreement.1 += 1;
+                                agreement.0 += c as usize;
+                            }
+                            published.push(format!("{}{}", sig(v, TABLE_DIGITS), if compatible == Some(false) { " ≠" } else { "" }));
                             if !tables.contains(&table) {
                                 tables.push(table);
                             }
@@ -870,8 +926,10 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
         }
         let caption = if agreement.1 > 0 {
             format!(
-                "Ours: mean ± half-width of the 95 % confidence interval over the replicates; under it the published value (one run per cell). The published value lies inside our CI in {} of {} cells (≠ marks the others).",
-                agreement.0, agreement.1
+                "Ours: mean ± half-width of the 95 % confidence interval over the replicates; under it the published value. The published value is compatible with ours in {} of {} cells (≠ marks the others) by {}.",
+                agreement.0,
+                agreement.1,
+                study.agreement_rule()
             )
         } else {
             "Mean ± half-width of the 95 % confidence interval over the replicates.".to_string()

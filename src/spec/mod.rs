@@ -56,8 +56,12 @@ pub struct ExperimentSpec {
 pub struct ClaimSpec {
     /// Short identifier (shown in the report).
     pub id: String,
-    /// Where the claim is made, e.g. "[FT] §7 claim 5".
+    /// Where the claim is made, e.g. "[FT] §7 claim 5"; a leading `[TAG]` names the reference work.
     pub source: String,
+    /// `seed`: a result the reference work states; `calibration`: true by construction (a
+    /// modelling choice tuned to a published number); `extension`: slamlab's own question or a
+    /// claim carried to another setting. Only seed claims count as reproduced results.
+    pub kind: ClaimKind,
     /// The claim in words.
     pub text: String,
     pub metric: String,
@@ -77,9 +81,31 @@ pub struct ClaimSpec {
     /// For `between`: the upper bound.
     #[serde(default)]
     pub upper: Option<f64>,
-    /// For `flat`: the largest difference between cell means that still counts as flat.
+    /// For `flat`: the largest difference between cells that still counts as flat (absolute)…
     #[serde(default)]
     pub tolerance: Option<f64>,
+    /// …or relative to the mean level of the compared cells (e.g. 0.25 = 25 %).
+    #[serde(default)]
+    pub tolerance_rel: Option<f64>,
+    /// For `flat`: `both` (equivalence), or the one-sided readings `no_decrease` / `no_increase`
+    /// against the first `over` value ("no significant gain above x").
+    #[serde(default)]
+    pub direction: FlatDirection,
+    /// For `greater` / `less`: the smallest relevant difference (absolute), or the margin of
+    /// `not_greater` / `not_less`…
+    #[serde(default)]
+    pub min_effect: Option<f64>,
+    /// …or relative to the compared (`than`) cell's mean. Default 0.05.
+    #[serde(default)]
+    pub min_effect_rel: Option<f64>,
+    /// Why the tolerance, margin or minimum effect is what it is (required for `flat`,
+    /// `not_greater`, `not_less` and any explicit minimum effect).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub why: String,
+    /// For a verdict other than confirmed: the cause found, shown in the report and the fidelity
+    /// scoreboard (absent: "not yet investigated").
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<String>,
     /// Maps to check (default: all of the study's).
     #[serde(default)]
     pub maps: Vec<String>,
@@ -94,22 +120,55 @@ pub struct ClaimSpec {
     pub require: Require,
 }
 
-/// The statistical test behind a claim (all at 95 % confidence).
+/// The statistical test behind a claim (the rules are in `judge::claims`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ClaimTest {
-    /// The cell's mean is above `value` (its CI lies above it).
+    /// The cell's mean is above `value` (its 95 % CI lies above it).
     Above,
     /// The cell's mean is below `value`.
     Below,
     /// The cell's mean lies in [`value`, `upper`].
     Between,
-    /// The cell's mean exceeds the `than` cell's (Welch CI of the difference above 0).
+    /// The cell's mean exceeds the `than` cell's by more than the minimum effect (paired 95 % CI).
     Greater,
-    /// The cell's mean is below the `than` cell's.
+    /// The cell's mean is below the `than` cell's by more than the minimum effect.
     Less,
-    /// The means over `over` differ by at most `tolerance`.
+    /// Non-inferiority: the cell's mean is not above the `than` cell's by more than the margin.
+    NotGreater,
+    /// Non-inferiority: the cell's mean is not below the `than` cell's by more than the margin.
+    NotLess,
+    /// Equivalence over `over` within the tolerance (TOST), or one-sided (`direction`).
     Flat,
+}
+
+/// What a claim is, for the tallies (see [`ClaimSpec::kind`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ClaimKind {
+    Seed,
+    Calibration,
+    Extension,
+}
+
+/// The reading of a `flat` claim.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FlatDirection {
+    /// Equivalent both ways.
+    #[default]
+    Both,
+    /// Not lower than at the first value by more than the tolerance.
+    NoDecrease,
+    /// Not higher than at the first value by more than the tolerance.
+    NoIncrease,
+}
+
+impl ClaimSpec {
+    /// The parameter a `flat` claim varies.
+    pub fn over_param(&self) -> String {
+        self.over.keys().next().cloned().unwrap_or_default()
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
@@ -137,6 +196,14 @@ pub struct ReferenceSpec {
     pub experiments: Vec<String>,
     /// How the published values are labelled, e.g. "[FT] Table 10.3".
     pub label: String,
+    /// Runs behind each published mean, as the source states ([FT]: 5; [EP], [EV]: 1). Cells are
+    /// judged against the published spread with it (`judge::agreement`).
+    #[serde(default = "one_run")]
+    pub runs: u32,
+}
+
+fn one_run() -> u32 {
+    1
 }
 
 /// One sweep block: `values` maps parameter paths (`"odometry.k"`, or nested tables) to lists.
@@ -181,6 +248,18 @@ pub struct ReportSpec {
     /// `--min-effect`).
     #[serde(skip_serializing_if = "DiffSpec::is_empty")]
     pub diff: DiffSpec,
+    /// What the bands around our series show: `ci` (95 % confidence interval of the mean, the
+    /// default) or `two_sigma` (mean ± 2 sample standard deviations, as [PF]'s Figs 8–9 draw).
+    pub bands: Bands,
+}
+
+/// The band drawn around each of our series in the error-vs-parameter plots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Bands {
+    #[default]
+    Ci,
+    TwoSigma,
 }
 
 /// `[report.diff]`: significance level and smallest relevant change for `slamlab diff`, for the
@@ -244,6 +323,7 @@ impl Default for ReportSpec {
             reference: None,
             landmark_reference: Vec::new(),
             diff: DiffSpec::default(),
+            bands: Bands::default(),
         }
     }
 }
@@ -477,11 +557,41 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         let missing = match c.test {
             ClaimTest::Above | ClaimTest::Below => c.value.is_none().then_some("a threshold `value`"),
             ClaimTest::Between => (c.value.is_none() || c.upper.is_none()).then_some("bounds `value` and `upper`"),
-            ClaimTest::Greater | ClaimTest::Less => (c.than.is_empty() && c.than_algorithm.is_none()).then_some("a cell (`than`) or an algorithm (`than_algorithm`) to compare with"),
-            ClaimTest::Flat => (c.over.len() != 1 || c.tolerance.is_none()).then_some("one parameter's values in `over` and a `tolerance`"),
+            ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
+                (c.than.is_empty() && c.than_algorithm.is_none()).then_some("a cell (`than`) or an algorithm (`than_algorithm`) to compare with")
+            }
+            ClaimTest::Flat => (c.over.len() != 1 || c.tolerance.is_some() == c.tolerance_rel.is_some()).then_some("one parameter's values in `over` and either `tolerance` or `tolerance_rel`"),
         };
         if let Some(what) = missing {
             err(&format!("claims[{i}]"), format!("this test needs {what}"));
+        }
+        let comparative = matches!(c.test, ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess);
+        for (k, v) in [("tolerance", c.tolerance), ("tolerance_rel", c.tolerance_rel)] {
+            match v {
+                Some(_) if c.test != ClaimTest::Flat => err(&key(k), "only a `flat` claim has a tolerance".into()),
+                Some(t) if !(t.is_finite() && t > 0.0) => err(&key(k), format!("must be a finite number > 0, got {t}")),
+                _ => {}
+            }
+        }
+        for (k, v) in [("min_effect", c.min_effect), ("min_effect_rel", c.min_effect_rel)] {
+            match v {
+                Some(_) if !comparative => err(&key(k), "only greater, less, not_greater and not_less claims have a minimum effect".into()),
+                Some(t) if !(t.is_finite() && t >= 0.0) => err(&key(k), format!("must be a finite number ≥ 0, got {t}")),
+                _ => {}
+            }
+        }
+        if c.min_effect.is_some() && c.min_effect_rel.is_some() {
+            err(&key("min_effect_rel"), "give `min_effect` or `min_effect_rel`, not both".into());
+        }
+        if c.direction != FlatDirection::Both && c.test != ClaimTest::Flat {
+            err(&key("direction"), "only a `flat` claim has a direction".into());
+        }
+        let needs_why = c.test == ClaimTest::Flat || matches!(c.test, ClaimTest::NotGreater | ClaimTest::NotLess) || c.min_effect.is_some() || c.min_effect_rel.is_some();
+        if needs_why && c.why.trim().is_empty() {
+            err(&key("why"), "say why the tolerance, margin or minimum effect is what it is (a `why` is required for flat, not_greater and not_less claims and any explicit minimum effect)".into());
+        }
+        if c.kind == ClaimKind::Seed && crate::judge::claims::seed_tag(&c.source).is_none() {
+            err(&key("source"), format!("a `seed` claim's source must start with the reference work's tag, e.g. \"[FT] §7 claim 5\", got {:?}", c.source));
         }
         for m in &c.maps {
             if !spec.maps.contains(m) {

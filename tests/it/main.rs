@@ -6,6 +6,7 @@ mod determinism;
 mod diff;
 mod export_tum;
 mod fastslam;
+mod fidelity;
 mod ft_maps;
 mod layering;
 mod nlopt_threads;

@@ -1,5 +1,10 @@
-//! Per-cell statistics and number formatting for reports. Sums run sequentially in the order
-//! given (run-id order), so results are bit-identical whatever the thread count that produced them.
+//! Statistics below the reports, the verdicts and `slamlab diff`: per-cell summaries and number
+//! formatting (here), intervals and comparisons ([`compare`]), hypothesis tests ([`hypothesis`]).
+//! Sums run sequentially in the order given (run-id order), so results are bit-identical whatever
+//! the thread count that produced them.
+
+pub mod compare;
+pub mod hypothesis;
 
 use statrs::distribution::{ContinuousCDF, StudentsT};
 

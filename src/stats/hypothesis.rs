@@ -1,15 +1,15 @@
-//! Statistics for `slamlab diff BASE NEW`: per-replicate metric slices (`&[f64]`) → CIs, p-values and a
-//! criterion.rs-style [`Verdict`].
+//! Hypothesis tests on per-replicate metric slices (`&[f64]`) → p-values, used by `slamlab diff`
+//! and by the verdict rules of [`crate::judge`].
 //!
 //! Runs are seeded by (study, map, replicate), so replicate k of BASE and NEW saw the same world: the
 //! primary comparison is *paired*, on the per-replicate differences `d_k = new_k − base_k`
-//! ([`paired_bootstrap_ci`], [`paired_t_p`], [`sign_flip_p`]). When the replicate sets differ
+//! ([`paired_t_p`], [`sign_flip_p`]; the interval is the paired t interval,
+//! [`super::compare::t_interval`]). When the replicate sets differ
 //! the caller falls back to the *unpaired* tests ([`welch_p`], [`mann_whitney_p`]). Failure counts are
 //! compared with Fisher's exact test ([`rate_test`]); the p-values of one diff are adjusted together with
 //! [`holm`].
 //!
 //! References:
-//! - [ET] Efron & Tibshirani, *An Introduction to the Bootstrap*, 1993, §13.3 (percentile interval).
 //! - [G] Good, *Permutation, Parametric and Bootstrap Tests of Hypotheses*, 3rd ed. 2005, §3.6.2
 //!   (one-sample sign-flip / Fisher–Pitman test).
 //! - [HW] Hollander & Wolfe, *Nonparametric Statistical Methods*, 2nd ed. 1999, §4.1 (rank sum).
@@ -27,7 +27,7 @@
 //! Pure: no IO, no printing, no threads, no global RNG — every random draw comes from a `ChaCha8Rng`
 //! seeded by the caller or by [`seed_from_data`], so the same data always gives the same numbers.
 
-use rand::{Rng, RngCore, SeedableRng};
+use rand::{RngCore, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use statrs::distribution::{ContinuousCDF, StudentsT};
 use statrs::function::erf::erfc;
@@ -80,7 +80,7 @@ fn t_quantile(confidence: f64, df: f64) -> f64 {
 }
 
 // ---------------------------------------------------------------------------------------------------
-// Paired: bootstrap CI, sign-flip test, paired t
+// Paired: sign-flip test, paired t
 // ---------------------------------------------------------------------------------------------------
 
 /// FNV-1a 64-bit offset basis and prime (Fowler–Noll–Vo, IETF draft-eastlake-fnv).
@@ -108,42 +108,6 @@ pub fn seed_from_data(a: &[f64], b: &[f64]) -> u64 {
         }
     }
     h
-}
-
-/// Linear-interpolation quantile of sorted data (Hyndman & Fan type 7, R/numpy default).
-fn quantile_sorted(sorted: &[f64], q: f64) -> f64 {
-    let h = (sorted.len() - 1) as f64 * q;
-    let lo = h.floor() as usize;
-    let hi = h.ceil() as usize;
-    sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
-}
-
-/// Percentile bootstrap CI of the mean of the per-replicate differences `d` ([ET] §13.3).
-///
-/// Draws `resamples` resamples of size n with replacement from `ChaCha8Rng::seed_from_u64(seed)`
-/// (use [`seed_from_data`] for a data-derived seed), takes each resample's mean, and returns the
-/// type-7 quantiles at α/2 and 1 − α/2 (α = 1 − confidence) of those means.
-/// Each resample mean is clamped to [min d, max d] — where the true mean always lies — so rounding
-/// cannot push it outside; in particular a constant `d = [c; n]` gives exactly `(c, c)`.
-///
-/// Empty `d`, `resamples == 0` or confidence ∉ (0, 1) ⇒ `(NaN, NaN)`.
-pub fn paired_bootstrap_ci(d: &[f64], confidence: f64, resamples: usize, seed: u64) -> (f64, f64) {
-    let n = d.len();
-    if n == 0 || resamples == 0 || !(confidence > 0.0 && confidence < 1.0) {
-        return (f64::NAN, f64::NAN);
-    }
-    let lo_d = d.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi_d = d.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut means: Vec<f64> = (0..resamples)
-        .map(|_| {
-            let sum: f64 = (0..n).map(|_| d[rng.random_range(0..n)]).sum();
-            (sum / n as f64).clamp(lo_d, hi_d)
-        })
-        .collect();
-    means.sort_by(f64::total_cmp);
-    let alpha = 1.0 - confidence;
-    (quantile_sorted(&means, alpha / 2.0), quantile_sorted(&means, 1.0 - alpha / 2.0))
 }
 
 /// Exact sign-flip p: share of all 2^n sign patterns with |Σ ±d_i| ≥ |Σ d_i| (within tolerance).
@@ -319,7 +283,7 @@ pub fn mann_whitney_p(a: &[f64], b: &[f64]) -> f64 {
 }
 
 // ---------------------------------------------------------------------------------------------------
-// Multiplicity, rates, verdict
+// Multiplicity, rates
 // ---------------------------------------------------------------------------------------------------
 
 /// Holm–Bonferroni step-down adjusted p-values ([H]), returned in input order.
@@ -337,63 +301,6 @@ pub fn holm(p: &[f64]) -> Vec<f64> {
         adjusted[i] = running;
     }
     adjusted
-}
-
-/// Outcome of comparing one metric between BASE and NEW (criterion.rs-style).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Verdict {
-    /// Both sides bit-identical: nothing to test.
-    Identical,
-    /// Adjusted p ≥ α: no detectable change.
-    NoChange,
-    /// Significant, but the CI of NEW − BASE reaches into [−min_effect, +min_effect].
-    WithinNoise,
-    /// Significant and beyond min_effect in the good direction.
-    Improved,
-    /// Significant and beyond min_effect in the bad direction.
-    Regressed,
-}
-
-impl Verdict {
-    /// Stable snake_case identifier (for CSV/Parquet; reports format their own label).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Verdict::Identical => "identical",
-            Verdict::NoChange => "no_change",
-            Verdict::WithinNoise => "within_noise",
-            Verdict::Improved => "improved",
-            Verdict::Regressed => "regressed",
-        }
-    }
-}
-
-/// Verdict for one metric, evaluated in this order:
-/// 1. `identical` ⇒ [`Verdict::Identical`];
-/// 2. `p_adjusted ≥ alpha` or NaN ⇒ [`Verdict::NoChange`];
-/// 3. CI `(lo, hi)` of NEW − BASE overlapping [−min_effect, +min_effect] (closed: lo ≤ min_effect and
-///    hi ≥ −min_effect), or a NaN/inverted CI (no evidence of size) ⇒ [`Verdict::WithinNoise`];
-/// 4. otherwise the CI lies wholly above or below the band: NEW − BASE > 0 is [`Verdict::Regressed`]
-///    when `lower_is_better` (errors, runtimes) and [`Verdict::Improved`] otherwise; mirrored below.
-pub fn verdict(
-    identical: bool,
-    p_adjusted: f64,
-    alpha: f64,
-    ci: (f64, f64),
-    min_effect: f64,
-    lower_is_better: bool,
-) -> Verdict {
-    if identical {
-        return Verdict::Identical;
-    }
-    if p_adjusted.is_nan() || p_adjusted >= alpha {
-        return Verdict::NoChange;
-    }
-    let (lo, hi) = ci;
-    if lo.is_nan() || hi.is_nan() || lo > hi || (lo <= min_effect && hi >= -min_effect) {
-        return Verdict::WithinNoise;
-    }
-    let increased = lo > min_effect;
-    if increased == lower_is_better { Verdict::Regressed } else { Verdict::Improved }
 }
 
 /// ln C(n, k) via ln Γ.
@@ -529,47 +436,11 @@ mod tests {
         assert!(rate_test(5, 4, 0, 4).is_nan());
     }
 
-    /// Bootstrap: same seed ⇒ same CI (determinism); the CI contains the sample mean for a skew-free
-    /// sample; constant shift d = [c; n] ⇒ exactly (c, c) (resample means clamped to [min, max]);
     /// seed_from_data depends on the data and on where the split between a and b falls.
     #[test]
-    fn diffstats_bootstrap_properties() {
-        let d = [0.3, -0.1, 0.5, 0.2, 0.9, -0.4, 0.1, 0.6];
-        let seed = seed_from_data(&d, &[]);
-        let ci1 = paired_bootstrap_ci(&d, 0.95, 2000, seed);
-        let ci2 = paired_bootstrap_ci(&d, 0.95, 2000, seed);
-        assert_eq!(ci1, ci2);
-        let m = mean(&d);
-        assert!(ci1.0 < m && m < ci1.1, "{ci1:?} vs {m}");
-        assert_eq!(paired_bootstrap_ci(&[0.1; 7], 0.95, 500, 1), (0.1, 0.1));
+    fn diffstats_seed_from_data() {
         assert_ne!(seed_from_data(&[1.0], &[2.0, 3.0]), seed_from_data(&[1.0, 2.0], &[3.0]));
         assert_eq!(seed_from_data(&[1.0], &[2.0]), seed_from_data(&[1.0], &[2.0]));
-        let (lo, hi) = paired_bootstrap_ci(&[], 0.95, 100, 1);
-        assert!(lo.is_nan() && hi.is_nan());
-    }
-
-    /// Verdict table, one row per branch, min_effect = 0.1, alpha = 0.05.
-    #[test]
-    fn diffstats_verdict_table() {
-        use Verdict::*;
-        let rows = [
-            // (identical, p, ci, lower_is_better, expected)
-            (true, 0.0, (1.0, 2.0), true, Identical),
-            (false, 0.05, (1.0, 2.0), true, NoChange),
-            (false, f64::NAN, (1.0, 2.0), true, NoChange),
-            (false, 0.01, (0.05, 2.0), true, WithinNoise),
-            (false, 0.01, (-2.0, -0.1), true, WithinNoise), // touches the band edge
-            (false, 0.01, (f64::NAN, f64::NAN), true, WithinNoise),
-            (false, 0.01, (0.2, 2.0), true, Regressed), // error went up
-            (false, 0.01, (0.2, 2.0), false, Improved), // score went up
-            (false, 0.01, (-2.0, -0.2), true, Improved),
-            (false, 0.01, (-2.0, -0.2), false, Regressed),
-        ];
-        for (identical, p, ci, lib, want) in rows {
-            assert_eq!(verdict(identical, p, 0.05, ci, 0.1, lib), want, "{identical} {p} {ci:?} {lib}");
-        }
-        assert_eq!(Regressed.as_str(), "regressed");
-        assert_eq!(WithinNoise.as_str(), "within_noise");
     }
 
     /// Paired t-test against a textbook value: d = [1, 2, 3, 4, 5] has t = 3/(√2.5/√5) = 4.2426

@@ -1,0 +1,606 @@
+//! Claims of a reference work, judged from a study's runs: [`ClaimSpec`] + the study's cells →
+//! [`Verdict`] (confirmed / refuted / inconclusive / untestable) with the numbers behind it, per
+//! map and overall. Every rule that decides a claim's verdict is in this file:
+//!
+//! - **greater / less** (superiority with a minimum effect δ): d = the claimed difference per
+//!   replicate; confirmed when the 95 % CI of mean d lies above δ, refuted when it lies below δ
+//!   (the effect is absent, opposite, or negligible), else inconclusive. δ is `min_effect`, or
+//!   `min_effect_rel` × |mean of the compared (`than`) cell|, by default 5 % of it.
+//! - **not_greater / not_less** (non-inferiority with margin δ): confirmed when the 95 % CI of d
+//!   lies below δ, refuted when it lies above δ.
+//! - **flat** (equivalence, TOST [Sc]): every pair of cells' 90 % CI of the paired difference within
+//!   ±tolerance ⇒ confirmed; a pair outside ±tolerance with 95 % confidence (Holm over the pairs)
+//!   ⇒ refuted; otherwise inconclusive. `direction = "no_decrease"` / `"no_increase"` is the
+//!   one-sided reading ("no significant gain above x"): each cell against the first `over` value,
+//!   non-inferiority at 5 % one-sided to confirm, an excess beyond the tolerance at 2.5 %
+//!   one-sided (Holm) to refute.
+//! - **above / below / between**: the 95 % CI of the cell's mean against the threshold(s).
+//! - **untestable**: fewer than 3 replicates, ∞ or NaN in a compared cell, a cell compared with
+//!   itself, or compared cells that give identical values in every replicate — such a test could
+//!   not have come out otherwise, so it is never counted as confirmed.
+//! - **maps**: `require = "all" | "most" | "any"` counts the per-map verdicts (an untestable map
+//!   cannot confirm); `"pooled"` combines the per-map one-sided p-values by Stouffer's method
+//!   (never by concatenating differences of maps with different scales) and always reports how
+//!   many maps agree on their own.
+//!
+//! Runs share their world seeds across sweep points (replicate k of every point saw the same
+//! world), so cell comparisons use paired differences over replicates.
+
+use crate::spec::{ClaimKind, ClaimSpec, ClaimTest, FlatDirection, Require};
+use crate::stats::compare::{stouffer, t_interval, t_one_sided_p};
+use crate::stats::hypothesis::holm;
+use crate::stats::{self, sig, Summary};
+use crate::store::{ClaimCells, RunRow, RunStatus, StudyData};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Confidence of the intervals of greater/less/threshold tests (one-sided α = 2.5 % per side).
+pub const CONFIDENCE: f64 = 0.95;
+/// One-sided α of the equivalence (TOST) and non-inferiority halves of `flat` (a 90 % interval).
+pub const TOST_ALPHA: f64 = 0.05;
+/// Default smallest relevant effect of greater/less tests, relative to the compared cell's mean.
+pub const DEFAULT_MIN_EFFECT_REL: f64 = 0.05;
+/// Fewest paired replicates a test accepts.
+pub const MIN_REPLICATES: usize = 3;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    Confirmed,
+    Refuted,
+    Inconclusive,
+    Untestable,
+}
+
+impl Verdict {
+    pub const ALL: [Verdict; 4] = [Verdict::Confirmed, Verdict::Refuted, Verdict::Inconclusive, Verdict::Untestable];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Verdict::Confirmed => "confirmed",
+            Verdict::Refuted => "refuted",
+            Verdict::Inconclusive => "inconclusive",
+            Verdict::Untestable => "untestable",
+        }
+    }
+}
+
+/// A claim with its verdict: what the report shows and the fidelity scoreboard tallies.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ClaimResult {
+    pub study: String,
+    pub id: String,
+    pub source: String,
+    /// The reference work's tag ("FT", "EP", "PF", "EV", …) from `source`; empty when none.
+    pub seed: String,
+    pub kind: String,
+    pub text: String,
+    /// What the test tests, in words.
+    pub test: String,
+    pub verdict: Verdict,
+    /// Per-map counts, or the pooled statistic.
+    pub summary: String,
+    /// One line per map: its verdict and numbers.
+    pub evidence: Vec<String>,
+    /// Whether the point estimate lies on the claimed side (for a non-decisive verdict: the
+    /// scoreboard's TREND); None when untestable.
+    pub direction_agrees: Option<bool>,
+    /// Why the tolerance or minimum effect is what it is (the spec's `why`).
+    pub why: String,
+    /// For a verdict other than confirmed: the cause found (the spec's `cause`), or "not yet
+    /// investigated"; empty when confirmed.
+    pub cause: String,
+}
+
+/// The reference tag of a claim's `source`: "[FT] §7 claim 5" → "FT".
+pub fn seed_tag(source: &str) -> Option<&str> {
+    let s = source.trim_start().strip_prefix('[')?;
+    let tag = &s[..s.find(']')?];
+    (!tag.is_empty() && tag.chars().all(|c| c.is_ascii_uppercase() || c.is_ascii_digit())).then_some(tag)
+}
+
+/// Replicate → metric value of the successful runs of one cell.
+fn cell_values(data: &StudyData, map: &str, algorithm: &str, point: &str, metric: &str) -> BTreeMap<u32, f64> {
+    data.runs
+        .iter()
+        .filter(|r: &&RunRow| r.map == map && r.algorithm == algorithm && r.point == point && r.status == RunStatus::Ok)
+        .filter_map(|r| r.metric(metric).map(|v| (r.replicate, v)))
+        .collect()
+}
+
+fn describe(s: &Summary) -> String {
+    if s.ci_low.is_finite() {
+        format!("{} [{}, {}] (n = {})", sig(s.mean, 3), sig(s.ci_low, 3), sig(s.ci_high, 3), s.n)
+    } else {
+        format!("{} (n = {})", sig(s.mean, 3), s.n)
+    }
+}
+
+fn summarize(m: &BTreeMap<u32, f64>) -> Summary {
+    stats::summarize(&m.values().copied().collect::<Vec<_>>())
+}
+
+/// Paired differences a − b over the replicates both cells have.
+fn paired(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>) -> Vec<f64> {
+    a.iter().filter_map(|(r, x)| b.get(r).map(|y| x - y)).collect()
+}
+
+/// Why a comparison of these cells cannot test anything, if it cannot.
+fn untestable_pair(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>, names: (&str, &str)) -> Option<String> {
+    let n = a.keys().filter(|k| b.contains_key(k)).count();
+    if n < MIN_REPLICATES {
+        return Some(format!("{n} paired replicates (a test needs {MIN_REPLICATES})"));
+    }
+    for (m, name) in [(a, names.0), (b, names.1)] {
+        if let Some(v) = m.values().find(|v| !v.is_finite()) {
+            return Some(format!("{name} has {} values (e.g. nothing detected), which no difference test can compare", sig(*v, 3)));
+        }
+    }
+    if paired(a, b).iter().all(|d| *d == 0.0) {
+        return Some(format!("{} and {} give identical values in every replicate: the compared settings do not change this metric here", names.0, names.1));
+    }
+    None
+}
+
+/// One map's outcome.
+#[derive(Debug, Clone)]
+struct MapOutcome {
+    verdict: Verdict,
+    text: String,
+    direction: Option<bool>,
+    /// One-sided p of the claimed side and of the other side (comparative tests; for pooling).
+    p_claim: f64,
+    p_against: f64,
+}
+
+impl MapOutcome {
+    fn untestable(reason: String) -> Self {
+        MapOutcome { verdict: Verdict::Untestable, text: reason, direction: None, p_claim: f64::NAN, p_against: f64::NAN }
+    }
+}
+
+/// The decision of a one-sample test of paired differences d against a margin δ, claimed above
+/// (d > δ) or below (d < δ), at [`CONFIDENCE`].
+pub fn decide_margin(d: &[f64], delta: f64, claimed_above: bool) -> Verdict {
+    let (lo, hi) = t_interval(d, CONFIDENCE);
+    if lo.is_nan() {
+        return Verdict::Untestable;
+    }
+    let (above, below) = (lo > delta, hi < delta);
+    match (claimed_above, above, below) {
+        (true, true, _) | (false, _, true) => Verdict::Confirmed,
+        (true, _, true) | (false, true, _) => Verdict::Refuted,
+        _ => Verdict::Inconclusive,
+    }
+}
+
+/// The decision of a two-sided equivalence claim over paired-difference samples (one per pair of
+/// cells) with tolerance `tol`: TOST per pair, Holm over the pairs to refute.
+pub fn decide_flat(pairs: &[Vec<f64>], tol: f64) -> Verdict {
+    if pairs.is_empty() {
+        return Verdict::Untestable;
+    }
+    let equivalent = pairs.iter().all(|d| {
+        let (lo, hi) = t_interval(d, 1.0 - 2.0 * TOST_ALPHA);
+        lo > -tol && hi < tol
+    });
+    if equivalent {
+        return Verdict::Confirmed;
+    }
+    let p: Vec<f64> = pairs.iter().map(|d| t_one_sided_p(d, tol, true).min(t_one_sided_p(d, -tol, false))).collect();
+    if holm(&p).iter().any(|&q| q < (1.0 - CONFIDENCE) / 2.0) { Verdict::Refuted } else { Verdict::Inconclusive }
+}
+
+/// The decision of a one-sided flat claim: each sample d (a cell minus the reference cell) must
+/// not fall below −tol (`no_decrease`; for `no_increase` pass −d).
+pub fn decide_no_decrease(diffs: &[Vec<f64>], tol: f64) -> Verdict {
+    if diffs.is_empty() {
+        return Verdict::Untestable;
+    }
+    if diffs.iter().all(|d| t_one_sided_p(d, -tol, true) < TOST_ALPHA) {
+        return Verdict::Confirmed;
+    }
+    let p: Vec<f64> = diffs.iter().map(|d| t_one_sided_p(d, -tol, false)).collect();
+    if holm(&p).iter().any(|&q| q < (1.0 - CONFIDENCE) / 2.0) { Verdict::Refuted } else { Verdict::Inconclusive }
+}
+
+fn mean(x: &[f64]) -> f64 {
+    x.iter().sum::<f64>() / x.len() as f64
+}
+
+/// Evaluates one claim on one map.
+fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, algorithm: &str) -> MapOutcome {
+    let values = |point: &Option<String>, alg: &str| point.as_deref().map(|p| cell_values(data, map, alg, p, &claim.metric)).unwrap_or_default();
+    let than_algorithm = claim.than_algorithm.map_or(algorithm, |a| a.name());
+    let at = values(&cells.at, algorithm);
+    let s_at = summarize(&at);
+    match claim.test {
+        ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {
+            if s_at.n < MIN_REPLICATES {
+                return MapOutcome::untestable(format!("{} replicates (a test needs {MIN_REPLICATES})", s_at.n));
+            }
+            if at.values().any(|v| !v.is_finite()) {
+                return MapOutcome::untestable(format!("the cell has ∞ or NaN values: {}", describe(&s_at)));
+            }
+            let (lo, hi) = (s_at.ci_low, s_at.ci_high);
+            let (a, b) = match claim.test {
+                ClaimTest::Above => (claim.value.unwrap_or(f64::NAN), f64::INFINITY),
+                ClaimTest::Below => (f64::NEG_INFINITY, claim.value.unwrap_or(f64::NAN)),
+                _ => (claim.value.unwrap_or(f64::NAN), claim.upper.unwrap_or(f64::NAN)),
+            };
+            let verdict = if lo >= a && hi <= b {
+                Verdict::Confirmed
+            } else if hi < a || lo > b {
+                Verdict::Refuted
+            } else {
+                Verdict::Inconclusive
+            };
+            let direction = Some(s_at.mean >= a && s_at.mean <= b);
+            MapOutcome { verdict, text: describe(&s_at), direction, p_claim: f64::NAN, p_against: f64::NAN }
+        }
+        ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
+            if cells.at == cells.than && than_algorithm == algorithm {
+                return MapOutcome::untestable("the claim compares a cell with itself".into());
+            }
+            let than = values(&cells.than, than_algorithm);
+            let s_than = summarize(&than);
+            if let Some(why) = untestable_pair(&at, &than, ("the claim's cell", "the compared cell")) {
+                return MapOutcome::untestable(format!("{why}; {} vs {}", describe(&s_at), describe(&s_than)));
+            }
+            // Oriented so that the claim reads "d > δ" (greater, less) or "d < δ" (not_*).
+            let mut d = paired(&at, &than);
+            if matches!(claim.test, ClaimTest::Less | ClaimTest::NotLess) {
+                d.iter_mut().for_each(|x| *x = -*x);
+            }
+            let claimed_above = matches!(claim.test, ClaimTest::Greater | ClaimTest::Less);
+            let delta = claim.min_effect.unwrap_or_else(|| claim.min_effect_rel.unwrap_or(DEFAULT_MIN_EFFECT_REL) * s_than.mean.abs());
+            let verdict = decide_margin(&d, delta, claimed_above);
+            let (lo, hi) = t_interval(&d, CONFIDENCE);
+            let m = mean(&d);
+            let direction = Some(if claimed_above { m > delta } else { m < delta });
+            let word = match claim.test {
+                ClaimTest::Greater => "excess",
+                ClaimTest::Less => "shortfall",
+                ClaimTest::NotGreater => "excess",
+                _ => "shortfall",
+            };
+            let text = format!(
+                "{} vs {}; {word} {} [{}, {}] against δ = {}",
+                describe(&s_at),
+                describe(&s_than),
+                sig(m, 3),
+                sig(lo, 3),
+                sig(hi, 3),
+                sig(delta, 3)
+            );
+            MapOutcome { verdict, text, direction, p_claim: t_one_sided_p(&d, delta, claimed_above), p_against: t_one_sided_p(&d, delta, !claimed_above) }
+        }
+        ClaimTest::Flat => {
+            let over: Vec<(String, BTreeMap<u32, f64>)> = cells.over.iter().map(|(v, p)| (v.clone(), cell_values(data, map, algorithm, p, &claim.metric))).collect();
+            let means: Vec<(String, f64)> = over.iter().map(|(v, c)| (v.clone(), summarize(c).mean)).collect();
+            let listed = means.iter().map(|(v, m)| format!("{v}: {}", sig(*m, 3))).collect::<Vec<_>>().join(", ");
+            let level = mean(&means.iter().map(|(_, m)| m.abs()).collect::<Vec<_>>());
+            let tol = claim.tolerance.unwrap_or_else(|| claim.tolerance_rel.unwrap_or(f64::NAN) * level);
+            // The pairs the claim compares: all of them, or each cell against the first.
+            let pairs: Vec<(usize, usize)> = match claim.direction {
+                FlatDirection::Both => (0..over.len()).flat_map(|i| (i + 1..over.len()).map(move |j| (i, j))).collect(),
+                _ => (1..over.len()).map(|j| (0, j)).collect(),
+            };
+            let mut diffs = Vec::new();
+            for &(i, j) in &pairs {
+                let (a, b) = (&over[j], &over[i]);
+                if let Some(why) = untestable_pair(&a.1, &b.1, (&format!("{} = {}", claim.over_param(), a.0), &format!("{}", b.0))) {
+                    // Every pair must be testable: a flat claim over an untestable pair says nothing.
+                    return MapOutcome::untestable(format!("{why}; means {listed}"));
+                }
+                let d = paired(&a.1, &b.1);
+                diffs.push(if claim.direction == FlatDirection::NoIncrease { d.iter().map(|x| -x).collect() } else { d });
+            }
+            let verdict = match claim.direction {
+                FlatDirection::Both => decide_flat(&diffs, tol),
+                _ => decide_no_decrease(&diffs, tol),
+            };
+            let (lo, hi) = means.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (_, m)| (a.min(*m), b.max(*m)));
+            let direction = Some(match claim.direction {
+                FlatDirection::Both => hi - lo <= tol,
+                FlatDirection::NoDecrease => means.iter().all(|(_, m)| *m >= means[0].1 - tol),
+                FlatDirection::NoIncrease => means.iter().all(|(_, m)| *m <= means[0].1 + tol),
+            });
+            let worst = diffs
+                .iter()
+                .map(|d| {
+                    let (l, h) = t_interval(d, 1.0 - 2.0 * TOST_ALPHA);
+                    if claim.direction == FlatDirection::Both { l.abs().max(h.abs()) } else { -l }
+                })
+                .fold(f64::NEG_INFINITY, f64::max);
+            let text = format!("means {listed}; range {}; widest 90 % CI bound of a difference {} (tolerance {})", sig(hi - lo, 3), sig(worst, 3), sig(tol, 3));
+            MapOutcome { verdict, text, direction, p_claim: f64::NAN, p_against: f64::NAN }
+        }
+    }
+}
+
+/// Combines per-map verdicts: untestable maps cannot confirm; all untestable ⇒ untestable.
+fn combine(verdicts: &[Verdict], require: Require) -> Verdict {
+    let n = verdicts.len();
+    let count = |v: Verdict| verdicts.iter().filter(|x| **x == v).count();
+    let (c, r, u) = (count(Verdict::Confirmed), count(Verdict::Refuted), count(Verdict::Untestable));
+    if n == 0 || u == n {
+        return Verdict::Untestable;
+    }
+    match require {
+        Require::All | Require::Pooled if c == n => Verdict::Confirmed,
+        Require::All | Require::Pooled if r > 0 => Verdict::Refuted,
+        Require::Most if 2 * c > n => Verdict::Confirmed,
+        Require::Most if 2 * r >= n => Verdict::Refuted,
+        Require::Any if c > 0 => Verdict::Confirmed,
+        Require::Any if r == n - u => Verdict::Refuted,
+        _ => Verdict::Inconclusive,
+    }
+}
+
+/// The pooled verdict of a comparative claim: Stouffer's combination of the testable maps'
+/// one-sided p-values, for the claimed side and for the other.
+fn pooled(outcomes: &[MapOutcome]) -> (Verdict, String) {
+    let testable: Vec<&MapOutcome> = outcomes.iter().filter(|o| o.verdict != Verdict::Untestable).collect();
+    if testable.is_empty() {
+        return (Verdict::Untestable, "no map is testable".into());
+    }
+    let p_claim = stouffer(&testable.iter().map(|o| o.p_claim).collect::<Vec<_>>());
+    let p_against = stouffer(&testable.iter().map(|o| o.p_against).collect::<Vec<_>>());
+    let alpha = (1.0 - CONFIDENCE) / 2.0;
+    let verdict = if p_claim < alpha {
+        Verdict::Confirmed
+    } else if p_against < alpha {
+        Verdict::Refuted
+    } else {
+        Verdict::Inconclusive
+    };
+    (verdict, format!("Stouffer over {} maps: one-sided p = {} for the claim, {} against it (decisive below {alpha})", testable.len(), sig(p_claim, 2), sig(p_against, 2)))
+}
+
+/// Judges every claim of a study.
+pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
+    let spec = &data.resolved.spec;
+    spec.claims
+        .iter()
+        .filter_map(|claim| {
+            let cells = data.resolved.claims.iter().find(|c| c.id == claim.id)?;
+            let maps: Vec<&String> = if claim.maps.is_empty() { spec.maps.iter().collect() } else { claim.maps.iter().collect() };
+            let algorithm = claim.algorithm.or(spec.algorithms.first().copied())?;
+            let outcomes: Vec<MapOutcome> = maps.iter().map(|m| on_map(data, claim, cells, m, algorithm.name())).collect();
+            let verdicts: Vec<Verdict> = outcomes.iter().map(|o| o.verdict).collect();
+            let comparative = matches!(claim.test, ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess);
+            let pooled = (claim.require == Require::Pooled && comparative).then(|| pooled(&outcomes));
+            let verdict = match &pooled {
+                Some((v, _)) => *v,
+                None => combine(&verdicts, claim.require),
+            };
+            let count = |v: Verdict| verdicts.iter().filter(|x| **x == v).count();
+            let require = match claim.require {
+                Require::All => "every map",
+                Require::Most => "most maps",
+                Require::Any => "any map",
+                Require::Pooled if comparative => "all maps pooled (Stouffer)",
+                Require::Pooled => "every map",
+            };
+            let mut summary = format!(
+                "Required on {require}; on their own, of {} map(s): {} confirmed, {} refuted, {} inconclusive, {} untestable",
+                verdicts.len(),
+                count(Verdict::Confirmed),
+                count(Verdict::Refuted),
+                count(Verdict::Inconclusive),
+                count(Verdict::Untestable)
+            );
+            if let Some((_, text)) = &pooled {
+                summary.push_str(&format!(". {text}"));
+            }
+            let evidence: Vec<String> = maps.iter().zip(&outcomes).map(|(m, o)| format!("{m}: {} — {}", o.verdict.as_str(), o.text)).collect();
+            let directions: Vec<bool> = outcomes.iter().filter_map(|o| o.direction).collect();
+            let direction_agrees = (!directions.is_empty()).then(|| 2 * directions.iter().filter(|d| **d).count() > directions.len());
+            let cause = if verdict == Verdict::Confirmed {
+                String::new()
+            } else if verdict == Verdict::Untestable && claim.cause.is_none() {
+                let reasons: Vec<&str> = outcomes.iter().filter(|o| o.verdict == Verdict::Untestable).map(|o| o.text.as_str()).collect();
+                format!("untestable: {}", reasons.first().copied().unwrap_or(""))
+            } else {
+                claim.cause.clone().unwrap_or_else(|| "not yet investigated".into())
+            };
+            Some(ClaimResult {
+                study: spec.id.clone(),
+                id: claim.id.clone(),
+                source: claim.source.clone(),
+                seed: seed_tag(&claim.source).unwrap_or("").to_string(),
+                kind: claim.kind.as_str().to_string(),
+                text: claim.text.clone(),
+                test: test_text(claim, cells),
+                verdict,
+                summary,
+                evidence,
+                direction_agrees: if verdict == Verdict::Untestable { None } else { direction_agrees },
+                why: claim.why.clone(),
+                cause,
+            })
+        })
+        .collect()
+}
+
+/// A cell as the claim wrote it: `a.b = 1, c.d = 2`, or "base".
+fn cell_text(t: &toml::Table) -> String {
+    let mut leaves = Vec::new();
+    crate::spec::params::flatten("", &toml::Value::Table(t.clone()), &mut leaves);
+    if leaves.is_empty() {
+        return "base".into();
+    }
+    leaves.iter().map(|(k, v)| format!("{k} = {}", crate::plan::format_value(v))).collect::<Vec<_>>().join(", ")
+}
+
+/// The test in words.
+fn test_text(c: &ClaimSpec, cells: &ClaimCells) -> String {
+    let at = cell_text(&c.at);
+    let metric = &c.metric;
+    let v = |x: Option<f64>| x.map_or("?".into(), |x| sig(x, 3));
+    let margin = || match (c.min_effect, c.min_effect_rel) {
+        (Some(a), _) => format!("δ = {}", sig(a, 3)),
+        (None, r) => format!("δ = {} % of the compared cell's mean", sig(100.0 * r.unwrap_or(DEFAULT_MIN_EFFECT_REL), 2)),
+    };
+    match c.test {
+        ClaimTest::Above => format!("{metric} at {at}: 95 % CI of the mean above {}", v(c.value)),
+        ClaimTest::Below => format!("{metric} at {at}: 95 % CI of the mean below {}", v(c.value)),
+        ClaimTest::Between => format!("{metric} at {at}: 95 % CI of the mean within [{}, {}]", v(c.value), v(c.upper)),
+        ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
+            let than = match c.than_algorithm {
+                Some(a) if c.than.is_empty() => format!("that of {}", a.title()),
+                Some(a) => format!("{} at {}", a.title(), cell_text(&c.than)),
+                None => format!("at {}", cell_text(&c.than)),
+            };
+            let who = c.algorithm.map_or(String::new(), |a| format!(" of {}", a.title()));
+            let what = match c.test {
+                ClaimTest::Greater => "exceeds",
+                ClaimTest::Less => "is below",
+                ClaimTest::NotGreater => "is not above (non-inferiority)",
+                _ => "is not below (non-inferiority)",
+            };
+            let by = if matches!(c.test, ClaimTest::Greater | ClaimTest::Less) { "by more than" } else { "by more than a margin" };
+            format!("{metric}{who} at {at} {what} {than} {by} {} (paired 95 % CI)", margin())
+        }
+        ClaimTest::Flat => {
+            let over: Vec<&str> = cells.over.iter().map(|(v, _)| v.as_str()).collect();
+            let tol = match (c.tolerance, c.tolerance_rel) {
+                (Some(t), _) => sig(t, 3),
+                (None, r) => format!("{} % of the cells' mean level", sig(100.0 * r.unwrap_or(f64::NAN), 2)),
+            };
+            let how = match c.direction {
+                FlatDirection::Both => "equivalent (TOST: every pair's 90 % CI of the paired difference within ±tolerance)".to_string(),
+                FlatDirection::NoDecrease => format!("not lower than at {} by more than the tolerance (one-sided, 95 %)", over.first().copied().unwrap_or("?")),
+                FlatDirection::NoIncrease => format!("not higher than at {} by more than the tolerance (one-sided, 95 %)", over.first().copied().unwrap_or("?")),
+            };
+            format!("{metric} over {} ∈ {{{}}} {how}; tolerance {tol}", c.over_param(), over.join(", "))
+        }
+    }
+}
+
+impl ClaimKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ClaimKind::Seed => "seed",
+            ClaimKind::Calibration => "calibration",
+            ClaimKind::Extension => "extension",
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    #[test]
+    fn margins_decide_direction_and_relevance() {
+        use Verdict::*;
+        let big = [0.5, 0.6, 0.4, 0.55];
+        assert_eq!(decide_margin(&big, 0.05, true), Confirmed);
+        assert_eq!(decide_margin(&[-0.5, -0.6, -0.4, -0.55], 0.05, true), Refuted);
+        assert_eq!(decide_margin(&[0.5, -0.6, 0.4, -0.55], 0.05, true), Inconclusive);
+        // non-inferiority: a clear excess above the margin refutes "not greater"
+        assert_eq!(decide_margin(&big, 0.05, false), Refuted);
+        assert_eq!(decide_margin(&[0.01, -0.01, 0.0, 0.005], 0.05, false), Confirmed);
+        assert_eq!(decide_margin(&[0.3], 0.0, true), Untestable);
+    }
+
+    /// A 0.1 % difference with a tight CI is significant but not a confirmation with the default
+    /// minimum effect (5 % of the compared cell): it is refuted as negligible.
+    #[test]
+    fn negligible_significant_difference_is_not_confirmed() {
+        let than = 1.0;
+        let d = [0.0010, 0.0011, 0.0009, 0.00105, 0.00095];
+        let (lo, _) = t_interval(&d, CONFIDENCE);
+        assert!(lo > 0.0, "the difference is significant");
+        assert_eq!(decide_margin(&d, DEFAULT_MIN_EFFECT_REL * than, true), Verdict::Refuted);
+    }
+
+    #[test]
+    fn flat_by_tost() {
+        use Verdict::*;
+        let tight = vec![vec![0.01, -0.01, 0.0, 0.02, -0.02, 0.01]];
+        assert_eq!(decide_flat(&tight, 0.05), Confirmed);
+        let apart = vec![vec![0.30, 0.32, 0.28, 0.31, 0.29, 0.30]];
+        assert_eq!(decide_flat(&apart, 0.05), Refuted);
+        let noisy = vec![vec![0.2, -0.2, 0.1, -0.1, 0.05, -0.05]];
+        assert_eq!(decide_flat(&noisy, 0.05), Inconclusive);
+        // one-sided: a rise is no decrease; a clear fall refutes it
+        assert_eq!(decide_no_decrease(&[vec![0.3, 0.35, 0.25, 0.3]], 0.05), Confirmed);
+        assert_eq!(decide_no_decrease(&[vec![-0.3, -0.35, -0.25, -0.3]], 0.05), Refuted);
+    }
+
+    /// A flat claim whose true difference equals the tolerance must be confirmed at most 5 % of
+    /// the time (the size of TOST), here with n = 8 replicates and unit noise.
+    #[test]
+    fn flat_at_the_tolerance_is_rarely_confirmed() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let noise = Normal::new(0.0, 1.0).unwrap();
+        let tol = 0.8;
+        let trials = 4000;
+        let confirmed = (0..trials)
+            .filter(|_| {
+                let d: Vec<f64> = (0..8).map(|_| tol + noise.sample(&mut rng)).collect();
+                decide_flat(&[d], tol) == Verdict::Confirmed
+            })
+            .count();
+        let rate = confirmed as f64 / trials as f64;
+        assert!(rate <= 0.05 + 3.0 * (0.05f64 * 0.95 / trials as f64).sqrt(), "confirmed in {rate} of the trials");
+    }
+
+    /// Without any effect, a greater claim is confirmed at most 2.5 % of the time.
+    #[test]
+    fn no_effect_is_rarely_confirmed() {
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        let noise = Normal::new(0.0, 1.0).unwrap();
+        let trials = 4000;
+        let confirmed = (0..trials).filter(|_| decide_margin(&(0..5).map(|_| noise.sample(&mut rng)).collect::<Vec<_>>(), 0.0, true) == Verdict::Confirmed).count();
+        assert!((confirmed as f64 / trials as f64) < 0.025 + 0.008, "{confirmed}");
+    }
+
+    #[test]
+    fn untestable_pairs() {
+        let a: BTreeMap<u32, f64> = [(0, 1.0), (1, 2.0), (2, 3.0)].into();
+        let inf: BTreeMap<u32, f64> = [(0, f64::INFINITY), (1, 2.0), (2, 3.0)].into();
+        let short: BTreeMap<u32, f64> = [(0, 1.0), (1, 2.0)].into();
+        assert!(untestable_pair(&a, &inf, ("a", "b")).unwrap().contains("∞"));
+        assert!(untestable_pair(&a, &short, ("a", "b")).unwrap().contains("2 paired replicates"));
+        assert!(untestable_pair(&a, &a.clone(), ("a", "b")).unwrap().contains("identical"));
+        let b: BTreeMap<u32, f64> = [(0, 1.5), (1, 2.0), (2, 3.0)].into();
+        assert!(untestable_pair(&a, &b, ("a", "b")).is_none());
+    }
+
+    #[test]
+    fn combining_maps() {
+        use Verdict::*;
+        assert_eq!(combine(&[Confirmed, Confirmed], Require::All), Confirmed);
+        assert_eq!(combine(&[Confirmed, Refuted], Require::All), Refuted);
+        assert_eq!(combine(&[Confirmed, Inconclusive], Require::All), Inconclusive);
+        assert_eq!(combine(&[Confirmed, Untestable], Require::All), Inconclusive);
+        assert_eq!(combine(&[Untestable, Untestable], Require::All), Untestable);
+        assert_eq!(combine(&[Confirmed, Confirmed, Refuted], Require::Most), Confirmed);
+        assert_eq!(combine(&[Refuted, Refuted, Confirmed, Confirmed], Require::Most), Refuted);
+        assert_eq!(combine(&[Refuted, Inconclusive, Confirmed], Require::Any), Confirmed);
+    }
+
+    /// Pooling never confirms what the maps, each on its own weakly in favour, do not support
+    /// together; and opposite maps cancel.
+    #[test]
+    fn pooling_by_stouffer() {
+        let o = |p_claim: f64, p_against: f64| MapOutcome { verdict: Verdict::Inconclusive, text: String::new(), direction: Some(true), p_claim, p_against };
+        assert_eq!(pooled(&[o(0.04, 0.96), o(0.04, 0.96), o(0.04, 0.96)]).0, Verdict::Confirmed);
+        assert_eq!(pooled(&[o(0.001, 0.999), o(0.999, 0.001)]).0, Verdict::Inconclusive);
+        assert_eq!(pooled(&[MapOutcome::untestable("x".into())]).0, Verdict::Untestable);
+    }
+
+    #[test]
+    fn seed_tags() {
+        assert_eq!(seed_tag("[FT] §7 claim 5"), Some("FT"));
+        assert_eq!(seed_tag("Montemerlo et al. 2003"), None);
+        assert_eq!(seed_tag("[EP] claim C2 on real scans"), Some("EP"));
+    }
+}
