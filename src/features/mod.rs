@@ -72,6 +72,22 @@ pub struct FeatureParams {
     pub breakpoint_margin_m: f64,
 }
 
+impl FeatureParams {
+    /// The extractor and its thresholds in one sentence, for the reports' modelling choices.
+    pub fn describe(&self) -> String {
+        format!(
+            "Feature extraction ([FT] Ch. 4): Split & Merge (iterative end-point fit) with Dmax = {} m, Lmin = {} m, Pmin = {}; collinear merge within ρmax = {} m, θmax = {} rad; corners within Emax = {} m; {}.",
+            self.dmax_m,
+            self.lmin_m,
+            self.pmin,
+            self.rho_max_m,
+            self.theta_max_rad,
+            self.emax_m,
+            if self.breakpoints { "the scan is first split at breakpoints (missed returns, adaptive distance)" } else { "no breakpoint detection, as in [FT]" }
+        )
+    }
+}
+
 impl Default for FeatureParams {
     fn default() -> Self {
         Self {
@@ -301,6 +317,13 @@ fn corners(points: &[Point2], lines: &[Segment], params: &FeatureParams) -> Vec<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn description_names_the_thresholds() {
+        let f = FeatureParams { dmax_m: 0.025, pmin: 15, ..FeatureParams::default() };
+        let d = f.describe();
+        assert!(d.contains("Dmax = 0.025 m") && d.contains("Pmin = 15"), "{d}");
+    }
 
     /// Points every `step` m along a → b (both ends included).
     fn wall(a: (f64, f64), b: (f64, f64), step: f64) -> Vec<Point2> {

@@ -289,46 +289,14 @@ fn filter_choices(study: &Study<'_>, kinds: &[crate::slam::WorldKind]) -> Vec<St
     let mut out = Vec::new();
     let motion_users = algos.iter().any(|a| kinds.iter().any(|&k| a.param_sections(k).contains(&"motion_model")));
     if motion_users {
-        out.push(match &b.motion_model {
-            crate::slam::motion::MotionModel::Proportional { k_translation, k_rotation, floor_translation_m, floor_rotation_rad } => format!(
-                "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: noise on the odometry increment, σ = {k_translation}·|translation| + {floor_translation_m} m per axis and {k_rotation}·|rotation| + {floor_rotation_rad} rad per step."
-            ),
-            crate::slam::motion::MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => {
-                format!("Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: per-step world-frame pose noise σ = ({sigma_x_m} m, {sigma_y_m} m, {sigma_theta_rad} rad) ([FT] Eq. 7.18).")
-            }
-        });
+        out.push(b.motion_model.describe());
     }
     let fast = algos.iter().any(|a| matches!(a, A::Fastslam2) || (matches!(a, A::Fastslam1) && kinds.contains(&W::Points)));
     if fast {
-        let p = &b.fastslam;
-        out.push(format!(
-            "FastSLAM{}: {} particles, {} association, resampling when N̂eff < {}; the best particle is the one with the highest current weight.",
-            if algos.contains(&A::Fastslam2) { " 1.0 on point worlds and 2.0" } else { " 1.0 on point worlds" },
-            p.particles,
-            match p.association {
-                crate::slam::fastslam::DataAssociation::Known => "known".to_string(),
-                crate::slam::fastslam::DataAssociation::MaximumLikelihood => format!("maximum-likelihood (P0 = {})", p.p0),
-            },
-            if p.neff_threshold.is_infinite() { "∞ (always)".to_string() } else { p.neff_threshold.to_string() },
-        ));
+        out.push(b.fastslam.describe_on_points(algos.contains(&A::Fastslam2)));
     }
     if algos.contains(&A::EkfSlam) {
-        let e = &b.ekf;
-        out.push(format!(
-            "EKF-SLAM: {} association (NIS gates: update below {}, new landmark above {}){}; covariance update {}.",
-            match e.association {
-                crate::slam::ekf::EkfAssociation::Known => "known",
-                crate::slam::ekf::EkfAssociation::NearestNeighbour => "nearest-neighbour",
-                crate::slam::ekf::EkfAssociation::MaximumLikelihood => "maximum-likelihood",
-            },
-            e.gate_reject,
-            e.gate_create,
-            if e.known_outlier_gate.is_finite() { format!(", known matches with NIS above {} ignored as outliers", e.known_outlier_gate) } else { String::new() },
-            match e.covariance_update {
-                crate::slam::ekf::CovarianceUpdate::Joseph => "in Joseph form",
-                crate::slam::ekf::CovarianceUpdate::NoneOnReobservation => "skipped on re-observation ([EV]'s omission)",
-            }
-        ));
+        out.push(b.ekf.describe());
     }
     out.extend(scan_matching_choices(study));
     out
@@ -336,6 +304,7 @@ fn filter_choices(study: &Study<'_>, kinds: &[crate::slam::WorldKind]) -> Vec<St
 
 /// The scan matchers' settings ([EP] leaves most of them open).
 fn scan_matching_choices(study: &Study<'_>) -> Vec<String> {
+    use crate::scanmatch::{psm, track};
     use crate::slam::AlgorithmKind as A;
     let algos = &study.spec().algorithms;
     if !algos.iter().any(|a| a.is_scan_matcher()) {
@@ -343,86 +312,20 @@ fn scan_matching_choices(study: &Study<'_>) -> Vec<String> {
     }
     let b = &study.spec().base;
     let sm = &b.scan_matching;
-    let mut out = vec![format!(
-        "Scan matching: a scan is matched against the scan of the previous match once the odometry since it has moved {} m or turned {}°{}; the initial guess is {}; between matches the estimate follows the odometry, and each match resets it to the reference's estimate ⊕ the match ({}).",
-        sm.trigger_distance_m,
-        sm.trigger_angle_deg,
-        if sm.trigger_timeout_s > 0.0 { format!(" or {} s have passed", sm.trigger_timeout_s) } else { String::new() },
-        match sm.initial_guess {
-            crate::scanmatch::track::InitialGuess::Odometry => "the odometry increment since the reference scan",
-            crate::scanmatch::track::InitialGuess::Identity => "no motion",
-        },
-        if sm.max_matches > 0 { format!("at most {} matches per run", sm.max_matches) } else { "matching to the end of the path".to_string() }
-    )];
-    let o = &sm.objective;
-    out.push(format!(
-        "Objective f ([EP] Eq. 4, its normalisation lost in the source): the {} of the squared range residuals r_ref − r̂_cur in cm² over the valid pairs — current points projected into the reference frame (Eq. 1–2), interpolated {} between consecutive points of one segment, the nearest kept per bearing (z-buffer), reference points behind the current pose dropped (Eq. 3{}), pairs with |residual| > {} dropped (PSM's PM_MAX_ERROR), and f = ∞ below {} pairs. The cm² reading fits [EP]'s magnitudes (f < 1 at 1 mm / 0.1° errors, 20–45 at σ = 20 mm). Every matcher is scored by this f.",
-        match o.normalisation {
-            crate::scanmatch::objective::Normalisation::Mean => "mean",
-            crate::scanmatch::objective::Normalisation::Sum => "sum",
-        },
-        match o.interpolation {
-            crate::scanmatch::objective::Interpolation::Linear => "linearly in bearing",
-            crate::scanmatch::objective::Interpolation::Chord => "on the chord",
-        },
-        if o.occlusion_rule { "" } else { ": off" },
-        o.max_residual_m.map_or("∞".to_string(), |g| format!("{g} m")),
-        o.min_pairs
-    ));
-    let seg = &sm.segmentation;
-    out.push(format!(
-        "Preprocessing ({}): [EP]'s Cuadra line segmentation cannot be rebuilt from the source, so `lines` is a noise-aware split-and-merge — runs split at range jumps, recursive splits at the point farthest from the chord while it lies more than {} σ off (σ = k·r, k estimated from the scan by a robust median), weighted line fits, adjacent collinear pieces merged by a χ² test at α = {}, pieces under {} points invalid — and every beam in a segment gets the range where its ray meets the fitted line. `psm_original` always uses PSM's own heuristics (median filter of 5, 20 cm jump segmentation).",
-        match seg.method {
-            crate::scanmatch::segment::Segmentation::Lines => "lines",
-            crate::scanmatch::segment::Segmentation::PsmHeuristics => "PSM's heuristics",
-            crate::scanmatch::segment::Segmentation::None => "none",
-        },
-        seg.lines.split_sigmas,
-        seg.lines.merge_alpha,
-        seg.lines.min_points
-    ));
+    let mut out = vec![sm.describe(), sm.objective.describe(), sm.segmentation.describe()];
     if algos.iter().any(|a| matches!(a, A::Psm | A::PsmOriginal)) {
-        out.push("PSM: Diosi & Kleeman's published algorithm and constants (orientation by shifting the range array ±20 beams with the parabolic refinement on even iterations; Dudek-weighted least-squares translation, C = 70² cm² divided by 50 from iteration 10; stop after 3 small corrections or 30 iterations), with the proper symmetric 2 × 2 inverse instead of the C code's quirk.".into());
+        out.push(psm::describe().into());
     }
     if algos.iter().any(|a| matches!(a, A::Epsm)) {
-        let e = &b.epsm;
-        out.push(format!(
-            "E-PSM ([EP] §5.3.1): orientation on a {}° grid over ±{}° (expanded while f falls), then {}° over ±{}°; position by {}; at least {} and at most {} half-iterations, converged when |δx| + |δy| < {} mm and |δθ| < {}° for {} cycles; f-check {}.",
-            e.orientation.coarse_step_deg,
-            e.orientation.coarse_half_window_deg,
-            e.orientation.fine_step_deg,
-            e.orientation.fine_half_window_deg,
-            match e.position_step {
-                crate::scanmatch::epsm::PositionStep::GaussNewton => format!("an unweighted Gauss–Newton step with a central-difference Jacobian ({} mm)", e.fd_step_m * 1e3),
-                crate::scanmatch::epsm::PositionStep::Bobyqa => "NLopt's BOBYQA on f(x, y | θ) ([EP] Fig. 7)".to_string(),
-            },
-            e.min_iter,
-            e.max_iter,
-            e.tol_xy_m * 1e3,
-            e.tol_theta_deg,
-            e.small_cycles,
-            if e.f_check { "on: an estimate whose f is not below the initial guess's is replaced by the guess ([EP] §6.4)" } else { "off" }
-        ));
+        out.push(b.epsm.describe());
     }
     if algos.iter().any(|a| matches!(a, A::BruteForce)) {
-        let bf = &b.brute_force;
-        out.push(format!(
-            "Brute force ([EP] §6.1): E-PSM's orientation search at every cell of a {} m grid over ±{} m around the guess; the best cell is found by a grid sweep then steepest descent over neighbouring cells, which gives the same cell as the exhaustive nested search (tested) at about 1 % of its cost.",
-            bf.step_m, bf.half_window_m
-        ));
+        out.push(b.brute_force.describe());
     }
     if algos.iter().any(|a| matches!(a, A::PoseSearch(_))) {
-        let p = &b.pose_search;
-        out.push(format!(
-            "Simultaneous search ([EP] §5.3.2) with the real NLopt 2.9: box ±{} m, ±{}° around the guess, xtol {} mm / {}°, at most {} evaluations; gradient optimisers get central-difference gradients; MLSL-LDS uses MMA as its local solver; CRS2 and ISRES are seeded from the run seed before every match (NLopt's generator is thread-local in this build, so results do not depend on the thread count).",
-            p.half_window_m,
-            p.half_window_deg,
-            p.xtol_m * 1e3,
-            p.xtol_deg,
-            p.maxeval
-        ));
+        out.push(b.pose_search.describe());
     }
-    out.push("Errors ([EP] §5): ax, ay [mm] and aθ [deg] are the estimated minus the true pose change of each match, in the reference frame; tables give the mean and max of their absolute values over a run's matches. Cost is counted in objective evaluations (deterministic); times per match are measured by `make bench`.".into());
+    out.push(track::describe_errors().into());
     out
 }
 
@@ -515,110 +418,22 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     if datasets > 0 && datasets == study.maps.len() {
         return dataset_choices(study);
     }
-    let mut out = vec![format!(
-        "Ground truth: a unicycle driven through each map's waypoints by a turn-then-drive heading controller, integrated exactly at Δt = {} s ({} Hz odometry).",
-        b.sim.dt_s,
-        sig(1.0 / b.sim.dt_s, 3)
-    )];
-    use crate::world::odometry::{OdometryNoise, Spread};
-    out.push(match &b.odometry {
-        OdometryNoise::None {} => "Odometry: noise-free.".to_string(),
-        OdometryNoise::Proportional { k, k_is } => format!(
-            "Odometry ([FT] §3.2 \"proportional\" model): v += N(0, s(|v|)), ω += N(0, s(|ω|)) each step, with {} (k = {k} in the base configuration). Odometry is passed to algorithms as body-frame pose increments (the velocity model's arc).",
-            match k_is {
-                Spread::Std => "s = k·|·| read as a standard deviation",
-                Spread::Variance => "s = k·|·| read as a variance",
-            }
-        ),
-        OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => {
-            format!("Odometry: additive per-step pose noise diag(σx², σy², σθ²) = diag({var_x_m2}, {var_y_m2}, {var_theta_rad2}) in the world frame ([FT] Eq. 7.18).")
-        }
-        OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => format!(
-            "Odometry: v and ω perturbed by N(0, (k·|·|)²) with k = {k} (σ), plus [EV]'s systematic errors: {heading_bias_deg_per_m}°/m of heading drift missed while driving and {turn_slip_m_per_rad} m of phantom forward motion per radian turned (wheel slip)."
-        ),
-    });
+    let mut out = vec![b.sim.describe(&sig(1.0 / b.sim.dt_s, 3)), b.odometry.describe()];
     let kinds = world_kinds(&study.maps);
     let sensors: Vec<_> = study.spec().algorithms.iter().flat_map(|a| kinds.iter().map(|&k| a.sensors(k))).collect();
     if sensors.iter().any(|s| s.laser) {
-        let l = &b.laser;
-        out.push(format!(
-            "Laser: ray casting from the robot centre against the exact wall segments; {}° field of view at {}° resolution ({} beams), {} m maximum range, {} Hz, range noise {} σ = {} m.",
-            l.fov_deg,
-            l.resolution_deg,
-            l.geometry().beams,
-            l.max_range_m,
-            l.rate_hz,
-            match l.range_noise {
-                crate::world::RangeNoise::Constant => "constant",
-                crate::world::RangeNoise::Proportional => "proportional to range, at 1 m",
-                crate::world::RangeNoise::Quadratic => "quadratic in range (stereo), at 1 m",
-            },
-            l.range_sigma_m
-        ));
-        if l.wall_thickness_m > 0.0 || l.range_quantum_m > 0.0 {
-            out.push(format!(
-                "Stage-like laser artefacts: walls seen as {} m thick bars around the map's centrelines (the ground truth), ranges rounded to a {} m raster.",
-                l.wall_thickness_m, l.range_quantum_m
-            ));
-        }
+        out.push(b.laser.describe());
+        out.extend(b.laser.describe_artefacts());
     }
     let reads = |section: &str| study.spec().algorithms.iter().any(|a| kinds.iter().any(|&k| a.sections_read(k).contains(&section)));
     if reads("features") {
-        let f = &b.features;
-        out.push(format!(
-            "Feature extraction ([FT] Ch. 4): Split & Merge (iterative end-point fit) with Dmax = {} m, Lmin = {} m, Pmin = {}; collinear merge within ρmax = {} m, θmax = {} rad; corners within Emax = {} m; {}.",
-            f.dmax_m,
-            f.lmin_m,
-            f.pmin,
-            f.rho_max_m,
-            f.theta_max_rad,
-            f.emax_m,
-            if f.breakpoints { "the scan is first split at breakpoints (missed returns, adaptive distance)" } else { "no breakpoint detection, as in [FT]" }
-        ));
+        out.push(b.features.describe());
     }
     if reads("fastslam") && kinds.contains(&crate::slam::WorldKind::Laser) {
-        let p = &b.fastslam;
-        use crate::world::odometry::Spread as S;
-        out.push(format!(
-            "FastSLAM 1.0 on laser worlds ([FT] Table 6.3): {} particles, P0 = {}, resampling when N̂eff < {}; motion noise ({}, {}, {}) per step read as {}; observation covariance diag({}, {}); ambiguous associations: {}.",
-            p.particles,
-            p.p0,
-            if p.neff_threshold.is_infinite() { "∞ (always)".to_string() } else { p.neff_threshold.to_string() },
-            p.motion_x,
-            p.motion_y,
-            p.motion_theta,
-            match p.motion_noise_is {
-                S::Std => "standard deviations (σ)",
-                S::Variance => "variances (σ²)",
-            },
-            p.obs_var_rho_m2,
-            p.obs_var_theta_rad2,
-            match p.ambiguity {
-                crate::slam::fastslam::association::Ambiguity::None => "kept (plain ML)",
-                crate::slam::fastslam::association::Ambiguity::MultipleCandidates => "ignored when several landmarks beat P0",
-                crate::slam::fastslam::association::Ambiguity::SharedLandmark => "ignored when two features choose one landmark",
-                crate::slam::fastslam::association::Ambiguity::Both => "ignored when several landmarks beat P0 or two features choose one landmark",
-            }
-        ));
+        out.push(b.fastslam.describe_on_lasers());
     }
     if sensors.iter().any(|s| s.landmarks) {
-        let p = &b.landmark_sensor;
-        out.push(format!(
-            "Landmark sensor: range-bearing to point landmarks from {} to {} m in a {}° field of view at {} Hz{}{}; range noise {} σ = {} m, σb = {} rad; the filters are told this model, at the measured range.",
-            p.min_range_m,
-            p.max_range_m,
-            p.fov_deg,
-            p.rate_hz,
-            if p.occlusion { ", hidden by walls" } else { "" },
-            if p.max_observations > 0 { format!(", at most {} per reading (the nearest)", p.max_observations) } else { String::new() },
-            match p.range_noise {
-                crate::world::RangeNoise::Constant => "constant,",
-                crate::world::RangeNoise::Proportional => "proportional to range, at 1 m:",
-                crate::world::RangeNoise::Quadratic => "quadratic in range (stereo), at 1 m:",
-            },
-            p.range_sigma_m,
-            p.bearing_sigma_rad
-        ));
+        out.push(b.landmark_sensor.describe());
     }
     out.extend(filter_choices(study, &kinds));
     out.push("Seeds derive from (study seed, map, replicate), never from the swept value: replicate k of every sweep point and algorithm sees the same world noise (paired comparisons).".into());

@@ -70,6 +70,14 @@ impl Default for BruteForceParams {
 }
 
 impl BruteForceParams {
+    /// The report's sentence on the brute force: grid step and half-width.
+    pub fn describe(&self) -> String {
+        format!(
+            "Brute force ([EP] §6.1): E-PSM's orientation search at every cell of a {} m grid over ±{} m around the guess; the best cell is found by a grid sweep then steepest descent over neighbouring cells, which gives the same cell as the exhaustive nested search (tested) at about 1 % of its cost.",
+            self.step_m, self.half_window_m
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.non_negative("half_window_m", self.half_window_m);
@@ -273,6 +281,11 @@ mod tests {
     use super::super::search::synthetic::{truth, NanCost, PointCost};
     use super::*;
 
+    #[test]
+    fn describe_names_the_grid() {
+        let s = BruteForceParams { step_m: 0.02, half_window_m: 0.3, ..BruteForceParams::default() }.describe();
+        assert!(s.contains("every cell of a 0.02 m grid over ±0.3 m around the guess"), "{s}");
+    }
 
     fn guess() -> Pose2 {
         Pose2::new(0.253, -0.064, 1f64.to_radians())

@@ -202,6 +202,28 @@ impl EpsmParams {
         Self { position_step: PositionStep::Bobyqa, f_check: true, ..Self::default() }
     }
 
+    /// The report's sentence on E-PSM: orientation grids, position step, iteration bounds,
+    /// convergence tolerances and the f-check.
+    pub fn describe(&self) -> String {
+        format!(
+            "E-PSM ([EP] §5.3.1): orientation on a {}° grid over ±{}° (expanded while f falls), then {}° over ±{}°; position by {}; at least {} and at most {} half-iterations, converged when |δx| + |δy| < {} mm and |δθ| < {}° for {} cycles; f-check {}.",
+            self.orientation.coarse_step_deg,
+            self.orientation.coarse_half_window_deg,
+            self.orientation.fine_step_deg,
+            self.orientation.fine_half_window_deg,
+            match self.position_step {
+                PositionStep::GaussNewton => format!("an unweighted Gauss–Newton step with a central-difference Jacobian ({} mm)", self.fd_step_m * 1e3),
+                PositionStep::Bobyqa => "NLopt's BOBYQA on f(x, y | θ) ([EP] Fig. 7)".to_string(),
+            },
+            self.min_iter,
+            self.max_iter,
+            self.tol_xy_m * 1e3,
+            self.tol_theta_deg,
+            self.small_cycles,
+            if self.f_check { "on: an estimate whose f is not below the initial guess's is replaced by the guess ([EP] §6.4)" } else { "off" }
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.nested("orientation", self.orientation.validate());
@@ -491,6 +513,15 @@ fn bobyqa_step(cost: &mut impl Cost, pose: Pose2, params: &BobyqaParams) -> Resu
 mod tests {
     use super::super::search::synthetic::{guess, truth, NanCost, PointCost};
     use super::*;
+
+    #[test]
+    fn describe_names_grids_step_and_tolerances() {
+        let s = EpsmParams::default().describe();
+        assert!(s.contains("on a 1° grid over ±10°") && s.contains("then 0.01° over ±0.5°") && s.contains("central-difference Jacobian (1 mm)"), "{s}");
+        assert!(s.contains("at least 8 and at most 30 half-iterations") && s.contains("< 0.1 mm and |δθ| < 0.01° for 2 cycles; f-check off."), "{s}");
+        let s = EpsmParams::table5().describe();
+        assert!(s.contains("NLopt's BOBYQA") && s.contains("f-check on:"), "{s}");
+    }
 
     #[test]
     fn defaults_validate_and_serde_is_strict() {

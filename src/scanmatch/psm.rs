@@ -100,6 +100,12 @@ impl Default for PsmParams {
     }
 }
 
+/// The report's sentence on PSM: the published algorithm and constants, and the one deliberate
+/// fix (see the module docs).
+pub fn describe() -> &'static str {
+    "PSM: Diosi & Kleeman's published algorithm and constants (orientation by shifting the range array ±20 beams with the parabolic refinement on even iterations; Dudek-weighted least-squares translation, C = 70² cm² divided by 50 from iteration 10; stop after 3 small corrections or 30 iterations), with the proper symmetric 2 × 2 inverse instead of the C code's quirk."
+}
+
 impl PsmParams {
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
@@ -352,6 +358,15 @@ mod tests {
 
     fn deg(d: f64) -> f64 {
         d.to_radians()
+    }
+
+    #[test]
+    fn describe_states_the_default_constants() {
+        // The sentence is fixed: it must keep quoting the defaults it names.
+        let p = PsmParams::default();
+        let s = describe();
+        assert_eq!((p.search_window_beams, p.weight_reduction, p.change_weight_iter, p.small_corrections_to_stop, p.max_iter), (20, 50.0, 10, 3, 30));
+        assert!(s.contains("±20 beams") && s.contains("divided by 50 from iteration 10") && s.contains("3 small corrections or 30 iterations"), "{s}");
     }
 
     fn prepared_pair(delta: Pose2, method: Segmentation) -> (PolarScan, PolarScan) {

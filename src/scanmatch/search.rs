@@ -231,6 +231,19 @@ impl Default for SearchParams {
 }
 
 impl SearchParams {
+    /// The report's sentence on the simultaneous search: box, tolerances, evaluation budget,
+    /// gradients and seeding.
+    pub fn describe(&self) -> String {
+        format!(
+            "Simultaneous search ([EP] §5.3.2) with the real NLopt 2.9: box ±{} m, ±{}° around the guess, xtol {} mm / {}°, at most {} evaluations; gradient optimisers get central-difference gradients; MLSL-LDS uses MMA as its local solver; CRS2 and ISRES are seeded from the run seed before every match (NLopt's generator is thread-local in this build, so results do not depend on the thread count).",
+            self.half_window_m,
+            self.half_window_deg,
+            self.xtol_m * 1e3,
+            self.xtol_deg,
+            self.maxeval
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.positive("half_window_m", self.half_window_m);
@@ -642,6 +655,12 @@ pub(crate) mod synthetic {
 mod tests {
     use super::synthetic::{guess, truth, NanCost, PointCost};
     use super::*;
+
+    #[test]
+    fn describe_names_box_tolerances_and_budget() {
+        let s = SearchParams { maxeval: 900, ..SearchParams::default() }.describe();
+        assert!(s.contains("box ±0.4 m, ±10° around the guess, xtol 0.1 mm / 0.005°, at most 900 evaluations"), "{s}");
+    }
 
     #[test]
     fn names_titles_and_serde_agree() {

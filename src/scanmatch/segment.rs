@@ -51,6 +51,21 @@ impl Default for SegmentationParams {
 }
 
 impl SegmentationParams {
+    /// The report's sentence on the preprocessing: the method and the `lines` thresholds.
+    pub fn describe(&self) -> String {
+        format!(
+            "Preprocessing ({}): [EP]'s Cuadra line segmentation cannot be rebuilt from the source, so `lines` is a noise-aware split-and-merge — runs split at range jumps, recursive splits at the point farthest from the chord while it lies more than {} σ off (σ = k·r, k estimated from the scan by a robust median), weighted line fits, adjacent collinear pieces merged by a χ² test at α = {}, pieces under {} points invalid — and every beam in a segment gets the range where its ray meets the fitted line. `psm_original` always uses PSM's own heuristics (median filter of 5, 20 cm jump segmentation).",
+            match self.method {
+                Segmentation::Lines => "lines",
+                Segmentation::PsmHeuristics => "PSM's heuristics",
+                Segmentation::None => "none",
+            },
+            self.lines.split_sigmas,
+            self.lines.merge_alpha,
+            self.lines.min_points
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.nested("psm_heuristics", self.psm_heuristics.validate());
@@ -589,6 +604,13 @@ mod tests {
     use crate::scanmatch::scan::testing::*;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+
+    #[test]
+    fn describe_names_the_method_and_line_thresholds() {
+        let p = SegmentationParams { method: Segmentation::PsmHeuristics, lines: LineParams { split_sigmas: 3.5, merge_alpha: 0.05, min_points: 6, ..LineParams::default() }, ..SegmentationParams::default() };
+        let s = p.describe();
+        assert!(s.starts_with("Preprocessing (PSM's heuristics):") && s.contains("more than 3.5 σ off") && s.contains("α = 0.05") && s.contains("under 6 points"), "{s}");
+    }
 
     fn room_raw() -> (Beams, Vec<Option<f64>>) {
         let beams = Beams::lms200();

@@ -76,6 +76,22 @@ impl Default for ScanMatchingParams {
 }
 
 impl ScanMatchingParams {
+    /// The report's sentence on the procedure every matcher shares: trigger, initial guess,
+    /// chaining and run length.
+    pub fn describe(&self) -> String {
+        format!(
+            "Scan matching: a scan is matched against the scan of the previous match once the odometry since it has moved {} m or turned {}°{}; the initial guess is {}; between matches the estimate follows the odometry, and each match resets it to the reference's estimate ⊕ the match ({}).",
+            self.trigger_distance_m,
+            self.trigger_angle_deg,
+            if self.trigger_timeout_s > 0.0 { format!(" or {} s have passed", self.trigger_timeout_s) } else { String::new() },
+            match self.initial_guess {
+                InitialGuess::Odometry => "the odometry increment since the reference scan",
+                InitialGuess::Identity => "no motion",
+            },
+            if self.max_matches > 0 { format!("at most {} matches per run", self.max_matches) } else { "matching to the end of the path".to_string() }
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.non_negative("trigger_distance_m", self.trigger_distance_m);
@@ -88,6 +104,12 @@ impl ScanMatchingParams {
         c.nested("objective", self.objective.validate());
         c.finish()
     }
+}
+
+/// The report's sentence on how matches are scored: the per-match errors ax, ay, aθ and the cost
+/// in objective evaluations.
+pub fn describe_errors() -> &'static str {
+    "Errors ([EP] §5): ax, ay [mm] and aθ [deg] are the estimated minus the true pose change of each match, in the reference frame; tables give the mean and max of their absolute values over a run's matches. Cost is counted in objective evaluations (deterministic); times per match are measured by `make bench`."
 }
 
 /// Which matcher runs, with its parameters.
@@ -228,5 +250,19 @@ fn run_matcher(matcher: Matcher<'_>, reference: &super::scan::PolarScan, current
         Matcher::Epsm(params) => super::epsm::epsm(&mut cost, initial, params),
         Matcher::BruteForce(params) => super::brute::brute_force(&mut cost, initial, params),
         Matcher::PoseSearch { optimizer, params } => super::search::simultaneous(&mut cost, initial, optimizer, params, seed),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn describe_names_the_trigger_guess_and_run_length() {
+        let p = ScanMatchingParams { trigger_distance_m: 0.3, trigger_angle_deg: 15.0, trigger_timeout_s: 2.0, max_matches: 100, ..ScanMatchingParams::default() };
+        let s = p.describe();
+        assert!(s.contains("moved 0.3 m or turned 15° or 2 s have passed") && s.contains("(at most 100 matches per run)"), "{s}");
+        let s = ScanMatchingParams { initial_guess: InitialGuess::Identity, ..ScanMatchingParams::default() }.describe();
+        assert!(s.contains("moved 0.5 m or turned 30°;") && s.contains("the initial guess is no motion") && s.contains("(matching to the end of the path)"), "{s}");
     }
 }

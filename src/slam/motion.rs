@@ -70,6 +70,18 @@ impl MotionModel {
         c.finish()
     }
 
+    /// The report's sentence on this model, with its parameter values.
+    pub fn describe(&self) -> String {
+        match self {
+            MotionModel::Proportional { k_translation, k_rotation, floor_translation_m, floor_rotation_rad } => format!(
+                "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: noise on the odometry increment, σ = {k_translation}·|translation| + {floor_translation_m} m per axis and {k_rotation}·|rotation| + {floor_rotation_rad} rad per step."
+            ),
+            MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => {
+                format!("Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: per-step world-frame pose noise σ = ({sigma_x_m} m, {sigma_y_m} m, {sigma_theta_rad} rad) ([FT] Eq. 7.18).")
+            }
+        }
+    }
+
     /// The noise-free prediction x ⊕ u.
     pub fn predict(&self, pose: &Pose2, u: &Pose2) -> Pose2 {
         pose.compose(*u)
@@ -145,6 +157,14 @@ mod tests {
                 assert!((f[(r, k)] - num[r]).abs() < 1e-6, "F[{r},{k}] = {} vs {}", f[(r, k)], num[r]);
             }
         }
+    }
+
+    #[test]
+    fn describe_names_the_noise_parameters() {
+        let proportional = MotionModel::Proportional { k_translation: 0.15, k_rotation: 0.25, floor_translation_m: 0.002, floor_rotation_rad: 0.003 }.describe();
+        assert!(proportional.contains("σ = 0.15·|translation| + 0.002 m") && proportional.contains("0.25·|rotation| + 0.003 rad"), "{proportional}");
+        let pose = MotionModel::Pose { sigma_x_m: 0.02, sigma_y_m: 0.01, sigma_theta_rad: 0.03 }.describe();
+        assert!(pose.contains("σ = (0.02 m, 0.01 m, 0.03 rad)"), "{pose}");
     }
 
     #[test]

@@ -76,6 +76,32 @@ const MAX_RANGE_QUANTUM_M: f64 = 0.5;
 const WHOLE_NUMBER_TOL: f64 = 1e-9;
 
 impl LaserParams {
+    /// The report's sentence on the simulated laser: field of view, resolution, beams, range,
+    /// rate and range noise.
+    pub fn describe(&self) -> String {
+        format!(
+            "Laser: ray casting from the robot centre against the exact wall segments; {}° field of view at {}° resolution ({} beams), {} m maximum range, {} Hz, range noise {} σ = {} m.",
+            self.fov_deg,
+            self.resolution_deg,
+            self.geometry().beams,
+            self.max_range_m,
+            self.rate_hz,
+            self.range_noise.describe(),
+            self.range_sigma_m
+        )
+    }
+
+    /// The report's sentence on the Stage-like artefacts (wall thickness, range raster), `None`
+    /// when both are off.
+    pub fn describe_artefacts(&self) -> Option<String> {
+        (self.wall_thickness_m > 0.0 || self.range_quantum_m > 0.0).then(|| {
+            format!(
+                "Stage-like laser artefacts: walls seen as {} m thick bars around the map's centrelines (the ground truth), ranges rounded to a {} m raster.",
+                self.wall_thickness_m, self.range_quantum_m
+            )
+        })
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.in_range("fov_deg", self.fov_deg, f64::MIN_POSITIVE, 360.0);
@@ -275,5 +301,15 @@ mod tests {
         assert_eq!(bad.validate()[0].key, "resolution_deg");
         let full = LaserParams { fov_deg: 360.0, ..LaserParams::default() };
         assert_eq!(full.geometry().beams, 360);
+    }
+
+    #[test]
+    fn describe_names_the_scan_geometry_and_noise() {
+        let l = LaserParams { fov_deg: 240.0, resolution_deg: 0.5, max_range_m: 5.6, rate_hz: 10.0, range_noise: RangeNoise::Proportional, range_sigma_m: 0.02, ..LaserParams::default() };
+        let s = l.describe();
+        assert!(s.contains("240° field of view at 0.5° resolution (481 beams), 5.6 m maximum range, 10 Hz, range noise proportional to range, at 1 m σ = 0.02 m."), "{s}");
+        assert_eq!(l.describe_artefacts(), None);
+        let s = LaserParams { wall_thickness_m: 0.05, range_quantum_m: 0.02, ..l }.describe_artefacts().unwrap();
+        assert!(s.contains("0.05 m thick bars") && s.contains("a 0.02 m raster"), "{s}");
     }
 }

@@ -53,6 +53,16 @@ impl Default for SimParams {
 }
 
 impl SimParams {
+    /// The report's sentence on the ground truth: the unicycle, its waypoint controller
+    /// ([`trajectory`]) and the clock. `rate_hz` is 1/Δt as the caller formats numbers (the
+    /// report: three significant figures).
+    pub fn describe(&self, rate_hz: &str) -> String {
+        format!(
+            "Ground truth: a unicycle driven through each map's waypoints by a turn-then-drive heading controller, integrated exactly at Δt = {} s ({rate_hz} Hz odometry).",
+            self.dt_s
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.in_range("dt_s", self.dt_s, MIN_DT_S, MAX_DT_S);
@@ -74,6 +84,16 @@ pub enum RangeNoise {
 }
 
 impl RangeNoise {
+    /// How the report names the model: "constant", or the growth with range and the 1 m
+    /// reference of σ.
+    pub fn describe(self) -> &'static str {
+        match self {
+            RangeNoise::Constant => "constant",
+            RangeNoise::Proportional => "proportional to range, at 1 m",
+            RangeNoise::Quadratic => "quadratic in range (stereo), at 1 m",
+        }
+    }
+
     pub fn sigma(self, sigma_m: f64, range_m: f64) -> f64 {
         match self {
             RangeNoise::Constant => sigma_m,
@@ -239,5 +259,11 @@ waypoints = [[9, 0], [9, 2], [0, 2], [0, 0]]
         assert_eq!(sensor_period_steps(10.0, 0.1), Some(1));
         assert_eq!(sensor_period_steps(3.0, 0.1), None);
         assert_eq!(sensor_period_steps(20.0, 0.1), None);
+    }
+
+    #[test]
+    fn sim_describe_names_the_period_and_rate() {
+        let s = SimParams { dt_s: 0.05 }.describe("20.0");
+        assert!(s.contains("at Δt = 0.05 s (20.0 Hz odometry)"), "{s}");
     }
 }

@@ -68,6 +68,26 @@ impl Default for OdometryNoise {
 }
 
 impl OdometryNoise {
+    /// The report's sentence on the simulated odometry noise, with its parameter values.
+    pub fn describe(&self) -> String {
+        match self {
+            OdometryNoise::None {} => "Odometry: noise-free.".to_string(),
+            OdometryNoise::Proportional { k, k_is } => format!(
+                "Odometry ([FT] §3.2 \"proportional\" model): v += N(0, s(|v|)), ω += N(0, s(|ω|)) each step, with {} (k = {k} in the base configuration). Odometry is passed to algorithms as body-frame pose increments (the velocity model's arc).",
+                match k_is {
+                    Spread::Std => "s = k·|·| read as a standard deviation",
+                    Spread::Variance => "s = k·|·| read as a variance",
+                }
+            ),
+            OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => {
+                format!("Odometry: additive per-step pose noise diag(σx², σy², σθ²) = diag({var_x_m2}, {var_y_m2}, {var_theta_rad2}) in the world frame ([FT] Eq. 7.18).")
+            }
+            OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => format!(
+                "Odometry: v and ω perturbed by N(0, (k·|·|)²) with k = {k} (σ), plus [EV]'s systematic errors: {heading_bias_deg_per_m}°/m of heading drift missed while driving and {turn_slip_m_per_rad} m of phantom forward motion per radian turned (wheel slip)."
+            ),
+        }
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         match *self {
@@ -275,5 +295,16 @@ mod tests {
         // 10 cm of phantom travel along the quarter arc: chord = 2·r·sin(π/4), r = 0.1/(π/2)
         let r = 0.1 / std::f64::consts::FRAC_PI_2;
         assert!((moved - 2.0 * r * std::f64::consts::FRAC_PI_4.sin()).abs() < 1e-9, "{moved}");
+    }
+
+    #[test]
+    fn describe_names_the_model_and_its_parameters() {
+        let s = OdometryNoise::Proportional { k: 0.2, k_is: Spread::Variance }.describe();
+        assert!(s.contains("read as a variance (k = 0.2 in the base configuration)"), "{s}");
+        let s = OdometryNoise::Pose { var_x_m2: 0.01, var_y_m2: 0.02, var_theta_rad2: 0.003 }.describe();
+        assert!(s.contains("diag(0.01, 0.02, 0.003)"), "{s}");
+        let s = OdometryNoise::Systematic { k: 0.05, heading_bias_deg_per_m: 6.0, turn_slip_m_per_rad: 0.064 }.describe();
+        assert!(s.contains("k = 0.05 (σ)") && s.contains("6°/m of heading drift") && s.contains("0.064 m of phantom"), "{s}");
+        assert_eq!(OdometryNoise::None {}.describe(), "Odometry: noise-free.");
     }
 }

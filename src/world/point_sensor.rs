@@ -70,6 +70,24 @@ impl PointSensorParams {
         c.finish()
     }
 
+    /// The report's sentence on the landmark sensor: range limits, field of view, rate,
+    /// occlusion, observation cap and noise.
+    pub fn describe(&self) -> String {
+        format!(
+            "Landmark sensor: range-bearing to point landmarks from {} to {} m in a {}° field of view at {} Hz{}{}; range noise {}{} σ = {} m, σb = {} rad; the filters are told this model, at the measured range.",
+            self.min_range_m,
+            self.max_range_m,
+            self.fov_deg,
+            self.rate_hz,
+            if self.occlusion { ", hidden by walls" } else { "" },
+            if self.max_observations > 0 { format!(", at most {} per reading (the nearest)", self.max_observations) } else { String::new() },
+            self.range_noise.describe(),
+            if self.range_noise == RangeNoise::Constant { "," } else { ":" },
+            self.range_sigma_m,
+            self.bearing_sigma_rad
+        )
+    }
+
     /// The noise model filters are told.
     pub fn noise(&self) -> PointNoise {
         PointNoise { range_noise: self.range_noise, range_sigma_m: self.range_sigma_m, bearing_sigma_rad: self.bearing_sigma_rad }
@@ -204,5 +222,14 @@ mod tests {
         let seen: Vec<usize> = scan.observations.iter().map(|o| o.landmark).collect();
         // the two nearest of 0, 1, 3 (3.0, 3.0, 2.24 m): 3, then the 0/1 tie goes to the first
         assert_eq!(seen, vec![0, 3]);
+    }
+
+    #[test]
+    fn describe_names_limits_cap_and_noise() {
+        let p = PointSensorParams { min_range_m: 0.13, max_range_m: 4.0, fov_deg: 60.0, rate_hz: 2.0, max_observations: 5, range_sigma_m: 0.05, bearing_sigma_rad: 0.02, ..Default::default() };
+        let s = p.describe();
+        assert!(s.contains("from 0.13 to 4 m in a 60° field of view at 2 Hz, hidden by walls, at most 5 per reading (the nearest); range noise constant, σ = 0.05 m, σb = 0.02 rad"), "{s}");
+        let s = PointSensorParams { occlusion: false, range_noise: RangeNoise::Quadratic, ..p }.describe();
+        assert!(s.contains("at 2 Hz, at most 5") && s.contains("range noise quadratic in range (stereo), at 1 m: σ = 0.05 m"), "{s}");
     }
 }

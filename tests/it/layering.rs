@@ -74,3 +74,18 @@ fn every_source_file_says_what_it_does() {
         assert!(text.trim_start().starts_with("//!"), "{path} must start with a //! comment saying its role");
     }
 }
+
+/// Verdicts live below the pages that show them: `stats/` and `judge/` import neither `report/`
+/// nor `diff/`, and `diff/` does not reach into `report/` (nor `report/` into `diff/`'s rules).
+#[test]
+fn verdict_rules_sit_below_report_and_diff() {
+    let src = repo().join("src");
+    for (layer, banned) in [("stats", &["crate::report", "crate::diff", "crate::judge"][..]), ("judge", &["crate::report", "crate::diff"][..]), ("diff", &["crate::report"][..])] {
+        for (path, text) in sources(&src.join(layer)) {
+            let code = code(&text);
+            for b in banned {
+                assert!(!code.contains(b), "{path} uses `{b}`: {layer}/ must not depend on it");
+            }
+        }
+    }
+}

@@ -105,6 +105,26 @@ impl Default for EkfParams {
 }
 
 impl EkfParams {
+    /// The report's sentence on EKF-SLAM: association, its NIS gates, the outlier gate of known
+    /// association when set, and the covariance update.
+    pub fn describe(&self) -> String {
+        format!(
+            "EKF-SLAM: {} association (NIS gates: update below {}, new landmark above {}){}; covariance update {}.",
+            match self.association {
+                EkfAssociation::Known => "known",
+                EkfAssociation::NearestNeighbour => "nearest-neighbour",
+                EkfAssociation::MaximumLikelihood => "maximum-likelihood",
+            },
+            self.gate_reject,
+            self.gate_create,
+            if self.known_outlier_gate.is_finite() { format!(", known matches with NIS above {} ignored as outliers", self.known_outlier_gate) } else { String::new() },
+            match self.covariance_update {
+                CovarianceUpdate::Joseph => "in Joseph form",
+                CovarianceUpdate::NoneOnReobservation => "skipped on re-observation ([EV]'s omission)",
+            }
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.non_negative("gate_reject", self.gate_reject);

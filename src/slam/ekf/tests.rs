@@ -1,7 +1,7 @@
 //! Tests of EKF-SLAM on small hand-built worlds: exact recovery without noise, NEES consistency
 //! (and that the check catches an over-confident filter), P symmetric PSD, the two gates,
-//! nearest neighbour vs maximum likelihood, the faithful no-update option, line flips, and
-//! validation.
+//! nearest neighbour vs maximum likelihood, the faithful no-update option, line flips,
+//! validation, and the report's sentence.
 
 use super::*;
 use crate::geom::Point2;
@@ -448,4 +448,12 @@ fn params_read_from_toml_and_reject_unknown_keys() {
     let p: EkfParams = toml::from_str("association = \"maximum_likelihood\"\ncovariance_update = \"none_on_reobservation\"\ngate_reject = 9.0").unwrap();
     assert_eq!(p, EkfParams { association: EkfAssociation::MaximumLikelihood, covariance_update: CovarianceUpdate::NoneOnReobservation, gate_reject: 9.0, ..EkfParams::default() });
     assert!(toml::from_str::<EkfParams>("gate = 4.0").is_err());
+}
+
+#[test]
+fn describe_names_the_association_gates_and_update() {
+    let s = EkfParams { gate_reject: 5.5, gate_create: 30.0, known_outlier_gate: 13.8, ..EkfParams::default() }.describe();
+    assert!(s.contains("nearest-neighbour association (NIS gates: update below 5.5, new landmark above 30)"), "{s}");
+    assert!(s.contains("NIS above 13.8 ignored as outliers") && s.contains("in Joseph form"), "{s}");
+    assert!(!EkfParams::default().describe().contains("outliers"));
 }

@@ -122,6 +122,52 @@ impl FastSlamParams {
         [sigma(self.motion_x), sigma(self.motion_y), sigma(self.motion_theta)]
     }
 
+    /// The resampling threshold as the report states it: "∞ (always)" or the particle count.
+    fn neff_text(&self) -> String {
+        if self.neff_threshold.is_infinite() { "∞ (always)".to_string() } else { self.neff_threshold.to_string() }
+    }
+
+    /// The report's sentence on FastSLAM 1.0 on point-landmark worlds, and on FastSLAM 2.0 too
+    /// when `with_fastslam2`: particles, association and resampling.
+    pub fn describe_on_points(&self, with_fastslam2: bool) -> String {
+        format!(
+            "FastSLAM{}: {} particles, {} association, resampling when N̂eff < {}; the best particle is the one with the highest current weight.",
+            if with_fastslam2 { " 1.0 on point worlds and 2.0" } else { " 1.0 on point worlds" },
+            self.particles,
+            match self.association {
+                DataAssociation::Known => "known".to_string(),
+                DataAssociation::MaximumLikelihood => format!("maximum-likelihood (P0 = {})", self.p0),
+            },
+            self.neff_text(),
+        )
+    }
+
+    /// The report's sentence on FastSLAM 1.0 on laser worlds ([FT] Table 6.3): particles, P0,
+    /// resampling, its own motion noise and its reading, observation covariance, ambiguity rule.
+    pub fn describe_on_lasers(&self) -> String {
+        format!(
+            "FastSLAM 1.0 on laser worlds ([FT] Table 6.3): {} particles, P0 = {}, resampling when N̂eff < {}; motion noise ({}, {}, {}) per step read as {}; observation covariance diag({}, {}); ambiguous associations: {}.",
+            self.particles,
+            self.p0,
+            self.neff_text(),
+            self.motion_x,
+            self.motion_y,
+            self.motion_theta,
+            match self.motion_noise_is {
+                Spread::Std => "standard deviations (σ)",
+                Spread::Variance => "variances (σ²)",
+            },
+            self.obs_var_rho_m2,
+            self.obs_var_theta_rad2,
+            match self.ambiguity {
+                Ambiguity::None => "kept (plain ML)",
+                Ambiguity::MultipleCandidates => "ignored when several landmarks beat P0",
+                Ambiguity::SharedLandmark => "ignored when two features choose one landmark",
+                Ambiguity::Both => "ignored when several landmarks beat P0 or two features choose one landmark",
+            }
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.require((1..=MAX_PARTICLES).contains(&self.particles), "particles", || format!("must be in [1, {MAX_PARTICLES}], got {}", self.particles));
@@ -465,6 +511,17 @@ pub fn pose_spread(poses: &[Pose2], weights: Option<&[f64]>) -> nalgebra::Matrix
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn describe_names_particles_p0_and_resampling() {
+        let p = FastSlamParams { particles: 37, p0: 0.02, neff_threshold: 12.5, ..FastSlamParams::default() };
+        let points = p.describe_on_points(true);
+        assert!(points.starts_with("FastSLAM 1.0 on point worlds and 2.0: 37 particles, maximum-likelihood (P0 = 0.02) association") && points.contains("N̂eff < 12.5"), "{points}");
+        let known = FastSlamParams { association: DataAssociation::Known, ..FastSlamParams::default() }.describe_on_points(false);
+        assert!(known.starts_with("FastSLAM 1.0 on point worlds: 100 particles, known association") && known.contains("∞ (always)"), "{known}");
+        let lasers = p.describe_on_lasers();
+        assert!(lasers.contains("37 particles, P0 = 0.02, resampling when N̂eff < 12.5") && lasers.contains("(0.007, 0.007, 0.008) per step read as standard deviations"), "{lasers}");
+    }
 
     #[test]
     fn joseph_update_shrinks_and_keeps_covariance_symmetric_psd() {
