@@ -125,8 +125,8 @@ fn paired(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>) -> Vec<f64> {
     a.iter().filter_map(|(r, x)| b.get(r).map(|y| x - y)).collect()
 }
 
-/// Why a comparison of these cells cannot test anything, if it cannot.
-fn untestable_pair(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>, names: (&str, &str)) -> Option<String> {
+/// Why a comparison of these cells cannot test anything (too few pairs, ∞ or NaN), if it cannot.
+fn untestable_cells(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>, names: (&str, &str)) -> Option<String> {
     let n = a.keys().filter(|k| b.contains_key(k)).count();
     if n < MIN_REPLICATES {
         return Some(format!("{n} paired replicates (a test needs {MIN_REPLICATES})"));
@@ -136,10 +136,20 @@ fn untestable_pair(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>, names: (&str,
             return Some(format!("{name} has {} values (e.g. nothing detected), which no difference test can compare", sig(*v, 3)));
         }
     }
-    if paired(a, b).iter().all(|d| *d == 0.0) {
-        return Some(format!("{} and {} give identical values in every replicate: the compared settings do not change this metric here", names.0, names.1));
-    }
     None
+}
+
+/// Whether two cells give the same value in every replicate both have.
+fn identical(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>) -> bool {
+    paired(a, b).iter().all(|d| *d == 0.0)
+}
+
+/// Why a comparison of two cells cannot test a difference claim, if it cannot: the cell checks,
+/// or identical values in every replicate (the compared settings do not change the metric).
+fn untestable_pair(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>, names: (&str, &str)) -> Option<String> {
+    untestable_cells(a, b, names).or_else(|| {
+        identical(a, b).then(|| format!("{} and {} give identical values in every replicate: the compared settings do not change this metric here", names.0, names.1))
+    })
 }
 
 /// One map's outcome.
@@ -187,8 +197,21 @@ pub fn decide_flat(pairs: &[Vec<f64>], tol: f64) -> Verdict {
     if equivalent {
         return Verdict::Confirmed;
     }
+    if beyond_p(pairs, tol) < (1.0 - CONFIDENCE) / 2.0 { Verdict::Refuted } else { Verdict::Inconclusive }
+}
+
+/// The smallest Holm-adjusted one-sided p that a pair's difference lies beyond ±tol (what refutes
+/// a two-sided flat claim when below 2.5 %).
+pub fn beyond_p(pairs: &[Vec<f64>], tol: f64) -> f64 {
     let p: Vec<f64> = pairs.iter().map(|d| t_one_sided_p(d, tol, true).min(t_one_sided_p(d, -tol, false))).collect();
-    if holm(&p).iter().any(|&q| q < (1.0 - CONFIDENCE) / 2.0) { Verdict::Refuted } else { Verdict::Inconclusive }
+    holm(&p).into_iter().fold(f64::INFINITY, f64::min)
+}
+
+/// The smallest Holm-adjusted one-sided p that a difference lies below −tol (what refutes a
+/// one-sided flat claim when below 2.5 %).
+pub fn below_p(diffs: &[Vec<f64>], tol: f64) -> f64 {
+    let p: Vec<f64> = diffs.iter().map(|d| t_one_sided_p(d, -tol, false)).collect();
+    holm(&p).into_iter().fold(f64::INFINITY, f64::min)
 }
 
 /// The decision of a one-sided flat claim: each sample d (a cell minus the reference cell) must
@@ -200,8 +223,7 @@ pub fn decide_no_decrease(diffs: &[Vec<f64>], tol: f64) -> Verdict {
     if diffs.iter().all(|d| t_one_sided_p(d, -tol, true) < TOST_ALPHA) {
         return Verdict::Confirmed;
     }
-    let p: Vec<f64> = diffs.iter().map(|d| t_one_sided_p(d, -tol, false)).collect();
-    if holm(&p).iter().any(|&q| q < (1.0 - CONFIDENCE) / 2.0) { Verdict::Refuted } else { Verdict::Inconclusive }
+    if below_p(diffs, tol) < (1.0 - CONFIDENCE) / 2.0 { Verdict::Refuted } else { Verdict::Inconclusive }
 }
 
 fn mean(x: &[f64]) -> f64 {
@@ -214,6 +236,23 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
     let than_algorithm = claim.than_algorithm.map_or(algorithm, |a| a.name());
     let at = values(&cells.at, algorithm);
     let s_at = summarize(&at);
+    if let Some(pre) = &claim.precondition {
+        // on the claim's own cell: `at`, or the first `over` value
+        let (point, label) = match claim.test {
+            ClaimTest::Flat => (cells.over.first().map(|(_, p)| p.clone()), cells.over.first().map_or(String::new(), |(v, _)| format!("{} = {v}", claim.over_param()))),
+            _ => (cells.at.clone(), cell_text(&claim.at)),
+        };
+        let m = summarize(&point.as_deref().map(|p| cell_values(data, map, algorithm, p, &pre.metric)).unwrap_or_default()).mean;
+        let ok = pre.below.is_none_or(|b| m < b) && pre.above.is_none_or(|a| m > a);
+        if !ok {
+            let need = match (pre.below, pre.above) {
+                (Some(b), _) => format!("below {}", sig(b, 3)),
+                (_, Some(a)) => format!("above {}", sig(a, 3)),
+                _ => String::new(),
+            };
+            return MapOutcome::untestable(format!("precondition not met: {} is {} at {label}, and the claim needs it {need} ({})", pre.metric, sig(m, 3), pre.why));
+        }
+    }
     match claim.test {
         ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {
             if s_at.n < MIN_REPLICATES {
@@ -289,12 +328,17 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
             let mut diffs = Vec::new();
             for &(i, j) in &pairs {
                 let (a, b) = (&over[j], &over[i]);
-                if let Some(why) = untestable_pair(&a.1, &b.1, (&format!("{} = {}", claim.over_param(), a.0), &format!("{}", b.0))) {
+                if let Some(why) = untestable_cells(&a.1, &b.1, (&format!("{} = {}", claim.over_param(), a.0), &format!("{}", b.0))) {
                     // Every pair must be testable: a flat claim over an untestable pair says nothing.
                     return MapOutcome::untestable(format!("{why}; means {listed}"));
                 }
                 let d = paired(&a.1, &b.1);
                 diffs.push(if claim.direction == FlatDirection::NoIncrease { d.iter().map(|x| -x).collect() } else { d });
+            }
+            // Identical pairs are equivalent; if every pair is, the parameter does nothing here and
+            // the runs cannot tell "flat" from anything else.
+            if pairs.iter().all(|&(i, j)| identical(&over[j].1, &over[i].1)) {
+                return MapOutcome::untestable(format!("every {} value gives identical values in every replicate: the parameter does not change this metric here; means {listed}", claim.over_param()));
             }
             let verdict = match claim.direction {
                 FlatDirection::Both => decide_flat(&diffs, tol),
@@ -313,7 +357,16 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
                     if claim.direction == FlatDirection::Both { l.abs().max(h.abs()) } else { -l }
                 })
                 .fold(f64::NEG_INFINITY, f64::max);
-            let text = format!("means {listed}; range {}; widest 90 % CI bound of a difference {} (tolerance {})", sig(hi - lo, 3), sig(worst, 3), sig(tol, 3));
+            let bound = if claim.direction == FlatDirection::Both { "widest 90 % CI bound of a difference" } else { "largest change against the claim within the 90 % CIs" };
+            let p_refute = if claim.direction == FlatDirection::Both { beyond_p(&diffs, tol) } else { below_p(&diffs, tol) };
+            let text = format!(
+                "means {listed}; range {}; {bound} {} (tolerance {}); smallest Holm-adjusted p of a difference beyond the tolerance {} over {} pairs (refutes below 0.025)",
+                sig(hi - lo, 3),
+                sig(worst, 3),
+                sig(tol, 3),
+                sig(p_refute, 2),
+                diffs.len()
+            );
             MapOutcome { verdict, text, direction, p_claim: f64::NAN, p_against: f64::NAN }
         }
     }
@@ -355,7 +408,7 @@ fn pooled(outcomes: &[MapOutcome]) -> (Verdict, String) {
     } else {
         Verdict::Inconclusive
     };
-    (verdict, format!("Stouffer over {} maps: one-sided p = {} for the claim, {} against it (decisive below {alpha})", testable.len(), sig(p_claim, 2), sig(p_against, 2)))
+    (verdict, format!("Stouffer over {} maps: one-sided p = {} for the claim, {} against it (decisive below {})", testable.len(), sig(p_claim, 2), sig(p_against, 2), sig(alpha, 2)))
 }
 
 /// Judges every claim of a study.
@@ -570,6 +623,7 @@ mod tests {
         assert!(untestable_pair(&a, &inf, ("a", "b")).unwrap().contains("∞"));
         assert!(untestable_pair(&a, &short, ("a", "b")).unwrap().contains("2 paired replicates"));
         assert!(untestable_pair(&a, &a.clone(), ("a", "b")).unwrap().contains("identical"));
+        assert!(untestable_cells(&a, &a.clone(), ("a", "b")).is_none(), "identical cells are testable for equivalence");
         let b: BTreeMap<u32, f64> = [(0, 1.5), (1, 2.0), (2, 3.0)].into();
         assert!(untestable_pair(&a, &b, ("a", "b")).is_none());
     }

@@ -106,6 +106,11 @@ pub struct ClaimSpec {
     /// scoreboard (absent: "not yet investigated").
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cause: Option<String>,
+    /// A condition on the claim's own cell (`at`, or the first `over` value) without which its
+    /// runs cannot test it, e.g. "no corner is kept" for a claim about maps without corners; when
+    /// the cell's mean misses it, the claim is untestable on that map.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub precondition: Option<Precondition>,
     /// Maps to check (default: all of the study's).
     #[serde(default)]
     pub maps: Vec<String>,
@@ -140,6 +145,19 @@ pub enum ClaimTest {
     NotLess,
     /// Equivalence over `over` within the tolerance (TOST), or one-sided (`direction`).
     Flat,
+}
+
+/// `precondition = { metric = "…", below = x | above = x, why = "…" }` of a claim.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Precondition {
+    pub metric: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub below: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub above: Option<f64>,
+    /// What the condition ensures.
+    pub why: String,
 }
 
 /// What a claim is, for the tallies (see [`ClaimSpec::kind`]).
@@ -582,6 +600,17 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         }
         if c.min_effect.is_some() && c.min_effect_rel.is_some() {
             err(&key("min_effect_rel"), "give `min_effect` or `min_effect_rel`, not both".into());
+        }
+        if let Some(pre) = &c.precondition {
+            if metric_def(&pre.metric).is_none() {
+                err(&key("precondition.metric"), format!("unknown metric `{}`", pre.metric));
+            }
+            if pre.below.is_some() == pre.above.is_some() {
+                err(&key("precondition"), "needs exactly one of `below` and `above`".into());
+            }
+            if pre.why.trim().is_empty() {
+                err(&key("precondition.why"), "say what the condition ensures".into());
+            }
         }
         if c.direction != FlatDirection::Both && c.test != ClaimTest::Flat {
             err(&key("direction"), "only a `flat` claim has a direction".into());
