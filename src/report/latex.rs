@@ -46,6 +46,8 @@ pub fn escape(text: &str) -> String {
             '≤' => out.push_str("\\ensuremath{\\leq}"),
             '≥' => out.push_str("\\ensuremath{\\geq}"),
             '≈' => out.push_str("\\ensuremath{\\approx}"),
+            '≪' => out.push_str("\\ensuremath{\\ll}"),
+            '≫' => out.push_str("\\ensuremath{\\gg}"),
             '≠' => out.push_str("\\ensuremath{\\neq}"),
             '→' => out.push_str("\\ensuremath{\\rightarrow}"),
             '←' => out.push_str("\\ensuremath{\\leftarrow}"),
@@ -123,6 +125,8 @@ mod tests {
         assert_eq!(escape("{x}\\"), "\\{x\\}\\textbackslash{}");
         // [EP]'s "σ ∝ range" broke pdflatex ("Unicode character ∝ (U+221D)")
         assert_eq!(escape("σ ∝ r"), "\\ensuremath{\\sigma} \\ensuremath{\\propto} r");
+        // the scoreboard's "E-PSM ≈ CRS2 ≪ ISRES" broke it too ("Unicode character ≪ (U+226A)")
+        assert_eq!(escape("a ≪ b ≫ c"), "a \\ensuremath{\\ll} b \\ensuremath{\\gg} c");
     }
 
     #[test]
