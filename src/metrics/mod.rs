@@ -7,7 +7,7 @@ use crate::slam::{LandmarkMap, Trace};
 use crate::world::World;
 
 /// Bump when a metric's definition changes (part of every run's content hash).
-pub const METRICS_VERSION: &str = "metrics-1";
+pub const METRICS_VERSION: &str = "metrics-2";
 
 /// A metric's documentation, shown in reports and the README.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,14 +52,15 @@ pub const METRICS: &[MetricDef] = &[
         description: "[PF] Fig. 8b: root mean square, over the point landmarks of the final map, of the distance to their true landmark (the one they were created from under known association, else the nearest)",
         lower_is_better: true,
     },
-    MetricDef { name: NEES_MEAN, title: "Mean pose NEES", unit: "", description: "normalised estimation error squared eᵀP⁻¹e of the pose (x, y, θ) against the filter's own covariance, averaged over the steps with truth (expected value 3 for a consistent filter)", lower_is_better: false },
+    MetricDef { name: NEES_MEAN, title: "Mean pose NEES", unit: "", description: "normalised estimation error squared eᵀP⁻¹e of the filter's own pose belief — its mean (x, y, θ) against its covariance (particle filters: the weighted mean pose and the weighted spread about it) — averaged over the steps with truth and an invertible covariance (expected value 3 for a consistent filter)", lower_is_better: false },
     MetricDef {
         name: NEES_IN_BOUNDS,
         title: "NEES within 95 % bounds",
         unit: "fraction",
-        description: "share of steps whose pose NEES lies within the two-sided 95 % χ² interval for 3 degrees of freedom [0.216, 9.35] (0.95 for a consistent filter)",
+        description: "share of steps whose pose NEES lies within the two-sided 95 % χ² interval for 3 degrees of freedom [0.216, 9.35] (0.95 for a consistent filter); a step with a singular covariance and a non-zero error counts as out of bounds",
         lower_is_better: false,
     },
+    MetricDef { name: NEES_SINGULAR, title: "Singular-covariance steps", unit: "count", description: "steps whose pose covariance is singular while the error is not zero (a particle set collapsed onto fewer than four poses): out of bounds for the NEES share, left out of the NEES mean", lower_is_better: true },
     MetricDef { name: "neff_mean", title: "Mean N̂eff", unit: "particles", description: "effective sample size 1/Σw², averaged over the steps that weighted the particles", lower_is_better: false },
     MetricDef { name: "resamples", title: "Resamples", unit: "count", description: "how many times the particles were resampled", lower_is_better: false },
     // Scan matching ([EP] §5): errors of each match's estimated pose change in the reference frame.
@@ -85,6 +86,7 @@ pub const LANDMARK_ERROR: &str = "landmark_error_m";
 pub const MAP_RMSE: &str = "map_rmse_m";
 pub const NEES_MEAN: &str = "nees_mean";
 pub const NEES_IN_BOUNDS: &str = "nees_in_bounds";
+pub const NEES_SINGULAR: &str = "nees_singular_steps";
 
 /// Two-sided 95 % interval of χ² with 3 degrees of freedom (the pose NEES of a consistent
 /// filter): χ²₃(0.025) and χ²₃(0.975).
@@ -119,8 +121,8 @@ pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
             out.extend(point_landmark_metrics(map, &world.truth_points));
         }
     }
-    if !trace.pose_cov.is_empty() {
-        out.extend(nees_metrics(&world.truth, &trace.estimate, &trace.pose_cov));
+    if !trace.pose_belief.is_empty() {
+        out.extend(nees_metrics(&world.truth, &trace.pose_belief));
     }
     if !trace.matches.is_empty() {
         out.extend(match_metrics(&trace.matches));
@@ -264,27 +266,45 @@ pub fn point_landmark_metrics(map: &LandmarkMap, truth: &[Point2]) -> RunMetrics
     ]
 }
 
-/// Pose NEES eᵀP⁻¹e at every step with finite truth and an invertible covariance: its mean and
-/// the share within the 95 % χ²₃ bounds.
-pub fn nees_metrics(truth: &[Pose2], estimate: &[Pose2], cov: &[Option<nalgebra::Matrix3<f64>>]) -> RunMetrics {
-    let values: Vec<f64> = truth.iter().zip(estimate).zip(cov).filter_map(|((t, e), p)| nees(t, e, p.as_ref()?)).collect();
-    let n = values.len() as f64;
+/// Pose NEES eᵀP⁻¹e of the filter's belief (its own mean with its own covariance) at every step
+/// with finite truth: the mean over the steps with an invertible covariance, the share within the
+/// 95 % χ²₃ bounds, and the steps whose covariance is singular while the error is not zero. Those
+/// are the most over-confident steps (a particle set collapsed onto fewer than four poses): they
+/// count as out of bounds, never dropped; the mean, which they would make infinite, leaves them
+/// out and the count says how many. A singular covariance with zero error (the known start) is
+/// skipped.
+pub fn nees_metrics(truth: &[Pose2], belief: &[Option<(Pose2, nalgebra::Matrix3<f64>)>]) -> RunMetrics {
+    let scored: Vec<Nees> = truth.iter().zip(belief).filter_map(|(t, b)| b.as_ref().map(|(m, p)| nees(t, m, p))).collect();
+    let values: Vec<f64> = scored.iter().filter_map(|s| if let Nees::Value(v) = s { Some(*v) } else { None }).collect();
+    let singular = scored.iter().filter(|s| matches!(s, Nees::Singular)).count();
+    let counted = values.len() + singular;
     let (lo, hi) = NEES_BOUNDS_3DOF;
-    if values.is_empty() {
-        return vec![(NEES_MEAN, f64::NAN), (NEES_IN_BOUNDS, f64::NAN)];
-    }
-    vec![(NEES_MEAN, values.iter().sum::<f64>() / n), (NEES_IN_BOUNDS, values.iter().filter(|&&v| v >= lo && v <= hi).count() as f64 / n)]
+    let mean = if values.is_empty() { f64::NAN } else { values.iter().sum::<f64>() / values.len() as f64 };
+    let in_bounds = if counted == 0 { f64::NAN } else { values.iter().filter(|&&v| v >= lo && v <= hi).count() as f64 / counted as f64 };
+    vec![(NEES_MEAN, mean), (NEES_IN_BOUNDS, in_bounds), (NEES_SINGULAR, singular as f64)]
 }
 
-/// eᵀP⁻¹e of one pose, `None` without truth or with a singular covariance (e.g. the known start).
-pub fn nees(truth: &Pose2, estimate: &Pose2, cov: &nalgebra::Matrix3<f64>) -> Option<f64> {
+/// The NEES of one step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Nees {
+    Value(f64),
+    /// The covariance is singular and the error is not zero: unboundedly over-confident.
+    Singular,
+    /// No truth, or a singular covariance with zero error (the known start): not scored.
+    Skipped,
+}
+
+/// eᵀP⁻¹e of one pose.
+pub fn nees(truth: &Pose2, estimate: &Pose2, cov: &nalgebra::Matrix3<f64>) -> Nees {
     if !truth.is_finite() {
-        return None;
+        return Nees::Skipped;
     }
     let e = nalgebra::Vector3::new(truth.x - estimate.x, truth.y - estimate.y, wrap_angle(truth.theta - estimate.theta));
-    let chol = nalgebra::Cholesky::new(*cov)?;
+    let Some(chol) = nalgebra::Cholesky::new(*cov) else {
+        return if e.iter().all(|v| *v == 0.0) { Nees::Skipped } else { Nees::Singular };
+    };
     let v = e.dot(&chol.solve(&e));
-    v.is_finite().then_some(v)
+    if v.is_finite() { Nees::Value(v) } else { Nees::Singular }
 }
 
 /// ATE statistics, final errors and path length. Pairs poses by step index; a shorter estimate is
@@ -390,7 +410,7 @@ mod tests {
         let mut m = trajectory_metrics(&truth, &truth);
         m.extend(landmark_metrics(&LandmarkMap::default(), &[], &[]));
         m.extend(point_landmark_metrics(&LandmarkMap::default(), &[]));
-        m.extend(nees_metrics(&truth, &truth, &[None, None, None]));
+        m.extend(nees_metrics(&truth, &[None, None, None]));
         for (name, _) in m {
             assert!(metric_def(name).is_some(), "{name} undocumented");
             assert!(!name.contains('.'), "metric names never contain a dot (parameter columns do)");
@@ -414,12 +434,24 @@ mod tests {
     fn nees_of_a_known_error_and_unknown_truth_is_skipped() {
         let cov = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(0.25, 1.0, 0.01));
         let truth = [Pose2::new(1.0, 0.0, 0.1), Pose2::new(f64::NAN, f64::NAN, f64::NAN), Pose2::IDENTITY];
-        let est = [Pose2::new(0.0, 0.0, 0.0), Pose2::IDENTITY, Pose2::IDENTITY];
-        let covs = [Some(cov), Some(cov), Some(nalgebra::Matrix3::zeros())];
-        let m = nees_metrics(&truth, &est, &covs);
-        // 1²/0.25 + 0.1²/0.01 = 5; the NaN step and the singular covariance are skipped
+        let belief = [Some((Pose2::new(0.0, 0.0, 0.0), cov)), Some((Pose2::IDENTITY, cov)), Some((Pose2::IDENTITY, nalgebra::Matrix3::zeros()))];
+        let m = nees_metrics(&truth, &belief);
+        // 1²/0.25 + 0.1²/0.01 = 5; the NaN step and the known start (singular, no error) are skipped
         assert!((m[0].1 - 5.0).abs() < 1e-9);
         assert_eq!(m[1].1, 1.0);
+        assert_eq!(m[2], (NEES_SINGULAR, 0.0));
+    }
+
+    /// A collapsed particle set (singular spread) with a non-zero error is counted, out of bounds.
+    #[test]
+    fn singular_spreads_with_an_error_count_out_of_bounds() {
+        let cov = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(0.25, 1.0, 0.01));
+        let truth = [Pose2::new(1.0, 0.0, 0.1), Pose2::new(2.0, 0.0, 0.0)];
+        let belief = [Some((Pose2::new(0.0, 0.0, 0.0), cov)), Some((Pose2::new(2.1, 0.0, 0.0), nalgebra::Matrix3::zeros()))];
+        let m = nees_metrics(&truth, &belief);
+        assert!((m[0].1 - 5.0).abs() < 1e-9, "the mean leaves the singular step out");
+        assert_eq!(m[1].1, 0.5, "the singular step is out of bounds");
+        assert_eq!(m[2], (NEES_SINGULAR, 1.0));
     }
 
     #[test]

@@ -248,9 +248,11 @@ pub struct Trace {
     pub resamples: u64,
     /// Steps with an observation that weighted the particles.
     pub weighted_steps: u64,
-    /// The filter's own pose covariance at every step (EKF: P_rr; particle filters: the
-    /// weighted spread of the particles), for NEES. Empty when the algorithm has none.
-    pub pose_cov: Vec<Option<nalgebra::Matrix3<f64>>>,
+    /// The filter's own pose belief at every step, (mean, covariance), for NEES — EKF: (x̂, P_rr);
+    /// particle filters: the weighted mean pose (circular mean heading) and the weighted spread
+    /// about it. `estimate` may differ (FastSLAM reports its best particle). Empty when the
+    /// algorithm has none.
+    pub pose_belief: Vec<Option<(Pose2, nalgebra::Matrix3<f64>)>>,
     /// Scan matchers: one record per match, in order. Empty for the other algorithms.
     pub matches: Vec<crate::scanmatch::track::MatchRecord>,
 }

@@ -32,6 +32,31 @@ pub struct StepObservations {
     pub observations: Vec<Observation>,
 }
 
+/// Walks a step-ordered observation stream alongside the filter's steps: every filter reads its
+/// observations the same way.
+pub struct Cursor<'a> {
+    next: std::iter::Peekable<std::slice::Iter<'a, StepObservations>>,
+    z: Vec<Observation>,
+}
+
+impl<'a> Cursor<'a> {
+    pub fn new(stream: &'a [StepObservations]) -> Self {
+        Self { next: stream.iter().peekable(), z: Vec::new() }
+    }
+
+    /// The observations of step `k`: every entry for that step merged in stream order (a stream
+    /// may hold several); entries of earlier steps not yet read (out of order) are skipped.
+    pub fn at(&mut self, k: usize) -> &[Observation] {
+        self.z.clear();
+        while let Some(s) = self.next.next_if(|s| s.step <= k) {
+            if s.step == k {
+                self.z.extend_from_slice(&s.observations);
+            }
+        }
+        &self.z
+    }
+}
+
 /// Which of a world's sensors a landmark filter reads.
 #[derive(Debug, Clone, Copy)]
 pub enum Source<'a> {

@@ -37,6 +37,6 @@ pub fn run_with_point_map(world: &World, fastslam: &super::fastslam::FastSlamPar
     let params = super::fastslam::FastSlamParams { particles: 1, ..fastslam.clone() };
     let still = super::motion::MotionModel::Pose { sigma_x_m: 0.0, sigma_y_m: 0.0, sigma_theta_rad: 0.0 };
     let mut trace = super::fastslam::run_on(world, &params, Some(&still), observations, false, rng)?;
-    trace.pose_cov.clear(); // one particle has no spread: no NEES
+    trace.pose_belief.clear(); // one particle has no spread: no NEES
     Ok(trace)
 }

@@ -14,7 +14,7 @@ use slamlab::world::point_sensor::{PointSensorParams, POINT_SENSOR_CODE_VERSION}
 use slamlab::world::{generate, RangeNoise, SimParams, WorldSpec, WORLD_CODE_VERSION};
 
 /// The code versions the fingerprint below was taken with.
-const VERSIONS: &str = "world-2+points-3+metrics-1+odometry-1";
+const VERSIONS: &str = "world-2+points-3+metrics-2+odometry-1";
 const FINGERPRINT: &str = "f45d49de7bf97eef6b5da1df753a377776448928c2126695929460662a5c221c";
 
 fn fingerprint() -> String {

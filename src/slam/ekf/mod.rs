@@ -24,7 +24,7 @@
 //! both update it; two observations of one unseen landmark create two landmarks.
 
 use super::fastslam::models::Model;
-use super::observations::{Observation, StepObservations};
+use super::observations::{Cursor, Observation, StepObservations};
 use super::motion::MotionModel;
 use super::{LandmarkMap, SlamError, Trace};
 use crate::config::{Checks, Violation};
@@ -34,7 +34,7 @@ use nalgebra::{DMatrix, DVector, Dyn, Matrix2, Matrix2x3, Matrix3, OMatrix, U2, 
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-pub const CODE_VERSION: &str = "ekf-slam-1";
+pub const CODE_VERSION: &str = "ekf-slam-2";
 
 /// Dimension of the robot pose (x, y, θ) in the joint state.
 const POSE_DIM: usize = 3;
@@ -497,20 +497,15 @@ fn symmetrise(p: &mut DMatrix<f64>) {
 /// (laser features), else to `points`.
 pub fn run(world: &World, motion: &MotionModel, params: &EkfParams, observations: &[StepObservations], points_as_corners: bool) -> Result<Trace, SlamError> {
     let mut filter = Ekf::new(params, motion, world.truth[0]);
-    let mut readings = observations.iter().peekable();
+    let mut cursor = Cursor::new(observations);
     let steps = world.odometry.len();
     let mut estimate = Vec::with_capacity(steps + 1);
-    let mut pose_cov = Vec::with_capacity(steps + 1);
+    let mut pose_belief = Vec::with_capacity(steps + 1);
     for k in 0..=steps {
         let control = k.checked_sub(1).map(|j| &world.odometry[j]);
-        while readings.next_if(|r| r.step < k).is_some() {} // out of order: skipped
-        let z: &[Observation] = match readings.next_if(|r| r.step == k) {
-            Some(r) => &r.observations,
-            None => &[],
-        };
-        filter.step(control, z);
+        filter.step(control, cursor.at(k));
         estimate.push(filter.pose());
-        pose_cov.push(Some(filter.pose_cov()));
+        pose_belief.push(Some((filter.pose(), filter.pose_cov())));
     }
     Ok(Trace {
         estimate,
@@ -519,7 +514,7 @@ pub fn run(world: &World, motion: &MotionModel, params: &EkfParams, observations
         neff: Vec::new(),
         resamples: 0,
         weighted_steps: filter.weighted_steps,
-        pose_cov,
+        pose_belief,
         matches: Vec::new(),
     })
 }

@@ -117,8 +117,8 @@ fn noise_free_point_world_is_recovered_exactly() {
     for association in [EkfAssociation::Known, EkfAssociation::NearestNeighbour, EkfAssociation::MaximumLikelihood] {
         let trace = run(&w, &motion, &params(association), &readings, false).unwrap();
         assert_eq!(trace.estimate.len(), truth.len());
-        assert_eq!(trace.pose_cov.len(), truth.len());
-        assert!(trace.pose_cov.iter().all(Option::is_some) && trace.neff.is_empty());
+        assert_eq!(trace.pose_belief.len(), truth.len());
+        assert!(trace.pose_belief.iter().all(Option::is_some) && trace.neff.is_empty());
         assert_eq!(trace.numerical_failures, 0, "{association:?}");
         assert_eq!(trace.weighted_steps as usize, truth.len() - 1, "{association:?}: every step after the first re-observes");
         for (k, (e, t)) in trace.estimate.iter().zip(&truth).enumerate() {
@@ -211,7 +211,7 @@ fn nees_runs(world_motion: &MotionModel, filter_motion: &MotionModel) -> Vec<Vec
             (1..=NEES_STEPS)
                 .map(|k| {
                     let e = pose_error(&trace.estimate[k], &truth[k]);
-                    let p_inv = trace.pose_cov[k].unwrap().try_inverse().expect("P_rr > 0 after a prediction");
+                    let p_inv = trace.pose_belief[k].unwrap().1.try_inverse().expect("P_rr > 0 after a prediction");
                     (e.transpose() * p_inv * e)[0]
                 })
                 .collect()

@@ -16,7 +16,7 @@ pub mod particle;
 pub mod resample;
 
 use super::motion::MotionModel;
-use super::observations::{self, Observation, Source, StepObservations};
+use super::observations::{self, Cursor, Observation, Source, StepObservations};
 use super::{LandmarkMap, SlamError, Trace};
 use crate::config::{Checks, Violation};
 use crate::features::FeatureParams;
@@ -32,7 +32,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
-pub const CODE_VERSION: &str = "fastslam1-2";
+pub const CODE_VERSION: &str = "fastslam1-3";
 
 /// ln(2π), the normalising constant of a bivariate Gaussian's log density.
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -206,6 +206,11 @@ fn line_bound(m: &Observation, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>, ln_
     -0.5 * nu * nu / q - LN_2PI - 0.5 * ln_det_r
 }
 
+/// ln det R with the full determinant (R need not be diagonal); −∞ or NaN for a singular R.
+fn ln_det(r: &Matrix2<f64>) -> f64 {
+    r.determinant().ln()
+}
+
 /// Gaussian log-likelihood of `m` for landmark `l`, or `None` if Q is not positive definite.
 fn evaluate(m: &Observation, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>) -> Option<Match> {
     let prediction = l.predict(m.model, pose);
@@ -336,7 +341,7 @@ impl<'a> FastSlam1<'a> {
                         },
                     };
                 }
-                let ln_det_r = (m.r[(0, 0)] * m.r[(1, 1)]).ln();
+                let ln_det_r = ln_det(&m.r);
                 let mut candidates = Candidates::new(ln_p0);
                 for (j, l) in landmarks.iter().enumerate() {
                     if m.model == Model::Line && line_bound(m, l, &pose, &m.r, ln_det_r) < ln_p0 {
@@ -366,14 +371,27 @@ impl<'a> FastSlam1<'a> {
         let p = &mut self.particles[i];
         if needs_write {
             let map = p.map_mut();
+            // landmarks already corrected in this step: a second feature on one of them is
+            // evaluated afresh against its corrected state (a sequential EKF update and factor)
+            let mut touched: Vec<(Model, usize)> = Vec::new();
             for (m, (d, matched)) in z.iter().zip(&decisions) {
                 match (d, matched) {
-                    (Association::Known { landmark, log_likelihood }, Some(mt)) => {
-                        if correct(&mut map.of_mut(m.model)[*landmark], m.model, mt, &m.r) {
-                            log_weight += log_likelihood;
+                    (Association::Known { landmark, .. }, Some(mt)) => {
+                        let key = (m.model, *landmark);
+                        let fresh = if touched.contains(&key) { evaluate(m, &map.of(m.model)[*landmark], &pose, &m.r) } else { Some(*mt) };
+                        touched.push(key);
+                        let Some(mt) = fresh else {
+                            failures += 1;
+                            continue;
+                        };
+                        if correct(&mut map.of_mut(m.model)[*landmark], m.model, &mt, &m.r) {
+                            log_weight += mt.log_likelihood; // the association's own value when first
                         } else {
                             failures += 1;
                         }
+                    }
+                    (Association::New, _) if known && m.landmark.is_some() && map.of(m.model).iter().any(|l| l.id == m.landmark) => {
+                        // an identity seen twice in one step: its first sighting made it
                     }
                     (Association::New, _) => match initialise(m, &pose, &m.r) {
                         Some(l) => {
@@ -410,17 +428,18 @@ impl<'a> FastSlam1<'a> {
         &self.particles[self.best]
     }
 
-    /// The weighted spread of the particle poses (the filter's pose covariance, for NEES).
-    pub fn pose_covariance(&self) -> nalgebra::Matrix3<f64> {
+    /// The filter's pose belief: the weighted mean of the particle poses and their weighted
+    /// spread about it (for NEES; Bailey et al. 2006).
+    pub fn pose_belief(&self) -> (Pose2, nalgebra::Matrix3<f64>) {
         let max = self.particles.iter().map(|p| p.log_weight).fold(f64::NEG_INFINITY, f64::max);
         let poses: Vec<Pose2> = self.particles.iter().map(|p| p.pose).collect();
         if !max.is_finite() {
-            return pose_spread(&poses, None);
+            return pose_belief(&poses, None);
         }
         let w: Vec<f64> = self.particles.iter().map(|p| (p.log_weight - max).exp()).collect();
         let sum: f64 = w.iter().sum();
         let w: Vec<f64> = w.iter().map(|x| x / sum).collect();
-        pose_spread(&poses, Some(&w))
+        pose_belief(&poses, Some(&w))
     }
 
     /// Landmarks in the best particle's map.
@@ -446,21 +465,17 @@ pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionMode
         return Err(SlamError::NoIdentities);
     }
     let mut filter = FastSlam1::new(params, motion, world.truth[0]);
-    let mut next = observations.iter().peekable();
+    let mut cursor = Cursor::new(observations);
     let steps = world.odometry.len();
     let mut estimate = Vec::with_capacity(steps + 1);
     let mut neff = Vec::with_capacity(steps + 1);
-    let mut pose_cov = Vec::new();
+    let mut pose_belief = Vec::new();
     for k in 0..=steps {
         let control = k.checked_sub(1).map(|j| &world.odometry[j]);
-        let z: &[Observation] = match next.peek() {
-            Some(s) if s.step == k => &next.next().expect("peeked").observations,
-            _ => &[],
-        };
-        neff.push(filter.step(control, z, rng));
+        neff.push(filter.step(control, cursor.at(k), rng));
         estimate.push(filter.best().pose);
         if motion.is_some() {
-            pose_cov.push(Some(filter.pose_covariance()));
+            pose_belief.push(Some(filter.pose_belief()));
         }
     }
     Ok(Trace {
@@ -470,7 +485,7 @@ pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionMode
         neff,
         resamples: filter.resamples,
         weighted_steps: filter.weighted_steps,
-        pose_cov,
+        pose_belief,
         matches: Vec::new(),
     })
 }
@@ -486,10 +501,10 @@ pub fn landmark_map(m: &particle::Map, points_as_corners: bool) -> LandmarkMap {
     }
 }
 
-/// The particles' pose spread around their mean (equal weights: after resampling, or between
-/// weighting steps the current normalised weights are those of the last step's resampling),
-/// headings wrapped about the mean heading.
-pub fn pose_spread(poses: &[Pose2], weights: Option<&[f64]>) -> nalgebra::Matrix3<f64> {
+/// The particles' weighted mean pose (circular mean heading) and their spread around it (equal
+/// weights: after resampling, or between weighting steps the current normalised weights are
+/// those of the last step's resampling), headings wrapped about the mean heading.
+pub fn pose_belief(poses: &[Pose2], weights: Option<&[f64]>) -> (Pose2, nalgebra::Matrix3<f64>) {
     let n = poses.len() as f64;
     let w = |i: usize| weights.map_or(1.0 / n, |w| w[i]);
     let (mut mx, mut my, mut ms, mut mc) = (0.0, 0.0, 0.0, 0.0);
@@ -505,12 +520,102 @@ pub fn pose_spread(poses: &[Pose2], weights: Option<&[f64]>) -> nalgebra::Matrix
         let e = nalgebra::Vector3::new(p.x - mx, p.y - my, wrap_angle(p.theta - mt));
         cov += w(i) * e * e.transpose();
     }
-    cov
+    (Pose2::new(mx, my, mt), cov)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A stream with two entries for one step: both are read (merged, as FastSLAM 2.0 and the
+    /// EKF read them), and the steps after it still get theirs.
+    #[test]
+    fn duplicate_step_entries_are_merged_not_stalled() {
+        let p = FastSlamParams { particles: 3, association: DataAssociation::Known, ..FastSlamParams::default() };
+        let motion = MotionModel::Pose { sigma_x_m: 0.01, sigma_y_m: 0.01, sigma_theta_rad: 0.01 };
+        let truth = vec![Pose2::IDENTITY, Pose2::new(0.1, 0.0, 0.0), Pose2::new(0.2, 0.0, 0.0)];
+        let odometry = vec![Pose2::new(0.1, 0.0, 0.0); 2];
+        let world = World { dt_s: 0.1, truth: truth.clone(), odometry, laser: None, scans: Vec::new(), point_scans: Vec::new(), truth_lines: Vec::new(), truth_corners: Vec::new(), truth_points: Vec::new(), point_noise: None };
+        let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
+        let seen = |k: usize, m: Vector2<f64>, id: usize| Observation { model: Model::Point, z: Model::Point.predict(&m, &truth[k]).z, r, landmark: Some(id) };
+        let stream = vec![
+            StepObservations { step: 1, observations: vec![seen(1, Vector2::new(3.0, 1.0), 0)] },
+            StepObservations { step: 1, observations: vec![seen(1, Vector2::new(2.0, -1.0), 1)] },
+            StepObservations { step: 2, observations: vec![seen(2, Vector2::new(4.0, 2.0), 2)] },
+        ];
+        let trace = run_on(&world, &p, Some(&motion), &stream, false, &mut <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1)).unwrap();
+        let mut ids: Vec<Option<usize>> = trace.map.unwrap().point_ids;
+        ids.sort();
+        assert_eq!(ids, vec![Some(0), Some(1), Some(2)], "every entry of the stream reaches the filter");
+    }
+
+    /// Two features matched to one landmark in one scan update it one after the other, each
+    /// against the landmark as the previous one left it (a sequential EKF), and weigh by the
+    /// sequential factors; a second "new" with an identity the step already created adds nothing.
+    #[test]
+    fn two_features_on_one_landmark_update_it_sequentially() {
+        let p = FastSlamParams { particles: 1, association: DataAssociation::Known, ..FastSlamParams::default() };
+        let pose = Pose2::new(0.1, -0.2, 0.05);
+        let l = Landmark { id: Some(0), ..Landmark::new(Vector2::new(4.0, 1.0), Matrix2::identity() * 0.25) };
+        let r = Matrix2::new(0.04, 0.0, 0.0, 0.00122);
+        let o = Observation { model: Model::Point, z: Model::Point.predict(&Vector2::new(4.3, 1.2), &pose).z, r, landmark: Some(0) };
+        let mut f = FastSlam1::new(&p, None, pose);
+        f.particles[0].map_mut().corners.push(l);
+        f.weigh_and_update(0, &[o, o]);
+        let (mut expected, mut log_weight) = (l, 0.0);
+        for _ in 0..2 {
+            let m = evaluate(&o, &expected, &pose, &r).unwrap();
+            log_weight += m.log_likelihood;
+            assert!(correct(&mut expected, Model::Point, &m, &r));
+        }
+        let got = f.particles[0].map.corners[0];
+        assert!((got.mean - expected.mean).norm() < 1e-12, "{} vs sequential {}", got.mean, expected.mean);
+        assert!((got.cov - expected.cov).abs().max() < 1e-12, "{} vs sequential {}", got.cov, expected.cov);
+        assert!((f.particles[0].log_weight - log_weight).abs() < 1e-9);
+
+        // a new identity seen twice in one step: one landmark
+        let mut f = FastSlam1::new(&p, None, pose);
+        f.weigh_and_update(0, &[o, o]);
+        assert_eq!(f.particles[0].map.corners.len(), 1);
+        assert!((f.particles[0].log_weight - p.p0.ln()).abs() < 1e-12, "one new landmark, one P0 factor");
+    }
+
+    /// NEES pairs the filter's belief, its weighted mean with its weighted spread (Bailey et al.
+    /// 2006). For a consistent cloud — particles and truth both drawn from one N(m, P) — that
+    /// scores E[NEES] = 3; pairing the spread about the mean with one particle (the best particle,
+    /// itself a draw) would score 6.
+    #[test]
+    fn a_consistent_particle_cloud_scores_nees_three() {
+        use rand::SeedableRng;
+        let p = FastSlamParams { particles: 300, ..FastSlamParams::default() };
+        let chol = nalgebra::Matrix3::new(0.2, 0.0, 0.0, 0.05, 0.1, 0.0, 0.01, -0.02, 0.05);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let draw = |m: &Pose2, rng: &mut ChaCha8Rng| {
+            let n = nalgebra::Vector3::new(rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
+            let d = chol * n;
+            Pose2::new(m.x + d[0], m.y + d[1], wrap_angle(m.theta + d[2]))
+        };
+        let (mut on_belief, mut on_particle) = (Vec::new(), Vec::new());
+        for trial in 0..600 {
+            let m = Pose2::new(trial as f64 * 0.01, 1.0, 0.3);
+            let truth = draw(&m, &mut rng);
+            let mut f = FastSlam1::new(&p, None, m);
+            for q in f.particles.iter_mut() {
+                q.pose = draw(&m, &mut rng);
+                q.log_weight = 0.0;
+            }
+            let (mean, cov) = f.pose_belief();
+            let score = |e: &Pose2| match crate::metrics::nees(&truth, e, &cov) {
+                crate::metrics::Nees::Value(v) => v,
+                other => panic!("{other:?}"),
+            };
+            on_belief.push(score(&mean));
+            on_particle.push(score(&f.particles[0].pose));
+        }
+        let avg = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        assert!((avg(&on_belief) - 3.0).abs() < 0.3, "NEES of the belief {}", avg(&on_belief));
+        assert!((avg(&on_particle) - 6.0).abs() < 0.7, "NEES of one particle against the spread {}", avg(&on_particle));
+    }
 
     #[test]
     fn describe_names_particles_p0_and_resampling() {
@@ -559,6 +664,22 @@ mod tests {
             let exact = evaluate(&m, &l, &pose, &r).unwrap().log_likelihood;
             assert!(line_bound(&m, &l, &pose, &r, ln_det_r) >= exact - 1e-9);
         }
+        // A correlated R: the bound needs the full determinant; ln(R₀₀R₁₁) overstates ln det R
+        // and lets the bound fall below the likelihood, skipping a landmark that could win.
+        let r = Matrix2::new(0.04, 0.006, 0.006, 0.00122);
+        let (mut violations_diag, mut checked) = (0, 0);
+        for _ in 0..2000 {
+            let u = |rng: &mut ChaCha8Rng, a: f64, b: f64| rng.random_range(a..b);
+            let pose = Pose2::new(u(&mut rng, -5.0, 5.0), u(&mut rng, -5.0, 5.0), u(&mut rng, -3.1, 3.1));
+            let l = Landmark::new(Vector2::new(u(&mut rng, 0.5, 20.0), u(&mut rng, -3.1, 3.1)), Matrix2::new(1e-4, 0.0, 0.0, 1e-5));
+            let truth = l.predict(Model::Line, &pose).z;
+            let m = Observation { model: Model::Line, z: truth, r, landmark: None };
+            let exact = evaluate(&m, &l, &pose, &r).unwrap().log_likelihood;
+            assert!(line_bound(&m, &l, &pose, &r, ln_det(&r)) >= exact - 1e-9);
+            violations_diag += (line_bound(&m, &l, &pose, &r, (r[(0, 0)] * r[(1, 1)]).ln()) < exact - 1e-9) as usize;
+            checked += 1;
+        }
+        assert!(violations_diag > 0, "the diagonal product must be shown to fail ({checked} cases)");
     }
 
     #[test]

@@ -45,8 +45,19 @@ impl Model {
     }
 
     /// z − ẑ with the angular component wrapped to (−π, π].
+    ///
+    /// Lines: a measured line has two parameterisations, (ρ, θ) and (−ρ, θ + π). Near ρ' = 0 the
+    /// measurement and a prediction from a slightly different pose fall on opposite sides of the
+    /// robot, and their normalised forms differ by π in angle although the lines are centimetres
+    /// apart. The innovation is therefore taken against the measurement's representation on the
+    /// prediction's side (the one within π/2 of ẑ's angle), so that it is the signed difference
+    /// the prediction's Jacobian (flipped with ẑ) linearises.
     pub fn innovation(self, z: &Vector2<f64>, predicted: &Vector2<f64>) -> Vector2<f64> {
-        Vector2::new(z[0] - predicted[0], wrap_angle(z[1] - predicted[1]))
+        let nu = Vector2::new(z[0] - predicted[0], wrap_angle(z[1] - predicted[1]));
+        if self == Model::Line && nu[1].abs() > PI / 2.0 {
+            return Vector2::new(-z[0] - predicted[0], wrap_angle(z[1] + PI - predicted[1]));
+        }
+        nu
     }
 
     /// Brings a landmark mean back to its canonical form after an update, with the covariance
@@ -206,6 +217,28 @@ mod tests {
             j[(1, k)] = wrap_angle(za[1] - zb[1]) / (2.0 * eps);
         }
         j
+    }
+
+    /// A wall's extension crossing the corridor ([FT]'s Bigloop2 x = 8): the robot just beyond
+    /// the line sees it at ρ' = 0.10 m facing one way, a particle 15 cm off sees it facing the
+    /// other way. The innovation is the 15 cm between them, not π in angle.
+    #[test]
+    fn the_innovation_crosses_the_flip_near_rho_zero() {
+        let wall = Vector2::new(8.0, 0.0);
+        let z = Model::Line.predict(&wall, &Pose2::new(8.10, 0.5, PI / 2.0)).z;
+        let zhat = Model::Line.predict(&wall, &Pose2::new(7.95, 0.5, PI / 2.0)).z;
+        assert!((z[1] - zhat[1]).abs() > 3.0, "the two normalised forms face opposite ways: {z} vs {zhat}");
+        let nu = Model::Line.innovation(&z, &zhat);
+        assert!((nu[0] + 0.15).abs() < 1e-9 && nu[1].abs() < 1e-9, "innovation {nu}");
+        // and the linearisation agrees: ẑ + H Δm predicts the moved line on the same side
+        let moved = Vector2::new(8.05, 0.01);
+        let p = Model::Line.predict(&wall, &Pose2::new(7.95, 0.5, PI / 2.0));
+        let linear = p.z + p.h * (moved - wall);
+        let nu = Model::Line.innovation(&Model::Line.predict(&moved, &Pose2::new(7.95, 0.5, PI / 2.0)).z, &linear);
+        assert!(nu.norm() < 1e-3, "{nu}");
+        // far from ρ' = 0 nothing changes
+        let (a, b) = (Vector2::new(3.0, 0.2), Vector2::new(2.9, 0.25));
+        assert_eq!(Model::Line.innovation(&a, &b), Vector2::new(a[0] - b[0], wrap_angle(a[1] - b[1])));
     }
 
     // Off every test line (on a line ρ' = 0 and the normalised form flips); the last two lie

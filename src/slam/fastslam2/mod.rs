@@ -23,8 +23,8 @@
 //! - (6) x ~ N(μ, Σx).
 //! - (7) landmark EKF from the sampled pose: K = Σ H_mᵀ Z⁻¹, μ_m += K ν,
 //!   Σ ← (I − K H_m) Σ (I − K H_m)ᵀ + K R Kᵀ (Joseph form).
-//! - (8) w ← w · N(z; ẑ(x̂), S) per matched observation, P0 per new landmark, 1 per ignored one
-//!   [importance weight N(z_t; ẑ_t, L_t)].
+//! - (8) w ← w · p(z_matched | x_{t−1}, u, map) · P0 per new landmark · 1 per ignored one
+//!   [importance weight N(z_t; ẑ_t, L_t)], the matched observations' *joint* predictive density.
 //!
 //! Choices:
 //! - Several observations per step fold into the proposal one after another, each relinearised
@@ -36,9 +36,12 @@
 //! - Maximum-likelihood association scores landmark j by N(z; ẑ_j(x̂), S_j), the density (8)
 //!   also weights with ([PR]'s π_j, evaluated at x̂ instead of at a per-landmark sample), against
 //!   P0 and the thesis's ambiguity rules, as FastSLAM 1.0 does.
-//! - The importance factor is the product of the observations' factors (8), each at x̂; it
-//!   ignores that the observations of one step share the pose error (the exact linear-Gaussian
-//!   factor would be the sequential one, evaluated at each intermediate μ).
+//! - The joint density of (8) is the product of the chain-rule factors the proposal computes
+//!   anyway: observation j's N(z_j; ẑ_j(μ_{j−1}), H_x Σx_{j−1} H_xᵀ + Z_j), with the earlier
+//!   observations already folded into (μ, Σx) — exact for linear-Gaussian models, where the
+//!   product of the marginals at x̂ would count the shared pose error once per observation
+//!   (tested against the joint Gaussian). The association-time density N(z; ẑ(x̂), S) decides
+//!   the association only, and weighs an observation whose proposal step failed (counted).
 //! - The proposal is sampled with a Cholesky factor that accepts zero pivots (a positive
 //!   semi-definite Σx); an indefinite Σx falls back to the motion model's sample and is counted.
 //! - A particle none of whose observations matched a known landmark samples from the motion
@@ -59,9 +62,9 @@
 use super::fastslam::association::{resolve_shared, Association, Candidates};
 use super::fastslam::models::{FullPrediction, Model};
 use super::fastslam::particle::{self, Landmark, Map, Particle};
-use super::fastslam::{landmark_map, pose_spread, resample, DataAssociation, FastSlamParams};
+use super::fastslam::{landmark_map, pose_belief, resample, DataAssociation, FastSlamParams};
 use super::motion::MotionModel;
-use super::observations::{Observation, StepObservations};
+use super::observations::{Cursor, Observation, StepObservations};
 use super::{SlamError, Trace};
 use crate::geom::{wrap_angle, Pose2};
 use crate::world::World;
@@ -71,7 +74,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use std::f64::consts::PI;
 
-pub const CODE_VERSION: &str = "fastslam2-1";
+pub const CODE_VERSION: &str = "fastslam2-2";
 
 /// ln(2π), the normalising constant of a bivariate Gaussian's log density.
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -165,11 +168,13 @@ fn log_likelihood_bound(o: &Observation, l: &Landmark, pose: &Pose2, pose_cov: &
 }
 
 /// Folds one observation of landmark `l` into the pose proposal N(μ, Σx), relinearised at μ:
-/// Eqs. (4)–(5) in Kalman form. Leaves the proposal unchanged and returns `false` when S is
+/// Eqs. (4)–(5) in Kalman form. Returns the observation's chain-rule factor of the importance
+/// weight, ln N(z; ẑ(μ), H_x Σx H_xᵀ + Z) = ln p(z_j | z_1..j−1, x_{t−1}, u) with the earlier
+/// observations already folded in; leaves the proposal unchanged and returns `None` when S is
 /// singular or the result is not finite.
-fn refine(mu: &mut Pose2, sigma: &mut Matrix3<f64>, o: &Observation, l: &Landmark) -> bool {
-    let Some(m) = evaluate(o, l, mu, sigma) else { return false };
-    let Some(s_inv) = m.s.try_inverse() else { return false };
+fn refine(mu: &mut Pose2, sigma: &mut Matrix3<f64>, o: &Observation, l: &Landmark) -> Option<f64> {
+    let m = evaluate(o, l, mu, sigma)?;
+    let s_inv = m.s.try_inverse()?;
     let hx = m.full.h_pose;
     let k = *sigma * hx.transpose() * s_inv; // K = Σx H_xᵀ S⁻¹ = Σx' H_xᵀ Z⁻¹
     let i_kh = Matrix3::identity() - k * hx;
@@ -177,11 +182,11 @@ fn refine(mu: &mut Pose2, sigma: &mut Matrix3<f64>, o: &Observation, l: &Landmar
     let next = 0.5 * (next + next.transpose());
     let step = k * m.innovation; // Eq. (5)
     if !(next.iter().all(|v| v.is_finite()) && step.iter().all(|v| v.is_finite())) {
-        return false;
+        return None;
     }
     *mu = Pose2::new(mu.x + step[0], mu.y + step[1], wrap_angle(mu.theta + step[2]));
     *sigma = next;
-    true
+    Some(m.log_likelihood)
 }
 
 /// Lower-triangular L with L Lᵀ = A for a symmetric positive semi-definite 3 × 3 A (Cholesky–
@@ -295,7 +300,7 @@ impl<'a> FastSlam2<'a> {
             // the start: the pose is known exactly, nothing to sample
             if !z.is_empty() {
                 let decisions = self.associate(i, &previous, &Matrix3::zeros(), z);
-                self.update(i, previous, z, &decisions);
+                self.update(i, previous, z, &decisions, &[]);
             }
             return;
         };
@@ -308,14 +313,14 @@ impl<'a> FastSlam2<'a> {
                 let predicted = self.motion.predict(&previous, u); // Eq. (1)
                 let q = self.motion.covariance(&previous, u); // Eq. (1)
                 let decisions = self.associate(i, &predicted, &q, z);
-                let pose = self.sample_proposal(i, (&previous, u), (predicted, q), z, &decisions, rng);
-                self.update(i, pose, z, &decisions);
+                let (pose, factors) = self.sample_proposal(i, (&previous, u), (predicted, q), z, &decisions, rng);
+                self.update(i, pose, z, &decisions, &factors);
                 pose
             }
             Proposal::Motion => {
                 let pose = self.motion.sample(&previous, u, rng);
                 let decisions = self.associate(i, &pose, &Matrix3::zeros(), z);
-                self.update(i, pose, z, &decisions);
+                self.update(i, pose, z, &decisions, &[]);
                 pose
             }
         };
@@ -378,34 +383,37 @@ impl<'a> FastSlam2<'a> {
     /// Draws particle `i`'s pose from the proposal: the motion prediction (x̂, Q) refined by
     /// every observation matched to a known landmark (Eqs. 4–6). Always draws three standard
     /// normals; with nothing matched, or an indefinite Σx (counted), the motion model's sample.
-    fn sample_proposal(&mut self, i: usize, (previous, u): (&Pose2, &Pose2), (predicted, q): (Pose2, Matrix3<f64>), z: &[Observation], decisions: &Decisions, rng: &mut ChaCha8Rng) -> Pose2 {
+    /// Also returns, per observation, its chain-rule weight factor (see [`refine`]): together they
+    /// are the joint predictive density of the matched observations, whose shared pose error the
+    /// product of their marginals would count once per observation.
+    fn sample_proposal(&mut self, i: usize, (previous, u): (&Pose2, &Pose2), (predicted, q): (Pose2, Matrix3<f64>), z: &[Observation], decisions: &Decisions, rng: &mut ChaCha8Rng) -> (Pose2, Vec<Option<f64>>) {
         let map = &self.particles[i].map;
         let (mut mu, mut sigma) = (predicted, q);
-        let mut refined = 0;
-        for (o, d) in z.iter().zip(decisions) {
+        let mut factors = vec![None; z.len()];
+        for (k, (o, d)) in z.iter().zip(decisions).enumerate() {
             if let Association::Known { landmark, .. } = *d {
-                if refine(&mut mu, &mut sigma, o, &map.of(o.model)[landmark]) {
-                    refined += 1;
-                } else {
+                factors[k] = refine(&mut mu, &mut sigma, o, &map.of(o.model)[landmark]);
+                if factors[k].is_none() {
                     self.numerical_failures += 1;
                 }
             }
         }
-        if refined == 0 {
-            return self.motion.sample(previous, u, rng); // the proposal is the motion model
+        if factors.iter().all(Option::is_none) {
+            return (self.motion.sample(previous, u, rng), factors); // the proposal is the motion model
         }
         let Some(l) = psd_cholesky(&sigma) else {
             self.numerical_failures += 1;
-            return self.motion.sample(previous, u, rng);
+            return (self.motion.sample(previous, u, rng), factors);
         };
         let n: Vector3<f64> = Vector3::new(rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
         let d = l * n; // Eq. (6)
-        Pose2::new(mu.x + d[0], mu.y + d[1], wrap_angle(mu.theta + d[2]))
+        (Pose2::new(mu.x + d[0], mu.y + d[1], wrap_angle(mu.theta + d[2])), factors)
     }
 
     /// Updates particle `i`'s landmarks from its sampled `pose` (Eq. 7), adds the new ones, and
-    /// multiplies its weight (Eq. 8).
-    fn update(&mut self, i: usize, pose: Pose2, z: &[Observation], decisions: &Decisions) {
+    /// multiplies its weight (Eq. 8): by the proposal's chain-rule factor of each matched
+    /// observation where `factors` has one, else by its likelihood at association.
+    fn update(&mut self, i: usize, pose: Pose2, z: &[Observation], decisions: &Decisions, factors: &[Option<f64>]) {
         let known = self.params.association == DataAssociation::Known;
         let ln_p0 = self.ln_p0;
         let mut failures = 0;
@@ -413,10 +421,10 @@ impl<'a> FastSlam2<'a> {
         let p = &mut self.particles[i];
         if decisions.iter().any(|d| !matches!(d, Association::Ignored)) {
             let map: &mut Map = p.map_mut(); // copied here only if shared
-            for (o, d) in z.iter().zip(decisions) {
+            for (k, (o, d)) in z.iter().zip(decisions).enumerate() {
                 match *d {
                     Association::Known { landmark, log_likelihood } => {
-                        log_weight += log_likelihood; // Eq. (8), at the motion prediction
+                        log_weight += factors.get(k).copied().flatten().unwrap_or(log_likelihood); // Eq. (8), jointly
                         if !correct(&mut map.of_mut(o.model)[landmark], o, &pose) {
                             failures += 1;
                         }
@@ -477,10 +485,10 @@ impl<'a> FastSlam2<'a> {
         &self.particles[self.best]
     }
 
-    /// The weighted spread of the particle poses around their weighted mean.
-    fn pose_covariance(&self) -> Matrix3<f64> {
+    /// The weighted mean of the particle poses and their weighted spread around it.
+    fn pose_belief(&self) -> (Pose2, Matrix3<f64>) {
         let poses: Vec<Pose2> = self.particles.iter().map(|p| p.pose).collect();
-        pose_spread(&poses, Some(&self.weights))
+        pose_belief(&poses, Some(&self.weights))
     }
 }
 
@@ -501,20 +509,13 @@ fn run_with(world: &World, params: &FastSlamParams, motion: &MotionModel, observ
     let steps = world.odometry.len();
     let mut estimate = Vec::with_capacity(steps + 1);
     let mut neff = Vec::with_capacity(steps + 1);
-    let mut pose_cov = Vec::with_capacity(steps + 1);
-    let mut next = observations.iter().peekable();
-    let mut z: Vec<Observation> = Vec::new();
+    let mut pose_belief = Vec::with_capacity(steps + 1);
+    let mut cursor = Cursor::new(observations);
     for k in 0..=steps {
         let control = k.checked_sub(1).map(|j| &world.odometry[j]);
-        z.clear();
-        while let Some(s) = next.next_if(|s| s.step <= k) {
-            if s.step == k {
-                z.extend_from_slice(&s.observations);
-            }
-        }
-        neff.push(filter.step(control, &z, rng));
+        neff.push(filter.step(control, cursor.at(k), rng));
         estimate.push(filter.best().pose);
-        pose_cov.push(Some(filter.pose_covariance()));
+        pose_belief.push(Some(filter.pose_belief()));
     }
     Ok(Trace {
         estimate,
@@ -523,7 +524,7 @@ fn run_with(world: &World, params: &FastSlamParams, motion: &MotionModel, observ
         neff,
         resamples: filter.resamples,
         weighted_steps: filter.weighted_steps,
-        pose_cov,
+        pose_belief,
         matches: Vec::new(),
     })
 }
