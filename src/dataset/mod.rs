@@ -198,10 +198,10 @@ impl DatasetSpec {
     }
 
     /// What the dataset's sensor sees: laser scans (Intel lab) or point landmarks.
-    pub fn world_kind(&self) -> crate::slam::WorldKind {
+    pub fn world_kind(&self) -> crate::world::WorldKind {
         match self {
-            DatasetSpec::IntelLab { .. } => crate::slam::WorldKind::Laser,
-            DatasetSpec::Mrclam { .. } | DatasetSpec::VictoriaPark { .. } => crate::slam::WorldKind::Points,
+            DatasetSpec::IntelLab { .. } => crate::world::WorldKind::Laser,
+            DatasetSpec::Mrclam { .. } | DatasetSpec::VictoriaPark { .. } => crate::world::WorldKind::Points,
         }
     }
 

@@ -299,7 +299,7 @@ fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)]) -> 
         let names: Vec<&str> = assignments.iter().map(|(p, ..)| p.as_str()).collect();
         culprits.iter().map(|(_, _, key)| spec.error_at(key, format!("with {} set here, [base] does not deserialise: {}", names.join(", "), e.message().trim()))).collect::<Vec<_>>()
     })?;
-    let violations = params.validate(crate::slam::Sensors::union(&spec.spec.algorithms, &crate::slam::WorldKind::ALL));
+    let violations = params.validate(crate::slam::Sensors::union(&spec.spec.algorithms, &crate::world::WorldKind::ALL));
     if violations.is_empty() {
         return Ok(params);
     }

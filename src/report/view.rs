@@ -282,8 +282,9 @@ fn facts(study: &Study<'_>, failed: usize) -> Vec<Kv> {
 
 /// The choices of the point-landmark filters: FastSLAM on point worlds, FastSLAM 2.0, EKF-SLAM,
 /// and their motion model.
-fn filter_choices(study: &Study<'_>, kinds: &[crate::slam::WorldKind]) -> Vec<String> {
-    use crate::slam::{AlgorithmKind as A, WorldKind as W};
+fn filter_choices(study: &Study<'_>, kinds: &[crate::world::WorldKind]) -> Vec<String> {
+    use crate::slam::AlgorithmKind as A;
+    use crate::world::WorldKind as W;
     let b = &study.spec().base;
     let algos = &study.spec().algorithms;
     let mut out = Vec::new();
@@ -332,7 +333,7 @@ fn scan_matching_choices(study: &Study<'_>) -> Vec<String> {
 /// The choices of a study on real data only: the simulation's do not apply.
 fn dataset_choices(study: &Study<'_>) -> Vec<String> {
     let mut out = vec!["Real data: odometry, measurements and truth come from the dataset's files (read from the path in each map file; the files' bytes are part of every run's content hash). The simulation settings of [base] do not apply.".to_string()];
-    out.extend(filter_choices(study, &[crate::slam::WorldKind::Points]));
+    out.extend(filter_choices(study, &[crate::world::WorldKind::Points]));
     out.push("Trajectory error is evo's APE (translation part) at the steps with truth; truth without headings (GPS) is first aligned to the estimate by a rigid transform (rotation and translation).".into());
     let mut notes: Vec<String> = Vec::new();
     for (name, map) in &study.maps {
@@ -345,9 +346,9 @@ fn dataset_choices(study: &Study<'_>) -> Vec<String> {
 }
 
 /// The kinds of world among a study's maps (laser first), laser for a map that cannot be read.
-fn world_kinds(maps: &[(String, Option<Map>)]) -> Vec<crate::slam::WorldKind> {
-    let has = |k| maps.iter().any(|(_, m)| m.as_ref().map_or(crate::slam::WorldKind::Laser, Map::world_kind) == k);
-    crate::slam::WorldKind::ALL.into_iter().filter(|&k| has(k)).collect()
+fn world_kinds(maps: &[(String, Option<Map>)]) -> Vec<crate::world::WorldKind> {
+    let has = |k| maps.iter().any(|(_, m)| m.as_ref().map_or(crate::world::WorldKind::Laser, Map::world_kind) == k);
+    crate::world::WorldKind::ALL.into_iter().filter(|&k| has(k)).collect()
 }
 
 fn maps_table(study: &Study<'_>) -> TableView {
@@ -429,7 +430,7 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     if reads("features") {
         out.push(b.features.describe());
     }
-    if reads("fastslam") && kinds.contains(&crate::slam::WorldKind::Laser) {
+    if reads("fastslam") && kinds.contains(&crate::world::WorldKind::Laser) {
         out.push(b.fastslam.describe_on_lasers());
     }
     if sensors.iter().any(|s| s.landmarks) {
@@ -840,7 +841,7 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
                 }
             }
         }
-        let points_world = map.world_kind() == crate::slam::WorldKind::Points;
+        let points_world = map.world_kind() == crate::world::WorldKind::Points;
         let fig = TrajectoryFigure {
             walls: map.walls.iter().map(|s| ((s.a.x, s.a.y), (s.b.x, s.b.y))).collect(),
             // a point world's landmarks are its points; its wall corners are not landmarks

@@ -8,7 +8,8 @@ pub mod provenance;
 
 use crate::metrics;
 use crate::plan::{ExperimentPlan, RunSpec, SCHEMA_VERSION};
-use crate::slam::{self, AlgorithmKind, SlamError, Trace, WorldKind};
+use crate::slam::{self, AlgorithmKind, SlamError, Trace};
+use crate::world::WorldKind;
 use crate::spec::params::flatten;
 use crate::store::{self, Cache, CachedRun, GroupRecord, LandmarkRow, Manifest, MatchRows, ParamValue, PointRecord, ResolvedStudy, RunLandmarks, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows};
 use crate::world::{self, WorldError, WorldSpec, WORLD_CODE_VERSION};

@@ -12,6 +12,7 @@ pub mod odometry;
 pub use fastslam::models;
 
 use crate::geom::{Line, Point2, Pose2};
+use crate::world::WorldKind;
 use crate::scanmatch::search::Optimizer;
 use serde::{Deserialize, Serialize};
 
@@ -61,19 +62,6 @@ impl<'de> Deserialize<'de> for AlgorithmKind {
             serde::de::Error::custom(format!("unknown algorithm `{name}`, expected one of: {}", known.join(", ")))
         })
     }
-}
-
-/// What a world's landmarks are, which decides the sensor every landmark filter reads. A map
-/// with point landmarks (or a dataset) is a point-landmark world; a map of walls alone is seen by
-/// the laser, whose scans yield line and corner landmarks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum WorldKind {
-    Laser,
-    Points,
-}
-
-impl WorldKind {
-    pub const ALL: [WorldKind; 2] = [WorldKind::Laser, WorldKind::Points];
 }
 
 /// Which simulated sensors an algorithm reads.

@@ -6,7 +6,7 @@
 //! [FT]'s FastSLAM 1.0 on laser worlds keeps its own `[fastslam]` motion noise (Eq. 7.18).
 
 use crate::config::{Checks, Violation};
-use crate::geom::{wrap_angle, Pose2};
+use crate::geom::{unicycle_increment, wrap_angle, Pose2};
 use nalgebra::Matrix3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -27,10 +27,15 @@ pub enum MotionModel {
         /// σθ [rad] per step.
         sigma_theta_rad: f64,
     },
-    /// Noise on the odometry increment itself (body frame), proportional to the motion:
-    /// u' = u + n, n ~ N(0, diag(σt², σt², σr²)), σt = k_translation·|(ux, uy)| + floor_translation_m,
-    /// σr = k_rotation·|uθ| + floor_rotation_rad. It matches the simulated `proportional`
-    /// odometry noise (v and ω perturbed by k·|v|, k·|ω|) when k_translation = k_rotation = k.
+    /// Noise on the driven arc, as the simulated `proportional` odometry draws it: the increment u
+    /// is the arc of length d = v·Δt turning by φ = ω·Δt, and d and φ are perturbed by
+    /// N(0, (k_translation·|d|)²) and N(0, (k_rotation·|φ|)²), then the exact arc is driven — so
+    /// the error lies along the direction of travel and in heading only as far as the robot
+    /// turns. In the filters, Q = G_u (J diag(σd², σφ²) Jᵀ + F) G_uᵀ with J = ∂u/∂(d, φ) the arc's
+    /// Jacobian and F = diag(floor_translation_m², floor_translation_m², floor_rotation_rad²) a
+    /// floor of independent body-frame noise (it keeps Q positive definite; set it near zero to
+    /// match the simulation exactly). With k_translation = k_rotation = k and zero floors it is
+    /// the simulated noise (tested against the world's own samples).
     Proportional {
         /// Translation noise per metre driven [m/m].
         k_translation: f64,
@@ -74,7 +79,7 @@ impl MotionModel {
     pub fn describe(&self) -> String {
         match self {
             MotionModel::Proportional { k_translation, k_rotation, floor_translation_m, floor_rotation_rad } => format!(
-                "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: noise on the odometry increment, σ = {k_translation}·|translation| + {floor_translation_m} m per axis and {k_rotation}·|rotation| + {floor_rotation_rad} rad per step."
+                "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: the simulated odometry's own noise on the driven arc, σ = {k_translation}·|arc length| and {k_rotation}·|turn| per step propagated through the arc, plus a floor of {floor_translation_m} m per axis and {floor_rotation_rad} rad per step."
             ),
             MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => {
                 format!("Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: per-step world-frame pose noise σ = ({sigma_x_m} m, {sigma_y_m} m, {sigma_theta_rad} rad) ([FT] Eq. 7.18).")
@@ -97,40 +102,63 @@ impl MotionModel {
     pub fn covariance(&self, pose: &Pose2, u: &Pose2) -> Matrix3<f64> {
         match *self {
             MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => Matrix3::from_diagonal(&nalgebra::Vector3::new(sigma_x_m.powi(2), sigma_y_m.powi(2), sigma_theta_rad.powi(2))),
-            MotionModel::Proportional { .. } => {
-                let [st, sr] = self.increment_sigmas(u);
+            MotionModel::Proportional { k_translation, k_rotation, floor_translation_m: ft, floor_rotation_rad: fr } => {
+                let (d, phi) = arc_of(u);
+                let j = arc_jacobian(d, phi);
+                let (sd, sp) = (k_translation * d.abs(), k_rotation * phi.abs());
+                let n = j * nalgebra::Matrix2::new(sd * sd, 0.0, 0.0, sp * sp) * j.transpose() + Matrix3::from_diagonal(&nalgebra::Vector3::new(ft * ft, ft * ft, fr * fr));
                 let (s, c) = pose.theta.sin_cos();
-                // G_u = ∂(x ⊕ u)/∂u = diag(R(θ), 1); Q = G_u N G_uᵀ with N = diag(σt², σt², σr²)
+                // G_u = ∂(x ⊕ u)/∂u = diag(R(θ), 1); Q = G_u N G_uᵀ
                 let g = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
-                g * Matrix3::from_diagonal(&nalgebra::Vector3::new(st * st, st * st, sr * sr)) * g.transpose()
+                g * n * g.transpose()
             }
         }
     }
 
-    /// A sample of x' (three standard normals drawn, whatever the parameters).
+    /// A sample of x' (five standard normals drawn, whatever the parameters): the arc's length
+    /// and turn perturbed and the exact arc driven, as the simulation does, plus the floor.
     pub fn sample(&self, pose: &Pose2, u: &Pose2, rng: &mut ChaCha8Rng) -> Pose2 {
-        let (z0, z1, z2): (f64, f64, f64) = (rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
+        let z: [f64; 5] = std::array::from_fn(|_| rng.sample(StandardNormal));
         match *self {
             MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => {
                 let q = pose.compose(*u);
-                Pose2::new(q.x + sigma_x_m * z0, q.y + sigma_y_m * z1, wrap_angle(q.theta + sigma_theta_rad * z2))
+                Pose2::new(q.x + sigma_x_m * z[0], q.y + sigma_y_m * z[1], wrap_angle(q.theta + sigma_theta_rad * z[2]))
             }
-            MotionModel::Proportional { .. } => {
-                let [st, sr] = self.increment_sigmas(u);
-                pose.compose(Pose2::new(u.x + st * z0, u.y + st * z1, u.theta + sr * z2))
+            MotionModel::Proportional { k_translation, k_rotation, floor_translation_m: ft, floor_rotation_rad: fr } => {
+                // the perturbed arc's change, applied to u (u itself when u is an arc: then this
+                // is driving the perturbed arc, exactly as the simulation does)
+                let (d, phi) = arc_of(u);
+                let (a, b) = (unicycle_increment(d, phi, 1.0), unicycle_increment(d + k_translation * d.abs() * z[0], phi + k_rotation * phi.abs() * z[1], 1.0));
+                pose.compose(Pose2::new(u.x + b.x - a.x + ft * z[2], u.y + b.y - a.y + ft * z[3], u.theta + b.theta - a.theta + fr * z[4]))
             }
         }
     }
+}
 
-    /// (σt, σr) of a proportional model for increment `u`.
-    fn increment_sigmas(&self, u: &Pose2) -> [f64; 2] {
-        match *self {
-            MotionModel::Proportional { k_translation, k_rotation, floor_translation_m, floor_rotation_rad } => {
-                [k_translation * u.x.hypot(u.y) + floor_translation_m, k_rotation * u.theta.abs() + floor_rotation_rad]
-            }
-            MotionModel::Pose { .. } => [0.0, 0.0],
-        }
-    }
+/// The arc (d, φ) — length and turn, v·Δt and ω·Δt — that drives increment `u`: exact for an arc
+/// ([`unicycle_increment`]); an increment off any arc (a real log's slip) gets the arc through
+/// its chord's length and its turn.
+fn arc_of(u: &Pose2) -> (f64, f64) {
+    let phi = u.theta;
+    let (s, c) = (0.5 * phi).sin_cos();
+    let chord = u.x * c + u.y * s; // signed: the chord points along φ/2
+    let d = if phi.abs() < SERIES_BELOW_RAD { chord } else { chord * (0.5 * phi) / s };
+    (d, phi)
+}
+
+/// Below this turn [rad] the arc's functions use their Taylor series (no 0/0).
+const SERIES_BELOW_RAD: f64 = 1e-4;
+
+/// J = ∂u/∂(d, φ) of u = (d·sin φ/φ, d·(1 − cos φ)/φ, φ).
+fn arc_jacobian(d: f64, phi: f64) -> nalgebra::Matrix3x2<f64> {
+    let (a, b, da, db) = if phi.abs() < SERIES_BELOW_RAD {
+        // sin φ/φ, (1 − cos φ)/φ and their derivatives, to O(φ³)
+        (1.0 - phi * phi / 6.0, 0.5 * phi - phi.powi(3) / 24.0, -phi / 3.0, 0.5 - phi * phi / 8.0)
+    } else {
+        let (s, c) = phi.sin_cos();
+        (s / phi, (1.0 - c) / phi, (phi * c - s) / (phi * phi), (phi * s - (1.0 - c)) / (phi * phi))
+    };
+    nalgebra::Matrix3x2::new(a, d * da, b, d * db, 0.0, 1.0)
 }
 
 #[cfg(test)]
@@ -162,7 +190,7 @@ mod tests {
     #[test]
     fn describe_names_the_noise_parameters() {
         let proportional = MotionModel::Proportional { k_translation: 0.15, k_rotation: 0.25, floor_translation_m: 0.002, floor_rotation_rad: 0.003 }.describe();
-        assert!(proportional.contains("σ = 0.15·|translation| + 0.002 m") && proportional.contains("0.25·|rotation| + 0.003 rad"), "{proportional}");
+        assert!(proportional.contains("σ = 0.15·|arc length| and 0.25·|turn|") && proportional.contains("floor of 0.002 m per axis and 0.003 rad"), "{proportional}");
         let pose = MotionModel::Pose { sigma_x_m: 0.02, sigma_y_m: 0.01, sigma_theta_rad: 0.03 }.describe();
         assert!(pose.contains("σ = (0.02 m, 0.01 m, 0.03 rad)"), "{pose}");
     }
@@ -183,6 +211,47 @@ mod tests {
             }
             let q = m.covariance(&pose, &u);
             assert!((cov - q).abs().max() < 0.06 * q.abs().max(), "{m:?}\n{cov}\n{q}");
+        }
+    }
+
+    /// The filter's Q for the `proportional` model equals the covariance of the simulated
+    /// odometry's own increments (the world's samples, not the filter's): v and ω perturbed by
+    /// k·|v|, k·|ω|, then the exact arc — driving straight, turning on the spot and along an arc.
+    #[test]
+    fn the_proportional_model_matches_the_simulated_odometry() {
+        use crate::world::odometry::{OdometryNoise, Spread};
+        let k = 0.1;
+        let world = OdometryNoise::Proportional { k, k_is: Spread::Std };
+        let filter = MotionModel::Proportional { k_translation: k, k_rotation: k, floor_translation_m: 0.0, floor_rotation_rad: 0.0 };
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        for (v, w) in [(1.0, 0.0), (0.0, 0.5), (1.0, 0.8), (0.5, -2.0)] {
+            let n = 40_000;
+            let samples = world.measure(Pose2::IDENTITY, &vec![(v, w); n], 0.1, &mut rng);
+            let u = unicycle_increment(v, w, 0.1);
+            let mut cov = Matrix3::zeros();
+            for s in &samples {
+                let e = nalgebra::Vector3::new(s.x - u.x, s.y - u.y, wrap_angle(s.theta - u.theta));
+                cov += e * e.transpose() / n as f64;
+            }
+            let q = filter.covariance(&Pose2::IDENTITY, &u);
+            assert!((cov - q).abs().max() < 0.05 * q.abs().max(), "(v, ω) = ({v}, {w}):\nworld\n{cov}\nfilter\n{q}");
+        }
+    }
+
+    #[test]
+    fn the_arc_is_recovered_and_differentiated() {
+        for (d, phi) in [(0.3, 0.0), (0.3, 1e-6), (0.2, 0.4), (-0.1, -0.7), (0.0, 0.5)] {
+            let (d2, phi2) = arc_of(&unicycle_increment(d, phi, 1.0));
+            assert!((d2 - d).abs() < 1e-12 && (phi2 - phi).abs() < 1e-12, "({d}, {phi}) → ({d2}, {phi2})");
+            let j = arc_jacobian(d, phi);
+            let eps = 1e-6;
+            for (col, (a, b)) in [((d + eps, phi), (d - eps, phi)), ((d, phi + eps), (d, phi - eps))].into_iter().enumerate() {
+                let (ua, ub) = (unicycle_increment(a.0, a.1, 1.0), unicycle_increment(b.0, b.1, 1.0));
+                let num = [(ua.x - ub.x) / (2.0 * eps), (ua.y - ub.y) / (2.0 * eps), (ua.theta - ub.theta) / (2.0 * eps)];
+                for r in 0..3 {
+                    assert!((j[(r, col)] - num[r]).abs() < 1e-6, "J[{r},{col}] at ({d}, {phi}): {} vs {}", j[(r, col)], num[r]);
+                }
+            }
         }
     }
 }

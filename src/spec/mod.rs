@@ -476,7 +476,7 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
             err(&format!("algorithms[{i}]"), format!("algorithm `{}` is listed twice", a.name()));
         }
     }
-    for v in spec.base.validate(crate::slam::Sensors::union(&spec.algorithms, &crate::slam::WorldKind::ALL)) {
+    for v in spec.base.validate(crate::slam::Sensors::union(&spec.algorithms, &crate::world::WorldKind::ALL)) {
         err(&format!("base.{}", v.key), v.message);
     }
     let d = &spec.report.diff;
@@ -521,7 +521,7 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         // checked when each point is resolved.
         let switches: Vec<&str> = swept.iter().filter_map(|p| p.path.strip_suffix(".model")).collect();
         let variant_field = |p: &str| switches.iter().any(|s| p.starts_with(&format!("{s}.")));
-        let read: Vec<&str> = spec.algorithms.iter().flat_map(|a| crate::slam::WorldKind::ALL.into_iter().flat_map(move |k| a.sections_read(k))).collect();
+        let read: Vec<&str> = spec.algorithms.iter().flat_map(|a| crate::world::WorldKind::ALL.into_iter().flat_map(move |k| a.sections_read(k))).collect();
         for p in &swept {
             let section = p.path.split('.').next().unwrap_or("");
             if known(&p.path) && !read.contains(&section) {

@@ -173,11 +173,11 @@ impl Map {
     }
 
     /// Point-landmark world (point landmarks or a dataset) or laser world (walls only).
-    pub fn world_kind(&self) -> crate::slam::WorldKind {
+    pub fn world_kind(&self) -> crate::world::WorldKind {
         match &self.dataset {
             Some(d) => d.world_kind(),
-            None if self.point_landmarks.is_empty() => crate::slam::WorldKind::Laser,
-            None => crate::slam::WorldKind::Points,
+            None if self.point_landmarks.is_empty() => crate::world::WorldKind::Laser,
+            None => crate::world::WorldKind::Points,
         }
     }
 

@@ -23,6 +23,19 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
+/// What a world's landmarks are, which decides the sensor every landmark filter reads. A map
+/// with point landmarks (or a dataset) is a point-landmark world; a map of walls alone is seen by
+/// the laser, whose scans yield line and corner landmarks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WorldKind {
+    Laser,
+    Points,
+}
+
+impl WorldKind {
+    pub const ALL: [WorldKind; 2] = [WorldKind::Laser, WorldKind::Points];
+}
+
 /// Bump when world generation changes what it produces for the same inputs: it is part of every
 /// run's content hash, so cached runs are recomputed.
 pub const WORLD_CODE_VERSION: &str = "world-2";

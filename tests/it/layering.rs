@@ -89,3 +89,15 @@ fn verdict_rules_sit_below_report_and_diff() {
         }
     }
 }
+
+/// The world is simulated without the filters: `world/` and `dataset/` (which build worlds)
+/// import nothing from `slam/` (what kind of world a map makes, `WorldKind`, is the world's).
+#[test]
+fn worlds_do_not_depend_on_the_filters() {
+    let src = repo().join("src");
+    for layer in ["world", "dataset"] {
+        for (path, text) in sources(&src.join(layer)) {
+            assert!(!code(&text).contains("crate::slam"), "{path} uses crate::slam: the world must not depend on the filters");
+        }
+    }
+}
