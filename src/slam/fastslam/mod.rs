@@ -72,6 +72,38 @@ pub struct FastSlamParams {
     /// default, so existing run hashes are unchanged.
     #[serde(skip_serializing_if = "DataAssociation::is_default")]
     pub association: DataAssociation,
+    /// The trajectory (and map) reported: `best_per_step` ([FT]: at every step the pose of the
+    /// particle with the highest current weight; the map of the final best particle),
+    /// `path_of_best` ([PF] Eq. 20: the whole path and the map of the particle with the highest
+    /// log-weight accumulated along its lineage), or `weighted_mean` (the weighted mean pose at
+    /// every step; the final best particle's map). Written out only when not the default.
+    #[serde(skip_serializing_if = "Estimate::is_default")]
+    pub estimate: Estimate,
+}
+
+/// Which trajectory a particle filter reports (see [`FastSlamParams::estimate`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Estimate {
+    #[default]
+    BestPerStep,
+    PathOfBest,
+    WeightedMean,
+}
+
+impl Estimate {
+    pub fn is_default(&self) -> bool {
+        *self == Estimate::BestPerStep
+    }
+
+    /// The report's words for the trajectory and map this estimate reports.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            Estimate::BestPerStep => "the best particle is the one with the highest current weight (the trajectory is its pose at every step, which may jump between lineages).",
+            Estimate::PathOfBest => "the trajectory and map are those of the particle with the highest log-weight accumulated along its lineage ([PF] Eq. 20), its whole path kept through resampling.",
+            Estimate::WeightedMean => "the trajectory is the particles' weighted mean pose at every step; the map is the final best particle's.",
+        }
+    }
 }
 
 /// How FastSLAM matches observations to landmarks.
@@ -105,6 +137,7 @@ impl Default for FastSlamParams {
             obs_var_theta_rad2: 0.00122,
             ambiguity: Ambiguity::Both,
             association: DataAssociation::MaximumLikelihood,
+            estimate: Estimate::BestPerStep,
         }
     }
 }
@@ -131,7 +164,7 @@ impl FastSlamParams {
     /// when `with_fastslam2`: particles, association and resampling.
     pub fn describe_on_points(&self, with_fastslam2: bool) -> String {
         format!(
-            "FastSLAM{}: {} particles, {} association, resampling when N̂eff < {}; the best particle is the one with the highest current weight.",
+            "FastSLAM{}: {} particles, {} association, resampling when N̂eff < {}; {}",
             if with_fastslam2 { " 1.0 on point worlds and 2.0" } else { " 1.0 on point worlds" },
             self.particles,
             match self.association {
@@ -139,6 +172,7 @@ impl FastSlamParams {
                 DataAssociation::MaximumLikelihood => format!("maximum-likelihood (P0 = {})", self.p0),
             },
             self.neff_text(),
+            self.estimate.describe(),
         )
     }
 
@@ -406,6 +440,7 @@ impl<'a> FastSlam1<'a> {
             }
         }
         p.log_weight += log_weight; // 13: multiplicative across steps
+        p.lineage_log_weight += log_weight; // [PF] Eq. 20: never normalised nor reset
         self.numerical_failures += failures as u64;
     }
 
@@ -467,27 +502,65 @@ pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionMode
     let mut filter = FastSlam1::new(params, motion, world.truth[0]);
     let mut cursor = Cursor::new(observations);
     let steps = world.odometry.len();
-    let mut estimate = Vec::with_capacity(steps + 1);
     let mut neff = Vec::with_capacity(steps + 1);
     let mut pose_belief = Vec::new();
+    let mut estimator = Estimator::new(params.estimate, steps + 1);
     for k in 0..=steps {
         let control = k.checked_sub(1).map(|j| &world.odometry[j]);
         neff.push(filter.step(control, cursor.at(k), rng));
-        estimate.push(filter.best().pose);
+        let belief = (motion.is_some() || params.estimate == Estimate::WeightedMean).then(|| filter.pose_belief());
+        estimator.record(&mut filter.particles, filter.best, belief.map(|b| b.0));
         if motion.is_some() {
-            pose_belief.push(Some(filter.pose_belief()));
+            pose_belief.push(belief);
         }
     }
+    let (estimate, reported) = estimator.finish(&filter.particles, filter.best);
     Ok(Trace {
         estimate,
         numerical_failures: filter.numerical_failures,
-        map: Some(landmark_map(&filter.best().map, points_as_corners)),
+        map: Some(landmark_map(&filter.particles[reported].map, points_as_corners)),
         neff,
         resamples: filter.resamples,
         weighted_steps: filter.weighted_steps,
         pose_belief,
         matches: Vec::new(),
     })
+}
+
+/// Builds a particle filter's trajectory estimate step by step, as [`FastSlamParams::estimate`]
+/// asks (shared by FastSLAM 1.0 and 2.0).
+pub struct Estimator {
+    kind: Estimate,
+    poses: Vec<Pose2>,
+}
+
+impl Estimator {
+    pub fn new(kind: Estimate, steps: usize) -> Self {
+        Self { kind, poses: Vec::with_capacity(if kind == Estimate::PathOfBest { 0 } else { steps }) }
+    }
+
+    /// After a step: the best particle's pose, or the weighted mean (`mean`, needed then), or —
+    /// for the path of the best lineage — every particle's pose appended to its path.
+    pub fn record(&mut self, particles: &mut [Particle], best: usize, mean: Option<Pose2>) {
+        match self.kind {
+            Estimate::BestPerStep => self.poses.push(particles[best].pose),
+            Estimate::WeightedMean => self.poses.push(mean.expect("the weighted mean is computed for this estimate")),
+            Estimate::PathOfBest => particles.iter_mut().for_each(|p| p.path.push(p.pose)),
+        }
+    }
+
+    /// The trajectory and the index of the particle whose map is reported: the final best
+    /// particle, or for the path of the best the particle with the highest lineage log-weight
+    /// ([PF] Eq. 20; the first on ties) with its own path.
+    pub fn finish(self, particles: &[Particle], best: usize) -> (Vec<Pose2>, usize) {
+        match self.kind {
+            Estimate::PathOfBest => {
+                let i = particle::argmax(&particles.iter().map(|p| p.lineage_log_weight).collect::<Vec<_>>());
+                (particles[i].path.poses(), i)
+            }
+            _ => (self.poses, best),
+        }
+    }
 }
 
 /// A particle map as a [`LandmarkMap`].
@@ -526,6 +599,44 @@ pub fn pose_belief(poses: &[Pose2], weights: Option<&[f64]>) -> (Pose2, nalgebra
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The three trajectory estimates: lengths match the truth; the weighted mean is the belief's
+    /// mean; the path of the best follows the lineage with the highest accumulated log-weight,
+    /// inherited through resampling, and reports that particle's map.
+    #[test]
+    fn trajectory_estimates_are_a_choice() {
+        use rand::SeedableRng;
+        let motion = MotionModel::Pose { sigma_x_m: 0.05, sigma_y_m: 0.05, sigma_theta_rad: 0.02 };
+        let n = 30;
+        let truth: Vec<Pose2> = (0..=n).map(|k| Pose2::new(0.1 * k as f64, 0.0, 0.0)).collect();
+        let world = World { dt_s: 0.1, truth: truth.clone(), odometry: vec![Pose2::new(0.1, 0.0, 0.0); n], laser: None, scans: Vec::new(), point_scans: Vec::new(), truth_lines: Vec::new(), truth_corners: Vec::new(), truth_points: Vec::new(), point_noise: None };
+        let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
+        let marks = [Vector2::new(2.0, 1.0), Vector2::new(3.0, -1.5)];
+        let stream: Vec<StepObservations> = (1..=n)
+            .map(|k| StepObservations { step: k, observations: marks.iter().enumerate().map(|(i, m)| Observation { model: Model::Point, z: Model::Point.predict(m, &truth[k]).z, r, landmark: Some(i) }).collect() })
+            .collect();
+        let run = |estimate: Estimate| {
+            let p = FastSlamParams { particles: 20, association: DataAssociation::Known, estimate, ..FastSlamParams::default() };
+            run_on(&world, &p, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(3)).unwrap()
+        };
+        let (best, mean, path) = (run(Estimate::BestPerStep), run(Estimate::WeightedMean), run(Estimate::PathOfBest));
+        for t in [&best, &mean, &path] {
+            assert_eq!(t.estimate.len(), truth.len());
+        }
+        // same random numbers: the filters ran alike, only the report differs
+        assert_eq!(best.pose_belief, path.pose_belief);
+        for (e, b) in mean.estimate.iter().zip(&mean.pose_belief).skip(1) {
+            assert_eq!(*e, b.unwrap().0);
+        }
+        assert_ne!(best.estimate, path.estimate, "the per-step best and the best lineage's path differ");
+        assert_eq!(path.estimate[0], truth[0]);
+        // the lineage weight is inherited: a resampled copy keeps its ancestor's
+        let mut a = Particle::new(Pose2::IDENTITY);
+        a.lineage_log_weight = -3.5;
+        a.log_weight = -1.0;
+        let (copies, _) = particle::resampled(&[a], &[0, 0], 0);
+        assert!(copies.iter().all(|c| c.lineage_log_weight == -3.5 && c.log_weight == 0.0));
+    }
 
     /// A stream with two entries for one step: both are read (merged, as FastSLAM 2.0 and the
     /// EKF read them), and the steps after it still get theirs.

@@ -71,17 +71,67 @@ pub struct Particle {
     /// log of the importance weight, accumulated multiplicatively across steps ([FT] Table 6.3
     /// line 13) — logs so that long products of small likelihoods do not underflow.
     pub log_weight: f64,
+    /// Σ_t log w_t along the particle's lineage ([PF] Eq. 20): inherited from the ancestor at
+    /// resampling, never normalised or reset.
+    pub lineage_log_weight: f64,
     pub map: Arc<Map>,
+    /// The particle's past poses (shared with its relatives: copy-on-write ancestry), recorded
+    /// only when the filter reports a particle's path.
+    pub path: Path,
 }
 
 impl Particle {
     pub fn new(pose: Pose2) -> Self {
-        Self { pose, log_weight: 0.0, map: Arc::new(Map::default()) }
+        Self { pose, log_weight: 0.0, lineage_log_weight: 0.0, map: Arc::new(Map::default()), path: Path::default() }
     }
 
     /// The map for writing: copied first if another particle shares it.
     pub fn map_mut(&mut self) -> &mut Map {
         Arc::make_mut(&mut self.map)
+    }
+}
+
+/// A particle's path: a persistent list of poses, newest first, whose older part is shared by
+/// every descendant of one ancestor (resampling copies a pointer, not the path).
+#[derive(Debug, Clone, Default)]
+pub struct Path(Option<Arc<PathNode>>);
+
+#[derive(Debug)]
+pub struct PathNode {
+    pose: Pose2,
+    parent: Option<Arc<PathNode>>,
+}
+
+impl Path {
+    /// Appends the pose of the current step.
+    pub fn push(&mut self, pose: Pose2) {
+        self.0 = Some(Arc::new(PathNode { pose, parent: self.0.take() }));
+    }
+
+    /// The poses, oldest first.
+    pub fn poses(&self) -> Vec<Pose2> {
+        let mut out = Vec::new();
+        let mut node = self.0.as_deref();
+        while let Some(n) = node {
+            out.push(n.pose);
+            node = n.parent.as_deref();
+        }
+        out.reverse();
+        out
+    }
+}
+
+impl Drop for PathNode {
+    /// Frees a long unshared chain iteratively (a recursive drop of thousands of nodes could
+    /// overflow a worker thread's stack); stops at the first node another path still holds.
+    fn drop(&mut self) {
+        let mut next = self.parent.take();
+        while let Some(node) = next {
+            match Arc::try_unwrap(node) {
+                Ok(mut n) => next = n.parent.take(),
+                Err(_) => break,
+            }
+        }
     }
 }
 
@@ -119,6 +169,25 @@ pub fn argmax(w: &[f64]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Copies share their ancestry: two descendants of one particle see its past, then their
+    /// own steps; a path of 100 000 poses drops without recursion.
+    #[test]
+    fn paths_share_their_ancestry() {
+        let mut a = Particle::new(Pose2::IDENTITY);
+        a.path.push(Pose2::new(0.0, 0.0, 0.0));
+        a.path.push(Pose2::new(1.0, 0.0, 0.0));
+        let mut b = a.clone();
+        a.path.push(Pose2::new(2.0, 0.0, 0.0));
+        b.path.push(Pose2::new(2.0, 1.0, 0.0));
+        assert_eq!(a.path.poses().iter().map(|p| p.y).collect::<Vec<_>>(), vec![0.0, 0.0, 0.0]);
+        assert_eq!(b.path.poses().iter().map(|p| (p.x, p.y)).collect::<Vec<_>>(), vec![(0.0, 0.0), (1.0, 0.0), (2.0, 1.0)]);
+        let mut long = Path::default();
+        for k in 0..100_000 {
+            long.push(Pose2::new(k as f64, 0.0, 0.0));
+        }
+        drop(long);
+    }
 
     #[test]
     fn resampled_copies_share_their_map_until_one_writes() {

@@ -62,7 +62,7 @@
 use super::fastslam::association::{resolve_shared, Association, Candidates};
 use super::fastslam::models::{FullPrediction, Model};
 use super::fastslam::particle::{self, Landmark, Map, Particle};
-use super::fastslam::{landmark_map, pose_belief, resample, DataAssociation, FastSlamParams};
+use super::fastslam::{landmark_map, pose_belief, resample, DataAssociation, Estimator, FastSlamParams};
 use super::motion::MotionModel;
 use super::observations::{Cursor, Observation, StepObservations};
 use super::{SlamError, Trace};
@@ -447,6 +447,7 @@ impl<'a> FastSlam2<'a> {
             }
         }
         p.log_weight += log_weight;
+        p.lineage_log_weight += log_weight; // [PF] Eq. 20: never normalised nor reset
         self.numerical_failures += failures;
     }
 
@@ -481,10 +482,6 @@ impl<'a> FastSlam2<'a> {
         self.resamples += 1;
     }
 
-    fn best(&self) -> &Particle {
-        &self.particles[self.best]
-    }
-
     /// The weighted mean of the particle poses and their weighted spread around it.
     fn pose_belief(&self) -> (Pose2, Matrix3<f64>) {
         let poses: Vec<Pose2> = self.particles.iter().map(|p| p.pose).collect();
@@ -507,20 +504,22 @@ fn run_with(world: &World, params: &FastSlamParams, motion: &MotionModel, observ
     let Some(&start) = world.truth.first() else { return Ok(Trace::default()) };
     let mut filter = FastSlam2::new(params, motion, proposal, start);
     let steps = world.odometry.len();
-    let mut estimate = Vec::with_capacity(steps + 1);
     let mut neff = Vec::with_capacity(steps + 1);
     let mut pose_belief = Vec::with_capacity(steps + 1);
     let mut cursor = Cursor::new(observations);
+    let mut estimator = Estimator::new(params.estimate, steps + 1);
     for k in 0..=steps {
         let control = k.checked_sub(1).map(|j| &world.odometry[j]);
         neff.push(filter.step(control, cursor.at(k), rng));
-        estimate.push(filter.best().pose);
-        pose_belief.push(Some(filter.pose_belief()));
+        let belief = filter.pose_belief();
+        estimator.record(&mut filter.particles, filter.best, Some(belief.0));
+        pose_belief.push(Some(belief));
     }
+    let (estimate, reported) = estimator.finish(&filter.particles, filter.best);
     Ok(Trace {
         estimate,
         numerical_failures: filter.numerical_failures,
-        map: Some(landmark_map(&filter.best().map, points_as_corners)),
+        map: Some(landmark_map(&filter.particles[reported].map, points_as_corners)),
         neff,
         resamples: filter.resamples,
         weighted_steps: filter.weighted_steps,

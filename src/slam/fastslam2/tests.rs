@@ -230,8 +230,8 @@ fn resampling_keeps_the_particle_count_and_follows_the_best_particle() {
         f.select(&mut rng);
         assert_eq!(f.resamples, before + 1, "threshold ∞: every weighted step resamples");
         assert_eq!(f.particles.len(), 20);
-        assert_eq!(f.best().pose, pose, "step {k}: the best particle is followed through resampling");
-        assert!(Arc::ptr_eq(&f.best().map, &map), "step {k}: resampling shares maps, never copies them");
+        assert_eq!(f.particles[f.best].pose, pose, "step {k}: the best particle is followed through resampling");
+        assert!(Arc::ptr_eq(&f.particles[f.best].map, &map), "step {k}: resampling shares maps, never copies them");
         assert!(f.weights.iter().all(|&w| w == 1.0 / 20.0));
     }
     assert_eq!(f.numerical_failures, 0);
