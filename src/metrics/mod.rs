@@ -60,6 +60,7 @@ pub const METRICS: &[MetricDef] = &[
         description: "share of steps whose pose NEES lies within the two-sided 95 % χ² interval for 3 degrees of freedom [0.216, 9.35] (0.95 for a consistent filter); a step with a singular covariance and a non-zero error counts as out of bounds",
         lower_is_better: false,
     },
+    MetricDef { name: KALMAN_GAIN, title: "Mean pose Kalman gain", unit: "", description: "EKF-SLAM: the Frobenius norm of the pose rows of the Kalman gain K = P Hᵀ S⁻¹, averaged over every landmark update of the run (mixed units: m and rad per m and rad of innovation); how far the observations move the pose ([EV] C004-4)", lower_is_better: false },
     MetricDef { name: NEES_SINGULAR, title: "Singular-covariance steps", unit: "count", description: "steps whose pose covariance is singular while the error is not zero (a particle set collapsed onto fewer than four poses): out of bounds for the NEES share, left out of the NEES mean", lower_is_better: true },
     MetricDef { name: "neff_mean", title: "Mean N̂eff", unit: "particles", description: "effective sample size 1/Σw², averaged over the steps that weighted the particles", lower_is_better: false },
     MetricDef { name: "resamples", title: "Resamples", unit: "count", description: "how many times the particles were resampled", lower_is_better: false },
@@ -87,6 +88,7 @@ pub const MAP_RMSE: &str = "map_rmse_m";
 pub const NEES_MEAN: &str = "nees_mean";
 pub const NEES_IN_BOUNDS: &str = "nees_in_bounds";
 pub const NEES_SINGULAR: &str = "nees_singular_steps";
+pub const KALMAN_GAIN: &str = "kalman_gain_mean";
 
 /// Two-sided 95 % interval of χ² with 3 degrees of freedom (the pose NEES of a consistent
 /// filter): χ²₃(0.025) and χ²₃(0.975).
@@ -126,6 +128,9 @@ pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
     }
     if !trace.matches.is_empty() {
         out.extend(match_metrics(&trace.matches));
+    }
+    if !trace.kalman_gain.is_empty() {
+        out.push((KALMAN_GAIN, trace.kalman_gain.iter().sum::<f64>() / trace.kalman_gain.len() as f64));
     }
     let neff: Vec<f64> = trace.neff.iter().flatten().copied().collect();
     if !neff.is_empty() {

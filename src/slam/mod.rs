@@ -241,6 +241,10 @@ pub struct Trace {
     /// about it. `estimate` may differ (FastSLAM reports its best particle). Empty when the
     /// algorithm has none.
     pub pose_belief: Vec<Option<(Pose2, nalgebra::Matrix3<f64>)>>,
+    /// EKF-SLAM: the Frobenius norm of the pose rows of the Kalman gain, ‖K_pose‖, of every
+    /// successful update in order — how far the observations move the pose ([EV] C004-4). Empty
+    /// for the other algorithms.
+    pub kalman_gain: Vec<f64>,
     /// Scan matchers: one record per match, in order. Empty for the other algorithms.
     pub matches: Vec<crate::scanmatch::track::MatchRecord>,
 }

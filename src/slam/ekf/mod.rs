@@ -34,7 +34,7 @@ use nalgebra::{DMatrix, DVector, Dyn, Matrix2, Matrix2x3, Matrix3, OMatrix, U2, 
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-pub const CODE_VERSION: &str = "ekf-slam-2";
+pub const CODE_VERSION: &str = "ekf-slam-3";
 
 /// Dimension of the robot pose (x, y, θ) in the joint state.
 const POSE_DIM: usize = 3;
@@ -200,6 +200,8 @@ pub struct Ekf<'a> {
     landmarks: Vec<LandmarkInfo>,
     pub numerical_failures: u64,
     pub weighted_steps: u64,
+    /// ‖K_pose‖ (Frobenius) of every successful update, in order.
+    pub kalman_gain: Vec<f64>,
 }
 
 impl<'a> Ekf<'a> {
@@ -213,6 +215,7 @@ impl<'a> Ekf<'a> {
             landmarks: Vec::new(),
             numerical_failures: 0,
             weighted_steps: 0,
+            kalman_gain: Vec::new(),
         }
     }
 
@@ -390,6 +393,7 @@ impl<'a> Ekf<'a> {
             self.numerical_failures += 1;
             return false;
         }
+        self.kalman_gain.push(k.rows(0, POSE_DIM).norm()); // how far this observation moves the pose
         self.x += dx; // x̂ = x̂⁻ + K (z − ẑ)
         self.x[HEADING] = wrap_angle(self.x[HEADING]);
         if self.params.covariance_update == CovarianceUpdate::Joseph {
@@ -515,6 +519,7 @@ pub fn run(world: &World, motion: &MotionModel, params: &EkfParams, observations
         resamples: 0,
         weighted_steps: filter.weighted_steps,
         pose_belief,
+        kalman_gain: filter.kalman_gain,
         matches: Vec::new(),
     })
 }

@@ -457,3 +457,26 @@ fn describe_names_the_association_gates_and_update() {
     assert!(s.contains("NIS above 13.8 ignored as outliers") && s.contains("in Joseph form"), "{s}");
     assert!(!EkfParams::default().describe().contains("outliers"));
 }
+
+/// [EV] C004-4: the Kalman gain on the pose shrinks when the filter's odometry error shrinks —
+/// one gain per successful update is recorded, and a filter told a 10× smaller motion noise moves
+/// its pose less per observation.
+#[test]
+fn the_pose_gain_shrinks_with_the_odometry_noise() {
+    let points = ring_landmarks(20, 1.5);
+    let r = r_matrix(SIGMA_RANGE_M, SIGMA_BEARING_RAD);
+    let u = circle_increment();
+    let truth = exact_truth(Pose2::IDENTITY, &vec![u; LAP_STEPS]);
+    let readings = point_readings(&truth, &points, &r, None);
+    let w = world(truth, vec![u; LAP_STEPS]);
+    let mean_gain = |sigma: f64| {
+        let motion = MotionModel::Pose { sigma_x_m: sigma, sigma_y_m: sigma, sigma_theta_rad: sigma / 4.0 };
+        let trace = run(&w, &motion, &params(EkfAssociation::Known), &readings, false).unwrap();
+        let sightings: usize = readings.iter().map(|s| s.observations.len()).sum();
+        let landmarks: std::collections::BTreeSet<_> = readings.iter().flat_map(|s| s.observations.iter().map(|o| o.landmark)).collect();
+        assert_eq!(trace.kalman_gain.len(), sightings - landmarks.len(), "one gain per update (a first sighting adds the landmark instead)");
+        trace.kalman_gain.iter().sum::<f64>() / trace.kalman_gain.len() as f64
+    };
+    let (small, large) = (mean_gain(0.002), mean_gain(0.02));
+    assert!(small < 0.5 * large, "mean ‖K_pose‖ {small} (small Q) vs {large} (large Q)");
+}

@@ -523,6 +523,7 @@ pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionMode
         resamples: filter.resamples,
         weighted_steps: filter.weighted_steps,
         pose_belief,
+        kalman_gain: Vec::new(),
         matches: Vec::new(),
     })
 }

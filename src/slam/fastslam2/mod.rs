@@ -524,6 +524,7 @@ fn run_with(world: &World, params: &FastSlamParams, motion: &MotionModel, observ
         resamples: filter.resamples,
         weighted_steps: filter.weighted_steps,
         pose_belief,
+        kalman_gain: Vec::new(),
         matches: Vec::new(),
     })
 }
