@@ -254,6 +254,23 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
         }
     }
     match claim.test {
+        ClaimTest::Fails => {
+            let Some(point) = cells.at.as_deref() else { return MapOutcome::untestable("no cell".into()) };
+            let runs: Vec<&RunRow> = data.runs.iter().filter(|r| r.map == map && r.algorithm == algorithm && r.point == point).collect();
+            let counts = |r: &&RunRow| r.status != RunStatus::Ok && claim.failure.as_deref().is_none_or(|t| r.error.as_deref().is_some_and(|e| e.contains(t)));
+            let (k, n) = (runs.iter().filter(|r| counts(r)).count(), runs.len());
+            if n < MIN_REPLICATES {
+                return MapOutcome::untestable(format!("{n} runs (a test needs {MIN_REPLICATES})"));
+            }
+            let verdict = if k == n {
+                Verdict::Confirmed
+            } else if k == 0 {
+                Verdict::Refuted
+            } else {
+                Verdict::Inconclusive
+            };
+            MapOutcome { verdict, text: format!("{k} of {n} runs failed as the claim says"), direction: Some(2 * k > n), p_claim: f64::NAN, p_against: f64::NAN }
+        }
         ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {
             if s_at.n < MIN_REPLICATES {
                 return MapOutcome::untestable(format!("{} replicates (a test needs {MIN_REPLICATES})", s_at.n));
@@ -497,6 +514,11 @@ fn test_text(c: &ClaimSpec, cells: &ClaimCells) -> String {
         (None, r) => format!("δ = {} % of the compared cell's mean", sig(100.0 * r.unwrap_or(DEFAULT_MIN_EFFECT_REL), 2)),
     };
     match c.test {
+        ClaimTest::Fails => format!(
+            "the runs{} at {at} fail{}: confirmed when every run fails, refuted when none does",
+            c.algorithm.map_or(String::new(), |a| format!(" of {}", a.title())),
+            c.failure.as_deref().map_or(String::new(), |t| format!(" with an error containing “{t}”"))
+        ),
         ClaimTest::Above => format!("{metric} at {at}: 95 % CI of the mean above {}", v(c.value)),
         ClaimTest::Below => format!("{metric} at {at}: 95 % CI of the mean below {}", v(c.value)),
         ClaimTest::Between => format!("{metric} at {at}: 95 % CI of the mean within [{}, {}]", v(c.value), v(c.upper)),

@@ -255,4 +255,6 @@ pub enum SlamError {
     MissingSensor(&'static str),
     #[error("known data association needs landmark identities, which this sensor does not report")]
     NoIdentities,
+    #[error("a particle's map grew past {limit} landmarks at step {step} (fastslam.max_landmarks): the map explodes, the run is stopped")]
+    LandmarkCap { limit: u32, step: usize },
 }

@@ -64,7 +64,12 @@ pub struct ClaimSpec {
     pub kind: ClaimKind,
     /// The claim in words.
     pub text: String,
+    /// The metric tested (every test but `fails`).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     pub metric: String,
+    /// For `fails`: the text a run's error must contain to count (absent: any failure).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure: Option<String>,
     pub test: ClaimTest,
     /// The cell the claim is about: parameter path → value (the other parameters at base).
     #[serde(default)]
@@ -145,6 +150,9 @@ pub enum ClaimTest {
     NotLess,
     /// Equivalence over `over` within the tolerance (TOST), or one-sided (`direction`).
     Flat,
+    /// The runs of the cell fail (e.g. a map that explodes): every run failed ⇒ confirmed, none
+    /// ⇒ refuted; `failure` restricts the count to errors containing that text. Needs no metric.
+    Fails,
 }
 
 /// `precondition = { metric = "…", below = x | above = x, why = "…" }` of a claim.
@@ -569,11 +577,21 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
 
     for (i, c) in spec.claims.iter().enumerate() {
         let key = |k: &str| format!("claims[{i}].{k}");
-        if metric_def(&c.metric).is_none() {
+        if c.test == ClaimTest::Fails {
+            if !c.metric.is_empty() {
+                err(&key("metric"), "a `fails` claim tests run failures, not a metric: leave `metric` out".into());
+            }
+        } else if c.metric.is_empty() {
+            err(&key("metric"), "this test needs a `metric`".into());
+        } else if metric_def(&c.metric).is_none() {
             err(&key("metric"), format!("unknown metric `{}`", c.metric));
+        }
+        if c.failure.is_some() && c.test != ClaimTest::Fails {
+            err(&key("failure"), "only a `fails` claim has a `failure` text".into());
         }
         let missing = match c.test {
             ClaimTest::Above | ClaimTest::Below => c.value.is_none().then_some("a threshold `value`"),
+            ClaimTest::Fails => None,
             ClaimTest::Between => (c.value.is_none() || c.upper.is_none()).then_some("bounds `value` and `upper`"),
             ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
                 (c.than.is_empty() && c.than_algorithm.is_none()).then_some("a cell (`than`) or an algorithm (`than_algorithm`) to compare with")

@@ -79,6 +79,19 @@ pub struct FastSlamParams {
     /// every step; the final best particle's map). Written out only when not the default.
     #[serde(skip_serializing_if = "Estimate::is_default")]
     pub estimate: Estimate,
+    /// Most landmarks a particle's map may hold: a run whose map grows past it fails cleanly
+    /// (`LandmarkCap`) instead of exhausting memory and time — [FT]'s P0 = 100, whose map
+    /// "explodes". Written out only when not the default.
+    #[serde(skip_serializing_if = "is_default_landmark_cap")]
+    pub max_landmarks: u32,
+}
+
+/// Default of [`FastSlamParams::max_landmarks`]: far above any map of the studies (the largest
+/// holds a few hundred landmarks).
+pub const DEFAULT_MAX_LANDMARKS: u32 = 2_000;
+
+fn is_default_landmark_cap(v: &u32) -> bool {
+    *v == DEFAULT_MAX_LANDMARKS
 }
 
 /// Which trajectory a particle filter reports (see [`FastSlamParams::estimate`]).
@@ -138,6 +151,7 @@ impl Default for FastSlamParams {
             ambiguity: Ambiguity::Both,
             association: DataAssociation::MaximumLikelihood,
             estimate: Estimate::BestPerStep,
+            max_landmarks: DEFAULT_MAX_LANDMARKS,
         }
     }
 }
@@ -212,6 +226,7 @@ impl FastSlamParams {
         }
         c.positive("obs_var_rho_m2", self.obs_var_rho_m2);
         c.positive("obs_var_theta_rad2", self.obs_var_theta_rad2);
+        c.require(self.max_landmarks >= 1, "max_landmarks", || "must be ≥ 1".to_string());
         c.finish()
     }
 }
@@ -508,6 +523,9 @@ pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionMode
     for k in 0..=steps {
         let control = k.checked_sub(1).map(|j| &world.odometry[j]);
         neff.push(filter.step(control, cursor.at(k), rng));
+        if filter.particles.iter().any(|p| p.map.len() > params.max_landmarks as usize) {
+            return Err(SlamError::LandmarkCap { limit: params.max_landmarks, step: k });
+        }
         let belief = (motion.is_some() || params.estimate == Estimate::WeightedMean).then(|| filter.pose_belief());
         estimator.record(&mut filter.particles, filter.best, belief.map(|b| b.0));
         if motion.is_some() {
@@ -637,6 +655,24 @@ mod tests {
         a.log_weight = -1.0;
         let (copies, _) = particle::resampled(&[a], &[0, 0], 0);
         assert!(copies.iter().all(|c| c.lineage_log_weight == -3.5 && c.log_weight == 0.0));
+    }
+
+    /// A map that explodes (every observation a new landmark, [FT]'s P0 = 100) stops the run
+    /// cleanly at the landmark cap instead of growing without bound.
+    #[test]
+    fn an_exploding_map_fails_cleanly_at_the_cap() {
+        use rand::SeedableRng;
+        let motion = MotionModel::Pose { sigma_x_m: 0.05, sigma_y_m: 0.05, sigma_theta_rad: 0.02 };
+        let n = 10;
+        let truth: Vec<Pose2> = (0..=n).map(|k| Pose2::new(0.1 * k as f64, 0.0, 0.0)).collect();
+        let world = World { dt_s: 0.1, truth: truth.clone(), odometry: vec![Pose2::new(0.1, 0.0, 0.0); n], laser: None, scans: Vec::new(), point_scans: Vec::new(), truth_lines: Vec::new(), truth_corners: Vec::new(), truth_points: Vec::new(), point_noise: None };
+        let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
+        let stream: Vec<StepObservations> = (1..=n).map(|k| StepObservations { step: k, observations: vec![Observation { model: Model::Point, z: Model::Point.predict(&Vector2::new(2.0, 1.0), &truth[k]).z, r, landmark: None }] }).collect();
+        let p = FastSlamParams { particles: 5, p0: 1e9, max_landmarks: 3, ..FastSlamParams::default() };
+        let err = run_on(&world, &p, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(1)).unwrap_err();
+        assert_eq!(err, SlamError::LandmarkCap { limit: 3, step: 4 }, "the fourth new landmark crosses the cap of 3");
+        let fine = FastSlamParams { p0: 1e9, ..FastSlamParams::default() };
+        assert!(run_on(&world, &fine, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(1)).is_ok(), "10 landmarks stay under the default cap");
     }
 
     /// A stream with two entries for one step: both are read (merged, as FastSLAM 2.0 and the

@@ -511,6 +511,9 @@ fn run_with(world: &World, params: &FastSlamParams, motion: &MotionModel, observ
     for k in 0..=steps {
         let control = k.checked_sub(1).map(|j| &world.odometry[j]);
         neff.push(filter.step(control, cursor.at(k), rng));
+        if filter.particles.iter().any(|p| p.map.len() > params.max_landmarks as usize) {
+            return Err(SlamError::LandmarkCap { limit: params.max_landmarks, step: k });
+        }
         let belief = filter.pose_belief();
         estimator.record(&mut filter.particles, filter.best, Some(belief.0));
         pose_belief.push(Some(belief));
