@@ -717,6 +717,24 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         assert_eq!(s.spec.base.odometry, crate::world::odometry::OdometryNoise::Proportional { k: 0.1, k_is: crate::world::odometry::Spread::Std });
     }
 
+    /// The claim rules' inputs are checked with file/line/key errors: a kind, a tagged source
+    /// for seed claims, a `why` for a tolerance or a margin, a metric except for `fails`.
+    #[test]
+    fn claims_need_their_justifications() {
+        let claim = |body: &str| format!("{GOOD}\n[[claims]]\nid = \"c\"\ntext = \"t\"\n{body}\n");
+        let keys = |body: &str| errs(&claim(body)).into_iter().map(|e| e.key).collect::<Vec<_>>();
+        let ok = "source = \"[FT] x\"\nkind = \"seed\"\nmetric = \"ate_rmse_m\"\ntest = \"flat\"\nover = { \"odometry.k\" = [0.0, 0.1] }\ntolerance_rel = 0.2\nwhy = \"the thesis's rerun\"";
+        assert!(parse(Path::new("x.toml"), &claim(ok)).is_ok(), "{:?}", keys(ok));
+        assert!(keys(&ok.replace("\nwhy = \"the thesis's rerun\"", "")).contains(&"claims[0].why".to_string()));
+        assert!(keys(&ok.replace("[FT] x", "Montemerlo")).contains(&"claims[0].source".to_string()), "a seed claim names its work");
+        assert!(!keys(&ok.replace("kind = \"seed\"\n", "")).is_empty(), "the kind is required");
+        assert!(keys(&ok.replace("tolerance_rel = 0.2", "tolerance_rel = 0.2\ntolerance = 0.1")).contains(&"claims[0]".to_string()), "one tolerance");
+        let fails = "source = \"[FT] x\"\nkind = \"seed\"\ntest = \"fails\"\nat = { \"odometry.k\" = 0.1 }";
+        assert!(parse(Path::new("x.toml"), &claim(fails)).is_ok(), "{:?}", keys(fails));
+        assert!(keys(&format!("{fails}\nmetric = \"ate_rmse_m\"")).contains(&"claims[0].metric".to_string()));
+        assert!(keys(&fails.replace("test = \"fails\"", "test = \"greater\"\nthan = { \"odometry.k\" = 0.0 }")).contains(&"claims[0].metric".to_string()));
+    }
+
     #[test]
     fn unknown_key_names_line_and_key() {
         let e = errs(&GOOD.replace("k = 0.1\n", "k = 0.1\nkk = 3\n"));
