@@ -12,8 +12,8 @@
 //!   or NaN in ours against a finite published value is incompatible.
 //! - Fewer than 2 of our replicates: not judged.
 
-use crate::stats::compare::welch_summary_p;
-use statrs::distribution::{ContinuousCDF, StudentsT};
+use crate::stats::compare::{prediction_interval, welch_summary_p};
+use crate::stats::hypothesis::{mean, sample_variance};
 
 /// Significance level of the agreement tests (and 1 − the prediction interval's level).
 pub const ALPHA: f64 = 0.05;
@@ -39,19 +39,6 @@ pub struct Agreement {
     pub interval: Option<(f64, f64)>,
 }
 
-/// Prediction interval at 1 − [`ALPHA`] for the mean of `m` further runs from replicates `x`.
-pub fn mean_prediction_interval(x: &[f64], m: u32) -> (f64, f64) {
-    let n = x.len() as f64;
-    if x.len() < 2 || m == 0 || x.iter().any(|v| !v.is_finite()) {
-        return (f64::NAN, f64::NAN);
-    }
-    let mean = x.iter().sum::<f64>() / n;
-    let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    let t = StudentsT::new(0.0, 1.0, n - 1.0).map(|t| t.inverse_cdf(1.0 - ALPHA / 2.0)).unwrap_or(f64::NAN);
-    let half = t * (var * (1.0 / n + 1.0 / m as f64)).sqrt();
-    (mean - half, mean + half)
-}
-
 /// Judges our replicates `ours` against `published`.
 pub fn judge(published: Published, ours: &[f64]) -> Agreement {
     let none = Agreement { compatible: None, p: None, interval: None };
@@ -64,16 +51,13 @@ pub fn judge(published: Published, ours: &[f64]) -> Agreement {
     if ours.iter().any(|v| !v.is_finite()) {
         return Agreement { compatible: Some(false), ..none };
     }
-    let n = ours.len();
-    let mean = ours.iter().sum::<f64>() / n as f64;
     match published.var {
         Some(var) if published.runs >= 2 => {
-            let v = ours.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-            let p = welch_summary_p(mean, v, n, published.mean, var, published.runs as usize);
+            let p = welch_summary_p(mean(ours), sample_variance(ours), ours.len(), published.mean, var, published.runs as usize);
             Agreement { compatible: Some(p >= ALPHA), p: Some(p), interval: None }
         }
         _ => {
-            let (lo, hi) = mean_prediction_interval(ours, published.runs.max(1));
+            let (lo, hi) = prediction_interval(ours, 1.0 - ALPHA, published.runs.max(1));
             // A constant sample gives a point interval: equal up to rounding is compatible.
             let tol = 1e-9 * published.mean.abs().max(1e-12);
             Agreement { compatible: Some(published.mean >= lo - tol && published.mean <= hi + tol), p: None, interval: Some((lo, hi)) }
@@ -105,7 +89,7 @@ mod tests {
         assert_eq!(judge(Published { mean: 1.4, var: None, runs: 1 }, &ours).compatible, Some(true));
         // the mean of 5 published runs must be closer: 1.4 is outside that narrower interval
         assert_eq!(judge(Published { mean: 1.4, var: None, runs: 5 }, &ours).compatible, Some(false));
-        let (lo, hi) = mean_prediction_interval(&ours, 1);
+        let (lo, hi) = prediction_interval(&ours, 1.0 - ALPHA, 1);
         let half = 2.7764451051977934 * 0.15811388300841897 * (1.2f64).sqrt();
         assert!((lo - (1.0 - half)).abs() < 1e-9 && (hi - (1.0 + half)).abs() < 1e-9);
     }

@@ -26,9 +26,9 @@
 //! Runs share their world seeds across sweep points (replicate k of every point saw the same
 //! world), so cell comparisons use paired differences over replicates.
 
-use crate::spec::{ClaimKind, ClaimSpec, ClaimTest, FlatDirection, Require};
+use crate::spec::{ClaimSpec, ClaimTest, FlatDirection, Require};
 use crate::stats::compare::{stouffer, t_interval, t_one_sided_p};
-use crate::stats::hypothesis::holm;
+use crate::stats::hypothesis::{holm, mean};
 use crate::stats::{self, sig, Summary};
 use crate::store::{ClaimCells, RunRow, RunStatus, StudyData};
 use serde::{Deserialize, Serialize};
@@ -90,22 +90,6 @@ pub struct ClaimResult {
     /// For a verdict other than confirmed: the cause found (the spec's `cause`), or "not yet
     /// investigated"; empty when confirmed.
     pub cause: String,
-}
-
-/// The reference tag of a claim's `source`: "[FT] §7 claim 5" → "FT".
-pub fn seed_tag(source: &str) -> Option<&str> {
-    let s = source.trim_start().strip_prefix('[')?;
-    let tag = &s[..s.find(']')?];
-    (!tag.is_empty() && tag.chars().all(|c| c.is_ascii_uppercase() || c.is_ascii_digit())).then_some(tag)
-}
-
-/// Replicate → metric value of the successful runs of one cell.
-fn cell_values(data: &StudyData, map: &str, algorithm: &str, point: &str, metric: &str) -> BTreeMap<u32, f64> {
-    data.runs
-        .iter()
-        .filter(|r: &&RunRow| r.map == map && r.algorithm == algorithm && r.point == point && r.status == RunStatus::Ok)
-        .filter_map(|r| r.metric(metric).map(|v| (r.replicate, v)))
-        .collect()
 }
 
 fn describe(s: &Summary) -> String {
@@ -226,13 +210,9 @@ pub fn decide_no_decrease(diffs: &[Vec<f64>], tol: f64) -> Verdict {
     if below_p(diffs, tol) < (1.0 - CONFIDENCE) / 2.0 { Verdict::Refuted } else { Verdict::Inconclusive }
 }
 
-fn mean(x: &[f64]) -> f64 {
-    x.iter().sum::<f64>() / x.len() as f64
-}
-
 /// Evaluates one claim on one map.
 fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, algorithm: &str) -> MapOutcome {
-    let values = |point: &Option<String>, alg: &str| point.as_deref().map(|p| cell_values(data, map, alg, p, &claim.metric)).unwrap_or_default();
+    let values = |point: &Option<String>, alg: &str| point.as_deref().map(|p| data.replicate_values(map, alg, p, &claim.metric)).unwrap_or_default();
     let than_algorithm = claim.than_algorithm.map_or(algorithm, |a| a.name());
     let at = values(&cells.at, algorithm);
     let s_at = summarize(&at);
@@ -242,7 +222,7 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
             ClaimTest::Flat => (cells.over.first().map(|(_, p)| p.clone()), cells.over.first().map_or(String::new(), |(v, _)| format!("{} = {v}", claim.over_param()))),
             _ => (cells.at.clone(), cell_text(&claim.at)),
         };
-        let m = summarize(&point.as_deref().map(|p| cell_values(data, map, algorithm, p, &pre.metric)).unwrap_or_default()).mean;
+        let m = summarize(&point.as_deref().map(|p| data.replicate_values(map, algorithm, p, &pre.metric)).unwrap_or_default()).mean;
         let ok = pre.below.is_none_or(|b| m < b) && pre.above.is_none_or(|a| m > a);
         if !ok {
             let need = match (pre.below, pre.above) {
@@ -332,7 +312,7 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
             MapOutcome { verdict, text, direction, p_claim: t_one_sided_p(&d, delta, claimed_above), p_against: t_one_sided_p(&d, delta, !claimed_above) }
         }
         ClaimTest::Flat => {
-            let over: Vec<(String, BTreeMap<u32, f64>)> = cells.over.iter().map(|(v, p)| (v.clone(), cell_values(data, map, algorithm, p, &claim.metric))).collect();
+            let over: Vec<(String, BTreeMap<u32, f64>)> = cells.over.iter().map(|(v, p)| (v.clone(), data.replicate_values(map, algorithm, p, &claim.metric))).collect();
             let means: Vec<(String, f64)> = over.iter().map(|(v, c)| (v.clone(), summarize(c).mean)).collect();
             let listed = means.iter().map(|(v, m)| format!("{v}: {}", sig(*m, 3))).collect::<Vec<_>>().join(", ");
             let level = mean(&means.iter().map(|(_, m)| m.abs()).collect::<Vec<_>>());
@@ -479,7 +459,7 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
                 study: spec.id.clone(),
                 id: claim.id.clone(),
                 source: claim.source.clone(),
-                seed: seed_tag(&claim.source).unwrap_or("").to_string(),
+                seed: claim.seed_tag().unwrap_or("").to_string(),
                 kind: claim.kind.as_str().to_string(),
                 text: claim.text.clone(),
                 test: test_text(claim, cells),
@@ -550,16 +530,6 @@ fn test_text(c: &ClaimSpec, cells: &ClaimCells) -> String {
                 FlatDirection::NoIncrease => format!("not higher than at {} by more than the tolerance (one-sided, 95 %)", over.first().copied().unwrap_or("?")),
             };
             format!("{metric} over {} ∈ {{{}}} {how}; tolerance {tol}", c.over_param(), over.join(", "))
-        }
-    }
-}
-
-impl ClaimKind {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            ClaimKind::Seed => "seed",
-            ClaimKind::Calibration => "calibration",
-            ClaimKind::Extension => "extension",
         }
     }
 }
@@ -671,12 +641,5 @@ mod tests {
         assert_eq!(pooled(&[o(0.04, 0.96), o(0.04, 0.96), o(0.04, 0.96)]).0, Verdict::Confirmed);
         assert_eq!(pooled(&[o(0.001, 0.999), o(0.999, 0.001)]).0, Verdict::Inconclusive);
         assert_eq!(pooled(&[MapOutcome::untestable("x".into())]).0, Verdict::Untestable);
-    }
-
-    #[test]
-    fn seed_tags() {
-        assert_eq!(seed_tag("[FT] §7 claim 5"), Some("FT"));
-        assert_eq!(seed_tag("Montemerlo et al. 2003"), None);
-        assert_eq!(seed_tag("[EP] claim C2 on real scans"), Some("EP"));
     }
 }

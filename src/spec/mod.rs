@@ -195,6 +195,23 @@ impl ClaimSpec {
     pub fn over_param(&self) -> String {
         self.over.keys().next().cloned().unwrap_or_default()
     }
+
+    /// The reference work's tag leading `source`: "[FT] §7 claim 5" → "FT".
+    pub fn seed_tag(&self) -> Option<&str> {
+        let s = self.source.trim_start().strip_prefix('[')?;
+        let tag = &s[..s.find(']')?];
+        (!tag.is_empty() && tag.chars().all(|c| c.is_ascii_uppercase() || c.is_ascii_digit())).then_some(tag)
+    }
+}
+
+impl ClaimKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ClaimKind::Seed => "seed",
+            ClaimKind::Calibration => "calibration",
+            ClaimKind::Extension => "extension",
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
@@ -637,7 +654,7 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         if needs_why && c.why.trim().is_empty() {
             err(&key("why"), "say why the tolerance, margin or minimum effect is what it is (a `why` is required for flat, not_greater and not_less claims and any explicit minimum effect)".into());
         }
-        if c.kind == ClaimKind::Seed && crate::judge::claims::seed_tag(&c.source).is_none() {
+        if c.kind == ClaimKind::Seed && c.seed_tag().is_none() {
             err(&key("source"), format!("a `seed` claim's source must start with the reference work's tag, e.g. \"[FT] §7 claim 5\", got {:?}", c.source));
         }
         for m in &c.maps {
@@ -715,6 +732,14 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let paths: Vec<_> = s.sweeps[0].params.iter().map(|p| (p.path.as_str(), p.key.as_str())).collect();
         assert_eq!(paths, vec![("odometry.k", "sweeps[0].values.\"odometry.k\""), ("sim.dt_s", "sweeps[0].values.sim.dt_s")]);
         assert_eq!(s.spec.base.odometry, crate::world::odometry::OdometryNoise::Proportional { k: 0.1, k_is: crate::world::odometry::Spread::Std });
+    }
+
+    #[test]
+    fn seed_tags() {
+        let tag = |source: &str| ClaimSpec { source: source.into(), ..toml::from_str::<ClaimSpec>("id = \"c\"\nsource = \"\"\nkind = \"seed\"\ntext = \"t\"\ntest = \"fails\"").unwrap() }.seed_tag().map(str::to_string);
+        assert_eq!(tag("[FT] §7 claim 5").as_deref(), Some("FT"));
+        assert_eq!(tag("Montemerlo et al. 2003"), None);
+        assert_eq!(tag("[EP] claim C2 on real scans").as_deref(), Some("EP"));
     }
 
     /// The claim rules' inputs are checked with file/line/key errors: a kind, a tagged source

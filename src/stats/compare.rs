@@ -13,16 +13,8 @@
 //! Pure: no IO and no randomness. Non-finite inputs give NaN estimates and p = NaN; callers decide
 //! what an untestable input means.
 
+use super::hypothesis::{mean, sample_variance as variance};
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
-
-fn mean(x: &[f64]) -> f64 {
-    x.iter().sum::<f64>() / x.len() as f64
-}
-
-fn variance(x: &[f64]) -> f64 {
-    let m = mean(x);
-    x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (x.len() - 1) as f64
-}
 
 fn student(df: f64) -> Option<StudentsT> {
     (df > 0.0).then(|| StudentsT::new(0.0, 1.0, df).ok()).flatten()
@@ -82,19 +74,20 @@ pub fn welch_summary_p(m1: f64, v1: f64, n1: usize, m2: f64, v2: f64, n2: usize)
     }
 }
 
-/// Prediction interval at `confidence` for one further run, from replicates `x` ([HM] §4.6):
-/// x̄ ± t_{n−1} s √(1 + 1/n). (NaN, NaN) for n < 2 or non-finite data.
-pub fn prediction_interval(x: &[f64], confidence: f64) -> (f64, f64) {
-    if x.len() < 2 || x.iter().any(|v| !v.is_finite()) {
+/// Prediction interval at `confidence` for the mean of `m` further runs, from replicates `x`
+/// ([HM] §4.6): x̄ ± t_{n−1} s √(1/n + 1/m); m = 1 is a single further run. (NaN, NaN) for
+/// n < 2, m = 0 or non-finite data.
+pub fn prediction_interval(x: &[f64], confidence: f64, m: u32) -> (f64, f64) {
+    if x.len() < 2 || m == 0 || x.iter().any(|v| !v.is_finite()) {
         return (f64::NAN, f64::NAN);
     }
     let n = x.len() as f64;
-    let m = mean(x);
+    let c = mean(x);
     let half = match student(n - 1.0) {
-        Some(t) => t.inverse_cdf(0.5 + confidence / 2.0) * variance(x).sqrt() * (1.0 + 1.0 / n).sqrt(),
+        Some(t) => t.inverse_cdf(0.5 + confidence / 2.0) * (variance(x) * (1.0 / n + 1.0 / m as f64)).sqrt(),
         None => f64::NAN,
     };
-    (m - half, m + half)
+    (c - half, c + half)
 }
 
 /// Stouffer's combination of independent one-sided p-values ([St]): p = 1 − Φ(Σ Φ⁻¹(1 − p_i) / √k).
@@ -196,7 +189,7 @@ mod tests {
         let hits = (0..trials)
             .filter(|_| {
                 let x: Vec<f64> = (0..5).map(|_| d.sample(&mut rng)).collect();
-                let (lo, hi) = prediction_interval(&x, 0.95);
+                let (lo, hi) = prediction_interval(&x, 0.95, 1);
                 let y = d.sample(&mut rng);
                 lo <= y && y <= hi
             })

@@ -60,7 +60,7 @@ pub fn mean(x: &[f64]) -> f64 {
 }
 
 /// Unbiased sample variance (divisor n − 1); NaN for n < 2.
-fn sample_variance(x: &[f64]) -> f64 {
+pub fn sample_variance(x: &[f64]) -> f64 {
     if x.len() < 2 {
         return f64::NAN;
     }

@@ -337,6 +337,18 @@ pub struct StudyData {
     pub reference: Vec<reference::ReferenceRow>,
 }
 
+impl StudyData {
+    /// Replicate → value of `metric` over the successful runs of one cell (map, algorithm, sweep
+    /// point): what every verdict compares (replicate k of two cells saw the same world).
+    pub fn replicate_values(&self, map: &str, algorithm: &str, point: &str, metric: &str) -> std::collections::BTreeMap<u32, f64> {
+        self.runs
+            .iter()
+            .filter(|r| r.map == map && r.algorithm == algorithm && r.point == point && r.status == RunStatus::Ok)
+            .filter_map(|r| r.metric(metric).map(|v| (r.replicate, v)))
+            .collect()
+    }
+}
+
 pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
     let resolved_path = dir.join("resolved.toml");
     let text = std::fs::read_to_string(&resolved_path).map_err(|e| StoreError::io(&resolved_path, e))?;

@@ -76,11 +76,18 @@ fn every_source_file_says_what_it_does() {
 }
 
 /// Verdicts live below the pages that show them: `stats/` and `judge/` import neither `report/`
-/// nor `diff/`, and `diff/` does not reach into `report/` (nor `report/` into `diff/`'s rules).
+/// nor `diff/`, `diff/` does not reach into `report/`, and `spec/` (the judge's input) imports none
+/// of them.
 #[test]
 fn verdict_rules_sit_below_report_and_diff() {
     let src = repo().join("src");
-    for (layer, banned) in [("stats", &["crate::report", "crate::diff", "crate::judge"][..]), ("judge", &["crate::report", "crate::diff"][..]), ("diff", &["crate::report"][..])] {
+    for (layer, banned) in [
+        ("stats", &["crate::report", "crate::diff", "crate::judge"][..]),
+        ("judge", &["crate::report", "crate::diff"][..]),
+        ("diff", &["crate::report"][..]),
+        // the specs are the judge's input, never the other way round
+        ("spec", &["crate::judge", "crate::report", "crate::diff"][..]),
+    ] {
         for (path, text) in sources(&src.join(layer)) {
             let code = code(&text);
             for b in banned {
