@@ -20,7 +20,7 @@ use super::claims::{ClaimResult, Verdict};
 use crate::stats::compare::spearman;
 use crate::stats::sig;
 use crate::store::reference::{cell_metric_name, ReferenceRow};
-use crate::store::{ParamValue, RunStatus, StudyData};
+use crate::store::{ParamValue, StudyData};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -132,30 +132,31 @@ pub struct ItemResult {
     pub basis: String,
 }
 
-/// The value of `path` at a sweep point, as a number: its assignment, else the base value.
-fn point_value(data: &StudyData, point: &crate::store::PointRecord, path: &str) -> Option<f64> {
-    let v = point.assignments.get(path).cloned().or_else(|| {
-        let mut leaves = Vec::new();
-        let base = toml::Table::try_from(&data.resolved.spec.base).unwrap_or_default();
-        crate::spec::params::flatten("", &toml::Value::Table(base), &mut leaves);
-        leaves.into_iter().find(|(k, _)| k == path).map(|(_, v)| v)
-    })?;
-    ParamValue::from_toml(&v).as_f64()
+/// The sweep point that a published row describes (see [`point_in`]).
+pub fn point_of(data: &StudyData, row: &ReferenceRow) -> Option<String> {
+    let base = toml::Table::try_from(&data.resolved.spec.base).unwrap_or_default();
+    point_in(&data.resolved.points, &base, row)
 }
 
-/// The sweep point that a published row describes: the named cell (long layout), or the first
-/// point of a group sweeping the row's parameter at the row's value (wide layout).
-pub fn point_of(data: &StudyData, row: &ReferenceRow) -> Option<String> {
-    let points = &data.resolved.points;
+/// The sweep point of `points` that a published row describes: the named cell (long layout); else
+/// (wide layout) the first point that sets the row's parameter to the row's value, or, when that
+/// value is the base one, a point of the base configuration (every value it sets equals the
+/// base's) — never a point that varies another parameter.
+pub fn point_in(points: &[crate::store::PointRecord], base: &toml::Table, row: &ReferenceRow) -> Option<String> {
     if !row.cell.is_empty() {
         return points.iter().find(|p| p.label == row.cell).map(|p| p.label.clone());
     }
-    let close = |v: f64| (v - row.value).abs() <= 1e-9 * row.value.abs().max(1.0) || v == row.value;
-    points
-        .iter()
-        .find(|p| p.assignments.contains_key(&row.parameter) && point_value(data, p, &row.parameter).is_some_and(close))
-        .or_else(|| points.iter().find(|p| point_value(data, p, &row.parameter).is_some_and(close)))
-        .map(|p| p.label.clone())
+    let close = |v: &toml::Value| ParamValue::from_toml(v).as_f64().is_some_and(|v| v == row.value || (v - row.value).abs() <= 1e-9 * row.value.abs().max(1.0));
+    if let Some(p) = points.iter().find(|p| p.assignments.get(&row.parameter).is_some_and(close)) {
+        return Some(p.label.clone());
+    }
+    let mut leaves = Vec::new();
+    crate::spec::params::flatten("", &toml::Value::Table(base.clone()), &mut leaves);
+    if !leaves.iter().any(|(k, v)| *k == row.parameter && close(v)) {
+        return None;
+    }
+    let at_base = |k: &str, v: &toml::Value| leaves.iter().any(|(b, bv)| b == k && bv == v);
+    points.iter().find(|p| p.assignments.iter().all(|(k, v)| at_base(k, v))).map(|p| p.label.clone())
 }
 
 /// Our successful replicates' values of `metric` in the cell a published row describes (the
@@ -163,13 +164,7 @@ pub fn point_of(data: &StudyData, row: &ReferenceRow) -> Option<String> {
 pub fn our_values(data: &StudyData, row: &ReferenceRow, metric: &str) -> Option<Vec<f64>> {
     let point = point_of(data, row)?;
     let algorithm = if row.algorithm.is_empty() { data.resolved.spec.algorithms.first()?.name().to_string() } else { row.algorithm.clone() };
-    let map = row.map.as_str();
-    let v: Vec<f64> = data
-        .runs
-        .iter()
-        .filter(|r| r.map == map && r.algorithm == algorithm && r.point == point && r.status == RunStatus::Ok)
-        .filter_map(|r| r.metric(metric))
-        .collect();
+    let v: Vec<f64> = data.replicate_values(&row.map, &algorithm, &point, metric).into_values().collect();
     (!v.is_empty()).then_some(v)
 }
 
@@ -339,6 +334,22 @@ mod tests {
         assert_eq!(c(Untestable, None, Confirmed, Some(true)), Class::Match);
         let x = claim("a", Confirmed, Some(true));
         assert_eq!(classify_claims(&ids, &[&x]).0, Class::Missing);
+    }
+
+    /// A published row at the base value of a parameter whose sweep omits it describes the base
+    /// configuration — here the σρ² sweep's base point — not the first point that merely leaves
+    /// the parameter at base while varying another (σρ² = 1e-4).
+    #[test]
+    fn a_base_valued_row_maps_to_the_base_configuration() {
+        let point = |label: &str, k: &str, v: f64| crate::store::PointRecord { label: label.into(), groups: vec![0], assignments: [(k.to_string(), toml::Value::Float(v))].into_iter().collect() };
+        let rho = "fastslam.obs_var_rho_m2";
+        let theta = "fastslam.obs_var_theta_rad2";
+        let points = vec![point("rho-small", rho, 1e-4), point("rho-base", rho, 0.04), point("theta-small", theta, 1e-4)];
+        let base: toml::Table = toml::from_str("[fastslam]\nobs_var_rho_m2 = 0.04\nobs_var_theta_rad2 = 0.001224\n").unwrap();
+        let row = |param: &str, value: f64| ReferenceRow { experiment: "e".into(), table: "t".into(), map: "m".into(), parameter: param.into(), value, metrics: Vec::new(), algorithm: String::new(), cell: String::new() };
+        assert_eq!(point_in(&points, &base, &row(theta, 0.001224)).as_deref(), Some("rho-base"));
+        assert_eq!(point_in(&points, &base, &row(theta, 1e-4)).as_deref(), Some("theta-small"));
+        assert_eq!(point_in(&points, &base, &row(theta, 0.5)), None, "no counterpart");
     }
 
     #[test]
