@@ -420,15 +420,13 @@ impl<'a> FastSlam1<'a> {
         let p = &mut self.particles[i];
         if needs_write {
             let map = p.map_mut();
-            // landmarks already corrected in this step: a second feature on one of them is
-            // evaluated afresh against its corrected state (a sequential EKF update and factor)
-            let mut touched: Vec<(Model, usize)> = Vec::new();
-            for (m, (d, matched)) in z.iter().zip(&decisions) {
+            for (k, (m, (d, matched))) in z.iter().zip(&decisions).enumerate() {
                 match (d, matched) {
                     (Association::Known { landmark, .. }, Some(mt)) => {
-                        let key = (m.model, *landmark);
-                        let fresh = if touched.contains(&key) { evaluate(m, &map.of(m.model)[*landmark], &pose, &m.r) } else { Some(*mt) };
-                        touched.push(key);
+                        // a landmark an earlier feature of this scan already corrected is evaluated
+                        // afresh against its corrected state (a sequential EKF update and factor)
+                        let again = z[..k].iter().zip(&decisions[..k]).any(|(m2, (d2, _))| m2.model == m.model && matches!(d2, Association::Known { landmark: l, .. } if l == landmark));
+                        let fresh = if again { evaluate(m, &map.of(m.model)[*landmark], &pose, &m.r) } else { Some(*mt) };
                         let Some(mt) = fresh else {
                             failures += 1;
                             continue;

@@ -300,7 +300,7 @@ impl<'a> FastSlam2<'a> {
             // the start: the pose is known exactly, nothing to sample
             if !z.is_empty() {
                 let decisions = self.associate(i, &previous, &Matrix3::zeros(), z);
-                self.update(i, previous, z, &decisions, &[]);
+                self.update(i, previous, z, &decisions);
             }
             return;
         };
@@ -312,15 +312,15 @@ impl<'a> FastSlam2<'a> {
             Proposal::Observations => {
                 let predicted = self.motion.predict(&previous, u); // Eq. (1)
                 let q = self.motion.covariance(&previous, u); // Eq. (1)
-                let decisions = self.associate(i, &predicted, &q, z);
-                let (pose, factors) = self.sample_proposal(i, (&previous, u), (predicted, q), z, &decisions, rng);
-                self.update(i, pose, z, &decisions, &factors);
+                let mut decisions = self.associate(i, &predicted, &q, z);
+                let pose = self.sample_proposal(i, (&previous, u), (predicted, q), z, &mut decisions, rng);
+                self.update(i, pose, z, &decisions);
                 pose
             }
             Proposal::Motion => {
                 let pose = self.motion.sample(&previous, u, rng);
                 let decisions = self.associate(i, &pose, &Matrix3::zeros(), z);
-                self.update(i, pose, z, &decisions, &[]);
+                self.update(i, pose, z, &decisions);
                 pose
             }
         };
@@ -383,37 +383,40 @@ impl<'a> FastSlam2<'a> {
     /// Draws particle `i`'s pose from the proposal: the motion prediction (x̂, Q) refined by
     /// every observation matched to a known landmark (Eqs. 4–6). Always draws three standard
     /// normals; with nothing matched, or an indefinite Σx (counted), the motion model's sample.
-    /// Also returns, per observation, its chain-rule weight factor (see [`refine`]): together they
-    /// are the joint predictive density of the matched observations, whose shared pose error the
-    /// product of their marginals would count once per observation.
-    fn sample_proposal(&mut self, i: usize, (previous, u): (&Pose2, &Pose2), (predicted, q): (Pose2, Matrix3<f64>), z: &[Observation], decisions: &Decisions, rng: &mut ChaCha8Rng) -> (Pose2, Vec<Option<f64>>) {
+    /// Each matched observation's weight factor becomes its chain-rule factor (see [`refine`]):
+    /// together they are the joint predictive density of the matched observations, whose shared
+    /// pose error the product of their marginals would count once per observation. A failed
+    /// refinement keeps the association's value.
+    fn sample_proposal(&mut self, i: usize, (previous, u): (&Pose2, &Pose2), (predicted, q): (Pose2, Matrix3<f64>), z: &[Observation], decisions: &mut Decisions, rng: &mut ChaCha8Rng) -> Pose2 {
         let map = &self.particles[i].map;
         let (mut mu, mut sigma) = (predicted, q);
-        let mut factors = vec![None; z.len()];
-        for (k, (o, d)) in z.iter().zip(decisions).enumerate() {
-            if let Association::Known { landmark, .. } = *d {
-                factors[k] = refine(&mut mu, &mut sigma, o, &map.of(o.model)[landmark]);
-                if factors[k].is_none() {
-                    self.numerical_failures += 1;
+        let mut refined = 0;
+        for (o, d) in z.iter().zip(decisions.iter_mut()) {
+            if let Association::Known { landmark, log_likelihood } = d {
+                match refine(&mut mu, &mut sigma, o, &map.of(o.model)[*landmark]) {
+                    Some(factor) => {
+                        *log_likelihood = factor;
+                        refined += 1;
+                    }
+                    None => self.numerical_failures += 1,
                 }
             }
         }
-        if factors.iter().all(Option::is_none) {
-            return (self.motion.sample(previous, u, rng), factors); // the proposal is the motion model
+        if refined == 0 {
+            return self.motion.sample(previous, u, rng); // the proposal is the motion model
         }
         let Some(l) = psd_cholesky(&sigma) else {
             self.numerical_failures += 1;
-            return (self.motion.sample(previous, u, rng), factors);
+            return self.motion.sample(previous, u, rng);
         };
         let n: Vector3<f64> = Vector3::new(rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
         let d = l * n; // Eq. (6)
-        (Pose2::new(mu.x + d[0], mu.y + d[1], wrap_angle(mu.theta + d[2])), factors)
+        Pose2::new(mu.x + d[0], mu.y + d[1], wrap_angle(mu.theta + d[2]))
     }
 
     /// Updates particle `i`'s landmarks from its sampled `pose` (Eq. 7), adds the new ones, and
-    /// multiplies its weight (Eq. 8): by the proposal's chain-rule factor of each matched
-    /// observation where `factors` has one, else by its likelihood at association.
-    fn update(&mut self, i: usize, pose: Pose2, z: &[Observation], decisions: &Decisions, factors: &[Option<f64>]) {
+    /// multiplies its weight (Eq. 8) by each decision's factor.
+    fn update(&mut self, i: usize, pose: Pose2, z: &[Observation], decisions: &Decisions) {
         let known = self.params.association == DataAssociation::Known;
         let ln_p0 = self.ln_p0;
         let mut failures = 0;
@@ -421,10 +424,10 @@ impl<'a> FastSlam2<'a> {
         let p = &mut self.particles[i];
         if decisions.iter().any(|d| !matches!(d, Association::Ignored)) {
             let map: &mut Map = p.map_mut(); // copied here only if shared
-            for (k, (o, d)) in z.iter().zip(decisions).enumerate() {
+            for (o, d) in z.iter().zip(decisions) {
                 match *d {
                     Association::Known { landmark, log_likelihood } => {
-                        log_weight += factors.get(k).copied().flatten().unwrap_or(log_likelihood); // Eq. (8), jointly
+                        log_weight += log_likelihood; // Eq. (8): the chain-rule factor, jointly
                         if !correct(&mut map.of_mut(o.model)[landmark], o, &pose) {
                             failures += 1;
                         }
