@@ -132,9 +132,9 @@ impl Study<'_> {
         let failed = runs.iter().filter(|r| r.status != RunStatus::Ok).count();
         (stats::summarize(&values), failed, runs.len())
     }
-    /// The successful replicates' values of a cell (run-id order).
+    /// The successful replicates' values of a cell.
     fn values(&self, map: &str, algorithm: &str, point: &str, metric: &str) -> Vec<f64> {
-        self.runs_of(map, algorithm, point).filter(|r| r.status == RunStatus::Ok).filter_map(|r| r.metric(metric)).collect()
+        self.data.replicate_values(map, algorithm, point, metric).into_values().collect()
     }
     /// Runs behind each published mean.
     fn published_runs(&self) -> u32 {
