@@ -294,12 +294,7 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
             let (lo, hi) = t_interval(&d, CONFIDENCE);
             let m = mean(&d);
             let direction = Some(if claimed_above { m > delta } else { m < delta });
-            let word = match claim.test {
-                ClaimTest::Greater => "excess",
-                ClaimTest::Less => "shortfall",
-                ClaimTest::NotGreater => "excess",
-                _ => "shortfall",
-            };
+            let word = if matches!(claim.test, ClaimTest::Greater | ClaimTest::NotGreater) { "excess" } else { "shortfall" };
             let text = format!(
                 "{} vs {}; {word} {} [{}, {}] against δ = {}",
                 describe(&s_at),
