@@ -19,7 +19,7 @@ use std::hint::black_box;
 const MEASURED_STEPS: usize = 50;
 
 fn world_of(map: &Map) -> World {
-    let sim = SimParams { dt_s: 0.2 };
+    let sim = SimParams { dt_s: 0.2, ..SimParams::default() };
     let laser = LaserParams { resolution_deg: 0.5, rate_hz: 5.0, range_sigma_m: 0.0, ..LaserParams::default() };
     generate(&WorldSpec { map, sim: &sim, odometry: &OdometryNoise::default(), laser: Some(&laser), landmark_sensor: None }, 9).unwrap()
 }

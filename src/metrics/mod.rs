@@ -7,7 +7,7 @@ use crate::slam::{LandmarkMap, Trace};
 use crate::world::World;
 
 /// Bump when a metric's definition changes (part of every run's content hash).
-pub const METRICS_VERSION: &str = "metrics-2";
+pub const METRICS_VERSION: &str = "metrics-3";
 
 /// A metric's documentation, shown in reports and the README.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -24,6 +24,15 @@ pub const ATE_RMSE: &str = "ate_rmse_m";
 /// Every metric the pipeline can produce, in display order.
 pub const METRICS: &[MetricDef] = &[
     MetricDef { name: ATE_RMSE, title: "ATE RMSE", unit: "m", description: "root mean square of the position error over all steps (evo APE, translation, no alignment)", lower_is_better: true },
+    MetricDef { name: "ate_x_rmse_m", title: "ATE RMSE in x", unit: "m", description: "root mean square of the x component of the position error over all steps (the map frame's x axis)", lower_is_better: true },
+    MetricDef { name: "ate_y_rmse_m", title: "ATE RMSE in y", unit: "m", description: "root mean square of the y component of the position error over all steps", lower_is_better: true },
+    MetricDef {
+        name: "ate_x_share",
+        title: "x share of the squared error",
+        unit: "fraction",
+        description: "Σ Δx² / Σ (Δx² + Δy²) over all steps (absent when the trajectory has no error): above 0.5 when the drift is mostly along x ([FT] claim 14: Complex's 40 m corridor along x)",
+        lower_is_better: false,
+    },
     MetricDef { name: "ate_mean_m", title: "ATE mean", unit: "m", description: "mean position error over all steps", lower_is_better: true },
     MetricDef { name: "ate_median_m", title: "ATE median", unit: "m", description: "median position error over all steps", lower_is_better: true },
     MetricDef { name: "ate_max_m", title: "ATE max", unit: "m", description: "largest position error over all steps", lower_is_better: true },
@@ -323,6 +332,8 @@ pub fn trajectory_metrics(truth: &[Pose2], estimate: &[Pose2]) -> RunMetrics {
     let errors: Vec<f64> = pairs.iter().map(|(t, e)| t.position().distance(e.position())).collect();
     let n = errors.len() as f64;
     let rmse = (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
+    let sq_x: f64 = pairs.iter().map(|(t, e)| (t.x - e.x).powi(2)).sum();
+    let sq_y: f64 = pairs.iter().map(|(t, e)| (t.y - e.y).powi(2)).sum();
     let mean = errors.iter().sum::<f64>() / n;
     let max = errors.iter().copied().fold(f64::NAN, f64::max);
     let (final_pos, final_heading) = match pairs.last() {
@@ -332,15 +343,22 @@ pub fn trajectory_metrics(truth: &[Pose2], estimate: &[Pose2]) -> RunMetrics {
     // consecutive known positions (sparse truth such as GPS: the path through its fixes)
     let known_positions: Vec<Point2> = truth.iter().filter(|t| known(t)).map(|t| t.position()).collect();
     let path_length = known_positions.windows(2).map(|w| w[0].distance(w[1])).sum();
-    vec![
+    let mut out = vec![
         (ATE_RMSE, rmse),
+        ("ate_x_rmse_m", (sq_x / n).sqrt()),
+        ("ate_y_rmse_m", (sq_y / n).sqrt()),
         ("ate_mean_m", mean),
         ("ate_median_m", median(&errors)),
         ("ate_max_m", max),
         ("final_position_error_m", final_pos),
         ("final_heading_error_deg", final_heading),
         ("path_length_m", path_length),
-    ]
+    ];
+    // undefined without any position error (then absent, as a metric the run does not have)
+    if sq_x + sq_y > 0.0 {
+        out.push(("ate_x_share", sq_x / (sq_x + sq_y)));
+    }
+    out
 }
 
 /// Median (mean of the two middle values for an even count); NaN when empty or any value is NaN.
@@ -382,6 +400,12 @@ mod tests {
         assert_eq!(get(&m, "ate_median_m"), 3.0);
         assert_eq!(get(&m, "ate_max_m"), 4.0);
         assert_eq!(get(&m, "final_position_error_m"), 4.0);
+        // all of the error is along y
+        assert_eq!((get(&m, "ate_x_rmse_m"), get(&m, "ate_x_share")), (0.0, 0.0));
+        assert!((get(&m, "ate_y_rmse_m") - (25.0f64 / 3.0).sqrt()).abs() < 1e-12);
+        // a (3, 4) offset: x carries 9/25 of the squared error
+        let mixed = trajectory_metrics(&truth[..2], &[Pose2::new(0.0, 0.0, 0.0), Pose2::new(4.0, 4.0, 0.0)]);
+        assert!((get(&mixed, "ate_x_share") - 9.0 / 25.0).abs() < 1e-12 && (get(&mixed, "ate_x_rmse_m") - 4.5f64.sqrt()).abs() < 1e-12);
         // heading 3 vs −3 rad differ by 6 rad ≡ 2π − 6 ≈ 0.283 rad after wrapping
         assert!((get(&m, "final_heading_error_deg") - (2.0 * std::f64::consts::PI - 6.0).to_degrees()).abs() < 1e-9);
     }

@@ -132,6 +132,15 @@ pub fn build(spec: LoadedSpec, maps_dir: &Path) -> Result<ExperimentPlan, InputE
             Err(e) => return Err(SpecError::new(&spec.path, vec![e]).into()),
         }
     }
+    for (i, c) in spec.spec.report.contrasts.iter().enumerate() {
+        for (j, pair) in c.pairs.iter().enumerate() {
+            if let Some(name) = pair.iter().find(|n| !points.iter().any(|p| &p.label == *n)) {
+                let known: Vec<&str> = points.iter().map(|p| p.label.as_str()).collect();
+                let msg = format!("no sweep point `{name}` (the study's points: {})", known.join(", "));
+                return Err(SpecError::new(&spec.path, vec![spec.error_at(&format!("report.contrasts[{i}].pairs[{j}]"), msg)]).into());
+            }
+        }
+    }
     let runs = runs(&spec, &maps, &points);
     let mut ids: Vec<&str> = runs.iter().map(|r| r.run_id.as_str()).collect();
     ids.sort_unstable();

@@ -84,6 +84,8 @@ pub struct StudyView {
     pub trajectories: Vec<FigureView>,
     /// Per-landmark error tables beside published ones (`[report] landmark_reference`).
     pub landmark_tables: Vec<NamedTable>,
+    /// Paired differences between chosen cells (`[[report.contrasts]]`).
+    pub contrasts: Vec<NamedTable>,
     pub failures: TableView,
     pub metrics: TableView,
     pub provenance: Vec<Kv>,
@@ -223,6 +225,7 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
     }
     let trajectories = trajectory_views(&study, traces);
     let landmark_tables = landmark_tables(&study, traces);
+    let contrasts = contrast_tables(&study);
     let failed = data.runs.iter().filter(|r| r.status != RunStatus::Ok).count();
     let view = StudyView {
         id: spec.id.clone(),
@@ -238,6 +241,7 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
         claims: crate::judge::claims::evaluate(data),
         trajectories,
         landmark_tables,
+        contrasts,
         failures: failures_table(data),
         metrics: TableView {
             columns: vec!["Metric".into(), "Unit".into(), "Definition".into()],
@@ -937,6 +941,64 @@ fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
         }
     }
     out
+}
+
+/// `[[report.contrasts]]`: per contrast, metric and algorithm, one row per pair `cell − against`
+/// and one column per map: the mean paired difference over the replicates both cells have, its
+/// 95 % t interval, and the difference relative to the `against` cell's mean.
+fn contrast_tables(study: &Study<'_>) -> Vec<NamedTable> {
+    let spec = study.spec();
+    let mut out = Vec::new();
+    for c in &spec.report.contrasts {
+        let metrics: Vec<&str> = if c.metrics.is_empty() { spec.report.metrics.iter().map(String::as_str).collect() } else { c.metrics.iter().map(String::as_str).collect() };
+        for metric in metrics {
+            let Some(def) = metric_def(metric) else { continue };
+            for algorithm in &spec.algorithms {
+                let rows = c
+                    .pairs
+                    .iter()
+                    .map(|[cell, against]| {
+                        let mut row = vec![format!("{cell} − {against}")];
+                        for (map, _) in &study.maps {
+                            let a = study.data.replicate_values(map, algorithm.name(), cell, metric);
+                            let b = study.data.replicate_values(map, algorithm.name(), against, metric);
+                            let (d, base): (Vec<f64>, Vec<f64>) = a.iter().filter_map(|(k, x)| b.get(k).map(|y| (x - y, *y))).unzip();
+                            row.push(contrast_entry(&d, &base));
+                        }
+                        row
+                    })
+                    .collect();
+                let algorithm_title = if spec.algorithms.len() > 1 { format!(" — {}", algorithm.title()) } else { String::new() };
+                out.push(NamedTable {
+                    title: format!("{}: {} [{}]{algorithm_title}", c.title, def.title, def.unit),
+                    caption: format!(
+                        "{}{}Each entry: mean paired difference over the replicates both cells ran (replicate k of both sees the same world), its 95 % t interval, and the difference relative to the second cell's mean; — where fewer than two pairs or a non-finite value.",
+                        c.caption,
+                        if c.caption.is_empty() { "" } else { " " }
+                    ),
+                    table: TableView {
+                        columns: std::iter::once("Cells".to_string()).chain(study.maps.iter().map(|(m, _)| m.clone())).collect(),
+                        rows,
+                        align: format!("l{}", "r".repeat(study.maps.len())),
+                    },
+                });
+            }
+        }
+    }
+    out
+}
+
+/// "+0.052 [+0.031, +0.073] (+21 %)" for paired differences `d` against the values `base`.
+fn contrast_entry(d: &[f64], base: &[f64]) -> String {
+    let (lo, hi) = stats::compare::t_interval(d, 0.95);
+    if lo.is_nan() {
+        return "—".into();
+    }
+    let mean_d = d.iter().sum::<f64>() / d.len() as f64;
+    let mean_base = base.iter().sum::<f64>() / base.len() as f64;
+    let signed = |v: f64| if v > 0.0 { format!("+{}", sig(v, 2)) } else { sig(v, 2) };
+    let rel = if mean_base != 0.0 && mean_base.is_finite() { format!(" ({}{:.0} %)", if mean_d > 0.0 { "+" } else { "" }, 100.0 * mean_d / mean_base) } else { String::new() };
+    format!("{} [{}, {}]{rel}", signed(mean_d), signed(lo), signed(hi))
 }
 
 /// A published landmark is matched to a true one within this distance [m] (the tables give whole

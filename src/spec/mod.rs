@@ -294,6 +294,26 @@ pub struct ReportSpec {
     /// What the bands around our series show: `ci` (95 % confidence interval of the mean, the
     /// default) or `two_sigma` (mean ± 2 sample standard deviations, as [PF]'s Figs 8–9 draw).
     pub bands: Bands,
+    /// Tables of paired differences between chosen cells (`[[report.contrasts]]`), e.g. the
+    /// contribution of each modelling choice to an error budget.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub contrasts: Vec<ContrastSpec>,
+}
+
+/// `[[report.contrasts]]`: each pair `[cell, against]` of sweep points (a named zip cell's name,
+/// or the label `slamlab plan` prints) becomes a row of paired differences cell − against, per
+/// map, with their 95 % confidence interval (replicate k of both cells sees the same world).
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContrastSpec {
+    pub title: String,
+    /// What the differences show, printed under the tables.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub caption: String,
+    pub pairs: Vec<[String; 2]>,
+    /// Metrics tabulated (default: the report's).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub metrics: Vec<String>,
 }
 
 /// The band drawn around each of our series in the error-vs-parameter plots.
@@ -367,6 +387,7 @@ impl Default for ReportSpec {
             landmark_reference: Vec::new(),
             diff: DiffSpec::default(),
             bands: Bands::default(),
+            contrasts: Vec::new(),
         }
     }
 }
@@ -528,6 +549,16 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     }
     if spec.report.metrics.is_empty() {
         err("report.metrics", "list at least one metric".into());
+    }
+    for (i, c) in spec.report.contrasts.iter().enumerate() {
+        if c.pairs.is_empty() {
+            err(&format!("report.contrasts[{i}].pairs"), "list at least one [cell, against] pair".into());
+        }
+        for (j, m) in c.metrics.iter().enumerate() {
+            if metric_def(m).is_none() {
+                err(&format!("report.contrasts[{i}].metrics[{j}]"), format!("unknown metric `{m}`"));
+            }
+        }
     }
 
     // Sweep blocks: flatten nested tables to parameter paths; every leaf must be a non-empty list

@@ -31,6 +31,10 @@ pub struct LaserParams {
     /// centrelines. [FT]'s Stage maps were bitmaps with walls 2–3 px thick (≈ 5 cm), while its
     /// reference landmarks are the centrelines — a bias the thesis puts at 7–14 cm. 0 = exact.
     pub wall_thickness_m: f64,
+    /// The same thickness in pixels of the map's source bitmap (the map file's `bitmap_m_per_px`):
+    /// [FT] §10.3.1 draws its walls 2–3 px thick at 1.8 cm/px (20 × 10 m maps) or 3.2 cm/px
+    /// (Complex). 0 = use `wall_thickness_m`; set one of the two.
+    pub wall_thickness_px: f64,
     /// Ranges are rounded to multiples of this [m] before noise: the raster of a grid ray tracer
     /// (Stage: 2 cm). 0 = exact.
     pub range_quantum_m: f64,
@@ -38,7 +42,7 @@ pub struct LaserParams {
 
 impl Default for LaserParams {
     fn default() -> Self {
-        Self { fov_deg: 180.0, resolution_deg: 1.0, max_range_m: 8.0, rate_hz: 5.0, range_noise: RangeNoise::Constant, range_sigma_m: 0.01, wall_thickness_m: 0.0, range_quantum_m: 0.0 }
+        Self { fov_deg: 180.0, resolution_deg: 1.0, max_range_m: 8.0, rate_hz: 5.0, range_noise: RangeNoise::Constant, range_sigma_m: 0.01, wall_thickness_m: 0.0, wall_thickness_px: 0.0, range_quantum_m: 0.0 }
     }
 }
 
@@ -71,6 +75,8 @@ const MIN_RESOLUTION_DEG: f64 = 0.01;
 /// Thickest walls [m] and coarsest range raster [m] accepted (beyond, a map is no longer the map).
 const MAX_WALL_THICKNESS_M: f64 = 0.5;
 const MAX_RANGE_QUANTUM_M: f64 = 0.5;
+/// Thickest walls accepted in bitmap pixels.
+const MAX_WALL_THICKNESS_PX: f64 = 20.0;
 
 /// Relative tolerance for "a whole number" in FOV/resolution and scan-period checks.
 const WHOLE_NUMBER_TOL: f64 = 1e-9;
@@ -94,12 +100,27 @@ impl LaserParams {
     /// The report's sentence on the Stage-like artefacts (wall thickness, range raster), `None`
     /// when both are off.
     pub fn describe_artefacts(&self) -> Option<String> {
-        (self.wall_thickness_m > 0.0 || self.range_quantum_m > 0.0).then(|| {
+        let walls = if self.wall_thickness_px > 0.0 {
+            format!("{} px of each map's source bitmap (its bitmap_m_per_px)", self.wall_thickness_px)
+        } else {
+            format!("{} m", self.wall_thickness_m)
+        };
+        (self.wall_thickness_m > 0.0 || self.wall_thickness_px > 0.0 || self.range_quantum_m > 0.0).then(|| {
             format!(
-                "Stage-like laser artefacts: walls seen as {} m thick bars around the map's centrelines (the ground truth), ranges rounded to a {} m raster.",
-                self.wall_thickness_m, self.range_quantum_m
+                "Stage-like laser artefacts: walls seen as {walls} thick bars around the map's centrelines (the ground truth), ranges rounded to a {} m raster.",
+                self.range_quantum_m
             )
         })
+    }
+
+    /// The wall thickness [m] on a map whose source bitmap has `bitmap_m_per_px` (`None`: the map
+    /// states none, an error only when the thickness is given in pixels).
+    pub fn wall_thickness_on(&self, bitmap_m_per_px: Option<f64>) -> Option<f64> {
+        if self.wall_thickness_px > 0.0 {
+            bitmap_m_per_px.map(|s| self.wall_thickness_px * s)
+        } else {
+            Some(self.wall_thickness_m)
+        }
     }
 
     pub fn validate(&self) -> Vec<Violation> {
@@ -111,6 +132,10 @@ impl LaserParams {
         c.non_negative("range_sigma_m", self.range_sigma_m);
         c.in_range("wall_thickness_m", self.wall_thickness_m, 0.0, MAX_WALL_THICKNESS_M);
         c.in_range("range_quantum_m", self.range_quantum_m, 0.0, MAX_RANGE_QUANTUM_M);
+        c.in_range("wall_thickness_px", self.wall_thickness_px, 0.0, MAX_WALL_THICKNESS_PX);
+        c.require(!(self.wall_thickness_px > 0.0 && self.wall_thickness_m > 0.0), "wall_thickness_px", || {
+            format!("set wall_thickness_m ({}) or wall_thickness_px ({}), not both", self.wall_thickness_m, self.wall_thickness_px)
+        });
         if self.fov_deg > 0.0 && self.resolution_deg > 0.0 {
             let n = self.fov_deg / self.resolution_deg;
             c.require((n - n.round()).abs() < WHOLE_NUMBER_TOL * n.max(1.0), "resolution_deg", || {
@@ -120,13 +145,13 @@ impl LaserParams {
         c.finish()
     }
 
-    /// The surfaces the laser sees: the walls themselves, or, with a thickness, the outlines of
-    /// bars around them (extended by half the thickness at both ends, so corners close).
-    pub fn surfaces(&self, walls: &[Segment]) -> Vec<Segment> {
-        if self.wall_thickness_m <= 0.0 {
+    /// The surfaces the laser sees: the walls themselves, or, with a thickness [m], the outlines
+    /// of bars around them (extended by half the thickness at both ends, so corners close).
+    pub fn surfaces(thickness_m: f64, walls: &[Segment]) -> Vec<Segment> {
+        if thickness_m <= 0.0 {
             return walls.to_vec();
         }
-        let h = self.wall_thickness_m / 2.0;
+        let h = thickness_m / 2.0;
         walls
             .iter()
             .flat_map(|w| {
@@ -264,7 +289,7 @@ mod tests {
     fn thick_walls_are_seen_half_a_thickness_closer_and_ranges_can_be_quantised() {
         let thick = LaserParams { range_sigma_m: 0.0, max_range_m: 30.0, wall_thickness_m: 0.1, ..LaserParams::default() };
         let g = thick.geometry();
-        let surfaces = thick.surfaces(&room());
+        let surfaces = LaserParams::surfaces(0.1, &room());
         assert_eq!(surfaces.len(), 16);
         let scan = thick.scan(&g, &surfaces, Pose2::IDENTITY, 0, &mut ChaCha8Rng::seed_from_u64(1));
         assert!((scan.ranges_m[0].unwrap() - 0.95).abs() < 1e-12);
@@ -279,7 +304,7 @@ mod tests {
     fn wall_major_casting_equals_casting_every_beam() {
         use crate::geom::cast_ray;
         let p = |x, y| Point2::new(x, y);
-        let mut walls = LaserParams { wall_thickness_m: 0.05, ..LaserParams::default() }.surfaces(&room());
+        let mut walls = LaserParams::surfaces(0.05, &room());
         walls.push(Segment::new(p(2.0, 2.0), p(8.0, 2.0)));
         walls.push(Segment::new(p(4.0, -0.5), p(4.0, 6.0)));
         let mut rng = ChaCha8Rng::seed_from_u64(5);
@@ -311,5 +336,19 @@ mod tests {
         assert_eq!(l.describe_artefacts(), None);
         let s = LaserParams { wall_thickness_m: 0.05, range_quantum_m: 0.02, ..l }.describe_artefacts().unwrap();
         assert!(s.contains("0.05 m thick bars") && s.contains("a 0.02 m raster"), "{s}");
+    }
+
+    /// [FT]'s walls are 2–3 px of a bitmap whose scale differs per map: a thickness in pixels
+    /// needs the map's scale, and one of the two thickness settings at most.
+    #[test]
+    fn wall_thickness_in_pixels_follows_the_map_scale() {
+        let px = LaserParams { wall_thickness_px: 2.5, ..LaserParams::default() };
+        assert_eq!(px.wall_thickness_on(Some(0.032)), Some(2.5 * 0.032));
+        assert_eq!(px.wall_thickness_on(None), None);
+        let m = LaserParams { wall_thickness_m: 0.05, ..LaserParams::default() };
+        assert_eq!(m.wall_thickness_on(None), Some(0.05));
+        let both = LaserParams { wall_thickness_m: 0.05, ..px.clone() };
+        assert_eq!(both.validate()[0].key, "wall_thickness_px");
+        assert!(px.describe_artefacts().unwrap().contains("2.5 px of each map's source bitmap"));
     }
 }

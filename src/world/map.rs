@@ -11,6 +11,8 @@ use serde::{Deserialize, Serialize};
 const GEOMETRY_EPS_M: f64 = 1e-9;
 /// Two directions whose angle differs by less than this [rad] are parallel (no corner).
 const PARALLEL_EPS_RAD: f64 = 1e-9;
+/// Coarsest bitmap scale accepted [m/px] (a metre per pixel is no longer a drawing of walls).
+const MAX_BITMAP_M_PER_PX: f64 = 1.0;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -34,6 +36,9 @@ struct MapFile {
     /// Point landmarks [[x, y], …] [m] for range-bearing worlds.
     #[serde(default)]
     landmarks: Vec<[f64; 2]>,
+    /// Scale [m/px] of the bitmap the source drew the map as (e.g. [FT] §10.3.1: 1.8 or 3.2 cm/px),
+    /// for walls given in pixels (`laser.wall_thickness_px`).
+    bitmap_m_per_px: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -91,6 +96,8 @@ pub struct Map {
     /// How to read a real dataset (`None` for a simulated world).
     pub dataset: Option<crate::dataset::DatasetSpec>,
     pub point_landmarks: Vec<Point2>,
+    /// Scale [m/px] of the source's bitmap, when the source drew the map as one.
+    pub bitmap_m_per_px: Option<f64>,
     /// Unique infinite lines through the walls, in order of first appearance.
     pub lines: Vec<Line>,
     /// Vertices where two non-parallel walls meet, in order of first appearance.
@@ -148,6 +155,11 @@ impl Map {
                 err("trajectory.waypoints", "needs at least one waypoint".into());
             }
         }
+        if let Some(s) = file.bitmap_m_per_px {
+            if !(s > 0.0 && s <= MAX_BITMAP_M_PER_PX) {
+                err("bitmap_m_per_px", format!("must be in (0, {MAX_BITMAP_M_PER_PX}] m per pixel, got {s}"));
+            }
+        }
         let all_numbers = file.walls.iter().flat_map(|w| w.points.iter()).chain(file.trajectory.iter().flat_map(|t| &t.waypoints)).chain(&file.landmarks);
         if all_numbers.flatten().any(|v| !v.is_finite()) || ![file.start.x_m, file.start.y_m, file.start.theta_deg].iter().all(|v| v.is_finite()) {
             err("", "coordinates must be finite numbers".into());
@@ -167,6 +179,7 @@ impl Map {
             trajectory: file.trajectory,
             dataset: file.dataset,
             point_landmarks: file.landmarks.iter().map(|p| Point2::new(p[0], p[1])).collect(),
+            bitmap_m_per_px: file.bitmap_m_per_px,
             lines,
             corners,
         })

@@ -57,11 +57,19 @@ pub struct SimParams {
     /// Odometry/control period Δt [s]. [FT] gives no rate; the per-step motion noise means the
     /// rate matters, so it is stated here (default 10 Hz).
     pub dt_s: f64,
+    /// Moves every waypoint of the map's route this far [m] towards the centre of the walls'
+    /// bounding box, in x and in y (the start pose stays): the same route with another clearance
+    /// from the walls. [FT] gives no waypoints, so the routes are ours; this measures how much
+    /// that choice matters. 0 = the map's route.
+    pub route_inset_m: f64,
 }
+
+/// Largest route inset accepted [m] (half the narrowest [FT] corridor is 1.5 m).
+const MAX_ROUTE_INSET_M: f64 = 1.0;
 
 impl Default for SimParams {
     fn default() -> Self {
-        Self { dt_s: 0.1 }
+        Self { dt_s: 0.1, route_inset_m: 0.0 }
     }
 }
 
@@ -70,8 +78,9 @@ impl SimParams {
     /// ([`trajectory`]) and the clock. `rate_hz` is 1/Δt as the caller formats numbers (the
     /// report: three significant figures).
     pub fn describe(&self, rate_hz: &str) -> String {
+        let inset = if self.route_inset_m != 0.0 { format!(" (each waypoint moved {} m towards the map's centre in x and y)", self.route_inset_m) } else { String::new() };
         format!(
-            "Ground truth: a unicycle driven through each map's waypoints by a turn-then-drive heading controller, integrated exactly at Δt = {} s ({rate_hz} Hz odometry).",
+            "Ground truth: a unicycle driven through each map's waypoints{inset} by a turn-then-drive heading controller, integrated exactly at Δt = {} s ({rate_hz} Hz odometry).",
             self.dt_s
         )
     }
@@ -79,6 +88,7 @@ impl SimParams {
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.in_range("dt_s", self.dt_s, MIN_DT_S, MAX_DT_S);
+        c.in_range("route_inset_m", self.route_inset_m, 0.0, MAX_ROUTE_INSET_M);
         c.finish()
     }
 }
@@ -164,13 +174,16 @@ pub enum WorldError {
     NoTrajectory,
     #[error("{sensor} rate must be a whole number of odometry steps")]
     SensorRate { sensor: &'static str },
+    #[error("laser.wall_thickness_px needs the map's bitmap scale, but map `{map}` states no bitmap_m_per_px")]
+    NoBitmapScale { map: String },
 }
 
 /// Simulates one world.
 pub fn generate(spec: &WorldSpec<'_>, world_seed: u64) -> Result<World, WorldError> {
     let dt = spec.sim.dt_s;
     let path = spec.map.trajectory.as_ref().ok_or(WorldError::NoTrajectory)?;
-    let truth = trajectory::drive(spec.map.start, path, dt)?;
+    let path = trajectory::inset(path, &spec.map.walls, spec.sim.route_inset_m);
+    let truth = trajectory::drive(spec.map.start, &path, dt)?;
     let stream = |n| {
         let mut rng = ChaCha8Rng::seed_from_u64(world_seed);
         rng.set_stream(n);
@@ -182,7 +195,8 @@ pub fn generate(spec: &WorldSpec<'_>, world_seed: u64) -> Result<World, WorldErr
         Some(params) => {
             let period = sensor_period_steps(params.rate_hz, dt).ok_or(WorldError::SensorRate { sensor: "laser" })?;
             let geometry = params.geometry();
-            let surfaces = params.surfaces(&spec.map.walls);
+            let thickness = params.wall_thickness_on(spec.map.bitmap_m_per_px).ok_or_else(|| WorldError::NoBitmapScale { map: spec.map.name.clone() })?;
+            let surfaces = LaserParams::surfaces(thickness, &spec.map.walls);
             let mut rng = stream(LASER_STREAM);
             let scans = (0..truth.poses.len())
                 .step_by(period)
@@ -276,7 +290,7 @@ waypoints = [[9, 0], [9, 2], [0, 2], [0, 0]]
 
     #[test]
     fn sim_describe_names_the_period_and_rate() {
-        let s = SimParams { dt_s: 0.05 }.describe("20.0");
+        let s = SimParams { dt_s: 0.05, ..SimParams::default() }.describe("20.0");
         assert!(s.contains("at Δt = 0.05 s (20.0 Hz odometry)"), "{s}");
     }
 }

@@ -4,7 +4,7 @@
 
 use super::map::TrajectorySpec;
 use super::WorldError;
-use crate::geom::{unicycle_increment, wrap_angle, Point2, Pose2};
+use crate::geom::{unicycle_increment, wrap_angle, Point2, Pose2, Segment};
 
 /// Proportional gain from heading error [rad] to turn rate [rad/s].
 const HEADING_GAIN_PER_S: f64 = 1.5;
@@ -24,6 +24,19 @@ pub const MAX_STEPS: usize = 2_000_000;
 pub struct TruthRun {
     pub poses: Vec<Pose2>,
     pub controls: Vec<(f64, f64)>,
+}
+
+/// The route with every waypoint moved `inset_m` towards the centre of the walls' bounding box,
+/// separately in x and in y (a coordinate on the centre stays).
+pub fn inset(spec: &TrajectorySpec, walls: &[Segment], inset_m: f64) -> TrajectorySpec {
+    if inset_m == 0.0 || walls.is_empty() {
+        return spec.clone();
+    }
+    let (xs, ys): (Vec<f64>, Vec<f64>) = walls.iter().flat_map(|w| [(w.a.x, w.a.y), (w.b.x, w.b.y)]).unzip();
+    let mid = |v: &[f64]| (v.iter().copied().fold(f64::INFINITY, f64::min) + v.iter().copied().fold(f64::NEG_INFINITY, f64::max)) / 2.0;
+    let (cx, cy) = (mid(&xs), mid(&ys));
+    let towards = |v: f64, c: f64| if v == c { v } else { v + inset_m * (c - v).signum() };
+    TrajectorySpec { waypoints: spec.waypoints.iter().map(|w| [towards(w[0], cx), towards(w[1], cy)]).collect(), ..spec.clone() }
 }
 
 /// Drives from `start` through `spec.waypoints`, `spec.laps` times.
@@ -88,6 +101,18 @@ mod tests {
             waypoint_tolerance_m: 0.2,
             waypoints: vec![[4.0, 0.0], [4.0, 4.0], [0.0, 4.0], [0.0, 0.0]],
         }
+    }
+
+    #[test]
+    fn an_inset_moves_each_waypoint_towards_the_walls_centre_in_x_and_y() {
+        let p = Point2::new;
+        // room [-1, 5] × [-1, 7]: centre (2, 3)
+        let walls = [Segment::new(p(-1.0, -1.0), p(5.0, -1.0)), Segment::new(p(5.0, -1.0), p(5.0, 7.0)), Segment::new(p(-1.0, 7.0), p(-1.0, -1.0))];
+        let mut spec = square();
+        spec.waypoints.push([2.0, 3.0]);
+        let moved = inset(&spec, &walls, 0.5);
+        assert_eq!(moved.waypoints, vec![[3.5, 0.5], [3.5, 3.5], [0.5, 3.5], [0.5, 0.5], [2.0, 3.0]]);
+        assert_eq!(inset(&spec, &walls, 0.0), spec);
     }
 
     #[test]

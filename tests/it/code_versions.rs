@@ -14,8 +14,8 @@ use slamlab::world::point_sensor::{PointSensorParams, POINT_SENSOR_CODE_VERSION}
 use slamlab::world::{generate, RangeNoise, SimParams, WorldSpec, WORLD_CODE_VERSION};
 
 /// The code versions the fingerprint below was taken with.
-const VERSIONS: &str = "world-2+points-3+metrics-2+odometry-1";
-const FINGERPRINT: &str = "f45d49de7bf97eef6b5da1df753a377776448928c2126695929460662a5c221c";
+const VERSIONS: &str = "world-2+points-3+metrics-3+odometry-1";
+const FINGERPRINT: &str = "7f233df581a60ca4e1754b8e195e2cc214b5e94725fda455b005bf092a23c69c";
 
 fn fingerprint() -> String {
     let text = std::fs::read_to_string(repo().join("data/maps/bigloop2.toml")).unwrap();

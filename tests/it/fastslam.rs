@@ -16,7 +16,7 @@ use slamlab::world::{generate, SimParams, WorldSpec};
 
 #[test]
 fn noise_free_worlds_give_exact_maps_on_all_five_thesis_maps() {
-    let sim = SimParams { dt_s: 0.2 };
+    let sim = SimParams { dt_s: 0.2, ..SimParams::default() };
     let laser = LaserParams { range_sigma_m: 0.0, rate_hz: 5.0, ..LaserParams::default() };
     let params = FastSlamParams { particles: 10, motion_x: 0.0, motion_y: 0.0, motion_theta: 0.0, ..FastSlamParams::default() };
     for (name, count) in [("recinto_basico", 8.0), ("lineamedia", 9.0), ("bigloop", 16.0), ("bigloop2", 22.0), ("complex", 26.0)] {
@@ -38,7 +38,7 @@ fn fastslam_beats_dead_reckoning_on_a_noisy_world() {
     // [FT] claim 15, as a regression guard: with the thesis's odometry noise, FastSLAM's
     // trajectory error is well below dead reckoning's.
     let map = Map::from_toml(&std::fs::read_to_string(repo().join("data/maps/bigloop2.toml")).unwrap()).unwrap();
-    let sim = SimParams { dt_s: 0.2 };
+    let sim = SimParams { dt_s: 0.2, ..SimParams::default() };
     let laser = LaserParams { range_sigma_m: 0.0, rate_hz: 5.0, resolution_deg: 0.5, ..LaserParams::default() };
     let odometry = OdometryNoise::default();
     let world = generate(&WorldSpec { map: &map, sim: &sim, odometry: &odometry, laser: Some(&laser), landmark_sensor: None }, 3).unwrap();

@@ -20,7 +20,7 @@ use slamlab::world::{generate, SimParams, World, WorldSpec};
 
 fn scatter_world(odometry: &OdometryNoise, sensor: &PointSensorParams, seed: u64) -> World {
     let map = Map::from_toml(&std::fs::read_to_string(repo().join("data/maps/scatter.toml")).unwrap()).unwrap();
-    generate(&WorldSpec { map: &map, sim: &SimParams { dt_s: 0.1 }, odometry, laser: None, landmark_sensor: Some(sensor) }, seed).unwrap()
+    generate(&WorldSpec { map: &map, sim: &SimParams { dt_s: 0.1, ..SimParams::default() }, odometry, laser: None, landmark_sensor: Some(sensor) }, seed).unwrap()
 }
 
 fn get(world: &World, trace: &Trace, name: &str) -> f64 {

@@ -101,6 +101,8 @@ pub enum Estimate {
     #[default]
     BestPerStep,
     PathOfBest,
+    /// [FT]: the final best particle (highest current weight) and its own pose history.
+    PathOfFinalBest,
     WeightedMean,
 }
 
@@ -109,11 +111,17 @@ impl Estimate {
         *self == Estimate::BestPerStep
     }
 
+    /// Every particle keeps its path (shared ancestry) for this estimate.
+    pub fn keeps_paths(&self) -> bool {
+        matches!(self, Estimate::PathOfBest | Estimate::PathOfFinalBest)
+    }
+
     /// The report's words for the trajectory and map this estimate reports.
     pub fn describe(&self) -> &'static str {
         match self {
             Estimate::BestPerStep => "the best particle is the one with the highest current weight (the trajectory is its pose at every step, which may jump between lineages).",
             Estimate::PathOfBest => "the trajectory and map are those of the particle with the highest log-weight accumulated along its lineage ([PF] Eq. 20), its whole path kept through resampling.",
+            Estimate::PathOfFinalBest => "the map is the final best particle's (the highest current weight, taken after weighting and before resampling, [FT] §5) and the trajectory is that particle's own pose history, kept through resampling ([FT]: the best particle's pose history builds its grid map).",
             Estimate::WeightedMean => "the trajectory is the particles' weighted mean pose at every step; the map is the final best particle's.",
         }
     }
@@ -553,7 +561,7 @@ pub struct Estimator {
 
 impl Estimator {
     pub fn new(kind: Estimate, steps: usize) -> Self {
-        Self { kind, poses: Vec::with_capacity(if kind == Estimate::PathOfBest { 0 } else { steps }) }
+        Self { kind, poses: Vec::with_capacity(if kind.keeps_paths() { 0 } else { steps }) }
     }
 
     /// After a step: the best particle's pose, or the weighted mean (`mean`, needed then), or —
@@ -562,7 +570,7 @@ impl Estimator {
         match self.kind {
             Estimate::BestPerStep => self.poses.push(particles[best].pose),
             Estimate::WeightedMean => self.poses.push(mean.expect("the weighted mean is computed for this estimate")),
-            Estimate::PathOfBest => particles.iter_mut().for_each(|p| p.path.push(p.pose)),
+            Estimate::PathOfBest | Estimate::PathOfFinalBest => particles.iter_mut().for_each(|p| p.path.push(p.pose)),
         }
     }
 
@@ -575,6 +583,7 @@ impl Estimator {
                 let i = particle::argmax(&particles.iter().map(|p| p.lineage_log_weight).collect::<Vec<_>>());
                 (particles[i].path.poses(), i)
             }
+            Estimate::PathOfFinalBest => (particles[best].path.poses(), best),
             _ => (self.poses, best),
         }
     }
@@ -637,7 +646,13 @@ mod tests {
             run_on(&world, &p, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(3)).unwrap()
         };
         let (best, mean, path) = (run(Estimate::BestPerStep), run(Estimate::WeightedMean), run(Estimate::PathOfBest));
-        for t in [&best, &mean, &path] {
+        let final_best = run(Estimate::PathOfFinalBest);
+        // [FT]'s estimate: the final best particle's map (as the per-step estimate reports) and its
+        // own path, which ends at the per-step estimate's last pose
+        assert_eq!(final_best.map, best.map);
+        assert_eq!(final_best.estimate.last(), best.estimate.last());
+        assert_ne!(final_best.estimate, best.estimate, "its own path, not the per-step argmax sequence");
+        for t in [&best, &mean, &path, &final_best] {
             assert_eq!(t.estimate.len(), truth.len());
         }
         // same random numbers: the filters ran alike, only the report differs
