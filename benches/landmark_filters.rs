@@ -29,7 +29,7 @@ fn world(n: usize) -> World {
     );
     let map = Map::from_toml(&text).unwrap();
     let sensor = PointSensorParams { max_range_m: 10.0, ..PointSensorParams::default() };
-    generate(&WorldSpec { map: &map, sim: &SimParams { dt_s: 0.1 }, odometry: &OdometryNoise::default(), laser: None, landmark_sensor: Some(&sensor) }, 3).unwrap()
+    generate(&WorldSpec { map: &map, sim: &SimParams { dt_s: 0.1, ..SimParams::default() }, odometry: &OdometryNoise::default(), laser: None, landmark_sensor: Some(&sensor) }, 3).unwrap()
 }
 
 fn observations(world: &World) -> Vec<StepObservations> {
