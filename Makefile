@@ -53,7 +53,7 @@ bench: build
 check-reports: build
 	@tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
 	cp -r reports "$$tmp/reports"; \
-	$(BIN) report --specs experiments --out "$$tmp/reports" >/dev/null; \
+	$(BIN) report --specs experiments --out "$$tmp/reports" >/dev/null || exit 1; \
 	if diff -r reports "$$tmp/reports" >/dev/null; then echo "check-reports: reports/ is up to date"; \
 	else diff -rq reports "$$tmp/reports"; echo "check-reports: reports/ differs from what the results give (make report)" >&2; exit 1; fi; \
 	tests/tools/readme_block.sh check README.md "$$tmp/reports/fidelity/summary.md"

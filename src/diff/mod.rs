@@ -266,10 +266,9 @@ fn compare_study(id: &str, a: &StudyData, b: &StudyData, opts: &DiffOptions, out
             // Pairs: the replicates successful on both sides.
             let by_rep = |rs: &[&RunRow]| rs.iter().filter_map(|r| value(r).map(|v| (r.replicate, v))).collect::<BTreeMap<u32, f64>>();
             let (pa, pb) = (by_rep(runs_a), by_rep(runs_b));
-            let paired: Vec<(f64, f64)> = pa.iter().filter_map(|(k, &x)| pb.get(k).map(|&y| (x, y))).collect();
             let same_sets = pa.len() == pb.len() && pa.keys().eq(pb.keys());
-            if same_sets && paired.len() >= 2 {
-                let d: Vec<f64> = paired.iter().map(|(x, y)| y - x).collect();
+            if same_sets && pa.len() >= 2 {
+                let d = compare::paired_differences(&pb, &pa);
                 let ci = paired_ci(&d);
                 out.rows.push(row(sa, sb, stats::mean(&d), ci, stats::paired_t_p(&d), stats::sign_flip_p(&d), format!("paired t ({})", d.len()), Verdict::NoChange));
             } else if va.len() >= 2 && vb.len() >= 2 {

@@ -27,7 +27,7 @@
 //! world), so cell comparisons use paired differences over replicates.
 
 use crate::spec::{ClaimSpec, ClaimTest, FlatDirection, Require};
-use crate::stats::compare::{stouffer, t_interval, t_one_sided_p};
+use crate::stats::compare::{paired_differences as paired, stouffer, t_interval, t_one_sided_p};
 use crate::stats::hypothesis::{holm, mean};
 use crate::stats::{self, sig, Summary};
 use crate::store::{ClaimCells, RunRow, RunStatus, StudyData};
@@ -102,11 +102,6 @@ fn describe(s: &Summary) -> String {
 
 fn summarize(m: &BTreeMap<u32, f64>) -> Summary {
     stats::summarize(&m.values().copied().collect::<Vec<_>>())
-}
-
-/// Paired differences a − b over the replicates both cells have.
-fn paired(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>) -> Vec<f64> {
-    a.iter().filter_map(|(r, x)| b.get(r).map(|y| x - y)).collect()
 }
 
 /// Why a comparison of these cells cannot test anything (too few pairs, ∞ or NaN), if it cannot.

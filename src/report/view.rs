@@ -962,8 +962,7 @@ fn contrast_tables(study: &Study<'_>) -> Vec<NamedTable> {
                         for (map, _) in &study.maps {
                             let a = study.data.replicate_values(map, algorithm.name(), cell, metric);
                             let b = study.data.replicate_values(map, algorithm.name(), against, metric);
-                            let (d, base): (Vec<f64>, Vec<f64>) = a.iter().filter_map(|(k, x)| b.get(k).map(|y| (x - y, *y))).unzip();
-                            row.push(contrast_entry(&d, &base));
+                            row.push(contrast_entry(&stats::compare::paired_contrast(&a, &b, 0.95)));
                         }
                         row
                     })
@@ -988,17 +987,16 @@ fn contrast_tables(study: &Study<'_>) -> Vec<NamedTable> {
     out
 }
 
-/// "+0.052 [+0.031, +0.073] (+21 %)" for paired differences `d` against the values `base`.
-fn contrast_entry(d: &[f64], base: &[f64]) -> String {
-    let (lo, hi) = stats::compare::t_interval(d, 0.95);
+/// "+0.052 [+0.031, +0.073] (+21 %)": the mean paired difference, its interval and the change
+/// relative to the compared cell; "—" where it has no interval.
+fn contrast_entry(c: &stats::compare::PairedContrast) -> String {
+    let (lo, hi) = c.ci;
     if lo.is_nan() {
         return "—".into();
     }
-    let mean_d = d.iter().sum::<f64>() / d.len() as f64;
-    let mean_base = base.iter().sum::<f64>() / base.len() as f64;
     let signed = |v: f64| if v > 0.0 { format!("+{}", sig(v, 2)) } else { sig(v, 2) };
-    let rel = if mean_base != 0.0 && mean_base.is_finite() { format!(" ({}{:.0} %)", if mean_d > 0.0 { "+" } else { "" }, 100.0 * mean_d / mean_base) } else { String::new() };
-    format!("{} [{}, {}]{rel}", signed(mean_d), signed(lo), signed(hi))
+    let rel = if c.against_mean != 0.0 && c.against_mean.is_finite() { format!(" ({}{:.0} %)", if c.mean > 0.0 { "+" } else { "" }, 100.0 * c.mean / c.against_mean) } else { String::new() };
+    format!("{} [{}, {}]{rel}", signed(c.mean), signed(lo), signed(hi))
 }
 
 /// A published landmark is matched to a true one within this distance [m] (the tables give whole

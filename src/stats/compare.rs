@@ -15,9 +15,33 @@
 
 use super::hypothesis::{mean, sample_variance as variance};
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
+use std::collections::BTreeMap;
 
 fn student(df: f64) -> Option<StudentsT> {
     (df > 0.0).then(|| StudentsT::new(0.0, 1.0, df).ok()).flatten()
+}
+
+/// Paired differences a − b over the replicates both cells have (replicate k of both cells saw
+/// the same world), in replicate order.
+pub fn paired_differences(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>) -> Vec<f64> {
+    a.iter().filter_map(|(r, x)| b.get(r).map(|y| x - y)).collect()
+}
+
+/// The paired comparison of two cells' replicate values: the mean difference a − b with its
+/// two-sided t interval at `confidence`, and the mean of b over the same replicates (the level a
+/// relative change is taken against).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairedContrast {
+    pub pairs: usize,
+    pub mean: f64,
+    pub ci: (f64, f64),
+    pub against_mean: f64,
+}
+
+pub fn paired_contrast(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>, confidence: f64) -> PairedContrast {
+    let d = paired_differences(a, b);
+    let against: Vec<f64> = a.keys().filter_map(|r| b.get(r).copied()).collect();
+    PairedContrast { pairs: d.len(), mean: mean(&d), ci: t_interval(&d, confidence), against_mean: mean(&against) }
 }
 
 /// Two-sided Student t interval of the mean of `x` at `confidence` (e.g. 0.95, or 0.90 for TOST);
