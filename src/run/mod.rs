@@ -148,28 +148,35 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         }
     }
     let progress = Progress::new(plan.id(), unique.len(), opts.progress);
-    let computed: BTreeMap<&str, (CachedRun, bool)> = pool.install(|| {
-        unique
-            .par_iter()
-            .map(|&i| {
-                let run = &plan.runs[i];
-                let cached = (reasons[i] == Reason::Cached).then(|| cache.get(&run.hash)).flatten();
-                let outcome = match cached {
-                    Some(c) => (c, true),
-                    None => {
-                        let c = execute(plan, run);
-                        // Replace whatever is there: forced, or an entry that could not be read.
-                        // A cache that cannot be written only costs a recomputation next time.
-                        if let Err(e) = cache.put(&run.hash, &c, true) {
-                            progress.warn(&format!("cannot cache {}: {e}", run.run_id));
-                        }
-                        (c, false)
-                    }
-                };
-                progress.finished(outcome.0.row.status, outcome.1);
-                (run.hash.as_str(), outcome)
-            })
-            .collect()
+    // Cache IO (Parquet, through polars' own thread pool) stays on this thread: a worker of ours
+    // waiting on polars would run further jobs of ours meanwhile, nesting without bound. So cached
+    // runs are read first, and computed runs are cached here as the workers send them.
+    let mut computed: BTreeMap<&str, (CachedRun, bool)> = BTreeMap::new();
+    let mut missing: Vec<usize> = Vec::new();
+    for &i in &unique {
+        let run = &plan.runs[i];
+        match (reasons[i] == Reason::Cached).then(|| cache.get(&run.hash)).flatten() {
+            Some(c) => {
+                progress.finished(c.row.status, true);
+                computed.insert(run.hash.as_str(), (c, true));
+            }
+            None => missing.push(i),
+        }
+    }
+    let (sender, results) = std::sync::mpsc::channel();
+    std::thread::scope(|scope| {
+        let (pool, missing) = (&pool, &missing);
+        scope.spawn(move || pool.install(|| missing.par_iter().for_each_with(sender, |sender, &i| sender.send((i, execute(plan, &plan.runs[i]))).expect("the receiver outlives the workers"))));
+        for (i, c) in results {
+            let run = &plan.runs[i];
+            // Replace whatever is there: forced, or an entry that could not be read. A cache that
+            // cannot be written only costs a recomputation next time.
+            if let Err(e) = cache.put(&run.hash, &c, true) {
+                progress.warn(&format!("cannot cache {}: {e}", run.run_id));
+            }
+            progress.finished(c.row.status, false);
+            computed.insert(run.hash.as_str(), (c, false));
+        }
     });
     let outcomes: Vec<(CachedRun, bool)> = plan
         .runs

@@ -15,7 +15,15 @@ fn err(path: &Path, e: PolarsError) -> StoreError {
     StoreError::Parquet { path: path.to_path_buf(), message: e.to_string() }
 }
 
+/// Polars runs its own rayon pool. A worker of another rayon pool that waits on it keeps executing
+/// its own pool's jobs meanwhile, so Parquet IO inside a parallel loop nests job inside job until
+/// the stack overflows: every read and write happens off rayon's workers (see `run::run_study`).
+fn assert_off_worker_pool(path: &Path) {
+    assert!(rayon::current_thread_index().is_none(), "Parquet IO on a rayon worker thread ({}): do it on the calling thread", path.display());
+}
+
 pub(super) fn write(path: &Path, df: &mut DataFrame) -> Result<(), StoreError> {
+    assert_off_worker_pool(path);
     let file = std::fs::File::create(path).map_err(|e| StoreError::io(path, e))?;
     let mut w = std::io::BufWriter::new(file);
     ParquetWriter::new(&mut w).with_compression(ParquetCompression::Zstd(None)).set_parallel(false).finish(df).map_err(|e| err(path, e))?;
@@ -24,6 +32,7 @@ pub(super) fn write(path: &Path, df: &mut DataFrame) -> Result<(), StoreError> {
 }
 
 pub(super) fn read(path: &Path) -> Result<DataFrame, StoreError> {
+    assert_off_worker_pool(path);
     let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
     ParquetReader::new(file).finish().map_err(|e| err(path, e))
 }

@@ -57,7 +57,9 @@ fn each_dependency_stays_in_its_layer() {
     let src = repo().join("src");
     let rules = [("polars", "store"), ("plotters", "report"), ("minijinja", "report"), ("rayon", "run"), ("indicatif", "run")];
     for (path, text) in sources(&src) {
-        let code = code(&text);
+        // The one use of rayon outside run/: the store asserts that its Parquet IO is not on a
+        // rayon worker (polars inside a worker nests jobs until the stack overflows).
+        let code = code(&text).replace("rayon::current_thread_index()", "");
         for (dep, home) in rules {
             let inside = Path::new(&path).starts_with(src.join(home));
             assert!(inside || !code.contains(&format!("{dep}::")), "{path} uses {dep}, which belongs in src/{home}/ only");
