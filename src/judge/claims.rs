@@ -150,6 +150,20 @@ impl MapOutcome {
 
 /// The decision of a one-sample test of paired differences d against a margin δ, claimed above
 /// (d > δ) or below (d < δ), at [`CONFIDENCE`].
+/// A cell's 95 % CI against the range (a, b): confirmed when the CI lies inside it, refuted when
+/// it lies wholly outside. `strict` (above / below a threshold) excludes the bounds, so a CI that
+/// touches the threshold — a constant count equal to it — is not above it; `between` includes them.
+pub fn decide_range((lo, hi): (f64, f64), (a, b): (f64, f64), strict: bool) -> Verdict {
+    let (inside, outside) = if strict { (lo > a && hi < b, hi <= a || lo >= b) } else { (lo >= a && hi <= b, hi < a || lo > b) };
+    if inside {
+        Verdict::Confirmed
+    } else if outside {
+        Verdict::Refuted
+    } else {
+        Verdict::Inconclusive
+    }
+}
+
 pub fn decide_margin(d: &[f64], delta: f64, claimed_above: bool) -> Verdict {
     let (lo, hi) = t_interval(d, CONFIDENCE);
     if lo.is_nan() {
@@ -259,14 +273,9 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
                 ClaimTest::Below => (f64::NEG_INFINITY, claim.value.unwrap_or(f64::NAN)),
                 _ => (claim.value.unwrap_or(f64::NAN), claim.upper.unwrap_or(f64::NAN)),
             };
-            let verdict = if lo >= a && hi <= b {
-                Verdict::Confirmed
-            } else if hi < a || lo > b {
-                Verdict::Refuted
-            } else {
-                Verdict::Inconclusive
-            };
-            let direction = Some(s_at.mean >= a && s_at.mean <= b);
+            let strict = claim.test != ClaimTest::Between;
+            let verdict = decide_range((lo, hi), (a, b), strict);
+            let direction = Some(if strict { s_at.mean > a && s_at.mean < b } else { s_at.mean >= a && s_at.mean <= b });
             MapOutcome { verdict, text: describe(&s_at), direction, p_claim: f64::NAN, p_against: f64::NAN }
         }
         ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
@@ -530,6 +539,22 @@ mod tests {
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};
+
+    /// "Above 1" is not shown by a cell whose every replicate is exactly 1 (ft-dmax: 8 landmarks
+    /// of 8 at Dmax = 0.1 m on Recinto básico was confirmed as "the count exceeds the truth").
+    #[test]
+    fn a_threshold_is_not_exceeded_by_touching_it() {
+        use Verdict::*;
+        let above = (1.0, f64::INFINITY);
+        assert_eq!(decide_range((1.0, 1.0), above, true), Refuted);
+        assert_eq!(decide_range((1.2, 1.4), above, true), Confirmed);
+        assert_eq!(decide_range((0.9, 1.1), above, true), Inconclusive);
+        let below = (f64::NEG_INFINITY, 0.1);
+        assert_eq!(decide_range((0.1, 0.1), below, true), Refuted);
+        // between includes its bounds
+        assert_eq!(decide_range((1.0, 1.0), (1.0, 2.0), false), Confirmed);
+        assert_eq!(decide_range((2.5, 3.0), (1.0, 2.0), false), Refuted);
+    }
 
     #[test]
     fn margins_decide_direction_and_relevance() {

@@ -168,6 +168,19 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
+
+    /// Only replicates both cells ran are paired, and the relative level is the compared cell's
+    /// mean over those same replicates.
+    #[test]
+    fn paired_contrast_pairs_common_replicates() {
+        let a: BTreeMap<u32, f64> = [(0, 3.0), (1, 5.0), (2, 4.0), (7, 100.0)].into();
+        let b: BTreeMap<u32, f64> = [(0, 1.0), (1, 2.0), (2, 3.0), (5, -50.0)].into();
+        assert_eq!(paired_differences(&a, &b), vec![2.0, 3.0, 1.0]);
+        let c = paired_contrast(&a, &b, 0.95);
+        assert_eq!((c.pairs, c.mean, c.against_mean), (3, 2.0, 2.0));
+        assert_eq!(c.ci, t_interval(&[2.0, 3.0, 1.0], 0.95));
+        assert!(c.ci.0 < 2.0 && c.ci.1 > 2.0);
+    }
     use rand_distr::{Distribution, Normal as RNormal};
 
     /// x = 1..5: mean 3, s = √2.5; t_{0.975,4} = 2.776445 ⇒ half-width 1.963243.
