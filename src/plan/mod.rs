@@ -107,7 +107,15 @@ pub fn derive_seed(study_seed: u64, map: &str, replicate: u32, stream: &str) -> 
 pub fn build(spec: LoadedSpec, maps_dir: &Path) -> Result<ExperimentPlan, InputErrors> {
     let mut errors = Vec::new();
     let maps = load_maps(&spec, maps_dir, &mut errors);
-    let (groups, points) = match expand(&spec) {
+    // The sensors the study simulates, from its algorithms and its maps' world kinds: a sensor rate
+    // must fit the clock only where that sensor is simulated.
+    let kinds: Vec<crate::world::WorldKind> = maps.iter().map(|m| m.map.world_kind()).collect();
+    let sensors = crate::slam::Sensors::union(&spec.spec.algorithms, &kinds);
+    let base_errors: Vec<_> = spec.spec.base.validate(sensors).into_iter().map(|v| spec.error_at(&format!("base.{}", v.key), v.message)).collect();
+    if !base_errors.is_empty() {
+        errors.push(SpecError::new(&spec.path, base_errors));
+    }
+    let (groups, points) = match expand(&spec, sensors) {
         Ok(x) => x,
         Err(e) => {
             errors.push(e);
@@ -202,7 +210,7 @@ pub fn available_maps(dir: &Path) -> Vec<String> {
 }
 
 /// Sweep blocks → groups and deduplicated points (in first-appearance order).
-fn expand(spec: &LoadedSpec) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecError> {
+fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecError> {
     // Each candidate: assignments with, for error placement, the key of each value.
     type Candidate = Vec<(String, toml::Value, String)>;
     let mut groups = Vec::new();
@@ -243,7 +251,7 @@ fn expand(spec: &LoadedSpec) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecE
     let mut points: Vec<SweepPoint> = Vec::new();
     let mut errors = Vec::new();
     for (assignments, group, name) in candidates {
-        let params = match resolve(spec, &assignments) {
+        let params = match resolve(spec, &assignments, sensors) {
             Ok(p) => p,
             Err(e) => {
                 errors.extend(e);
@@ -280,7 +288,7 @@ fn expand(spec: &LoadedSpec) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecE
 
 /// `[base]` with the assignments applied, deserialised and validated; errors point at the
 /// sweep value responsible.
-fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)]) -> Result<Params, Vec<crate::source::SourceError>> {
+fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)], sensors: crate::slam::Sensors) -> Result<Params, Vec<crate::source::SourceError>> {
     if assignments.is_empty() {
         return Ok(spec.spec.base.clone());
     }
@@ -303,12 +311,12 @@ fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)]) -> 
     }
     let params: Params = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
         // Blame the values that fail on their own; if only the combination fails, blame all.
-        let alone: Vec<&(String, toml::Value, String)> = assignments.iter().filter(|a| assignments.len() > 1 && resolve(spec, std::slice::from_ref(*a)).is_err()).collect();
+        let alone: Vec<&(String, toml::Value, String)> = assignments.iter().filter(|a| assignments.len() > 1 && resolve(spec, std::slice::from_ref(*a), sensors).is_err()).collect();
         let culprits: Vec<&(String, toml::Value, String)> = if alone.is_empty() { assignments.iter().collect() } else { alone };
         let names: Vec<&str> = assignments.iter().map(|(p, ..)| p.as_str()).collect();
         culprits.iter().map(|(_, _, key)| spec.error_at(key, format!("with {} set here, [base] does not deserialise: {}", names.join(", "), e.message().trim()))).collect::<Vec<_>>()
     })?;
-    let violations = params.validate(crate::slam::Sensors::union(&spec.spec.algorithms, &crate::world::WorldKind::ALL));
+    let violations = params.validate(sensors);
     if violations.is_empty() {
         return Ok(params);
     }
@@ -336,7 +344,8 @@ fn find_point(spec: &LoadedSpec, points: &[SweepPoint], table: &toml::Table, key
     let mut leaves = Vec::new();
     crate::spec::params::flatten("", &toml::Value::Table(table.clone()), &mut leaves);
     let assignments: Vec<(String, toml::Value, String)> = leaves.into_iter().map(|(p, v)| (p.clone(), v, crate::source::join_key(key, &p))).collect();
-    let params = resolve(spec, &assignments).map_err(|mut e| e.remove(0))?;
+    // only to find the point: the points themselves were checked with the study's sensors
+    let params = resolve(spec, &assignments, crate::slam::Sensors::default()).map_err(|mut e| e.remove(0))?;
     points.iter().position(|p| p.params == params).ok_or_else(|| spec.error_at(key, "no sweep point of this study has these parameters (the others at base)"))
 }
 
@@ -499,6 +508,26 @@ mod tests {
     }
 
     const HEAD: &str = "id = \"t\"\ntitle = \"T\"\nseed = 5\nreplicates = 3\nmaps = [\"box\"]\nalgorithms = [\"odometry\"]\n";
+
+    /// A sensor's rate must fit the clock only where the study simulates that sensor: EKF-SLAM on
+    /// a point-landmark map reads no laser, so the laser's default 5 Hz at Δt = 0.3 s is no error
+    /// there ([EV]'s 1 s steps), but is one on a laser map.
+    #[test]
+    fn sensor_rates_are_checked_against_the_maps_world_kinds() {
+        let dir = tempfile::tempdir().unwrap();
+        let map = |name: &str, extra: &str| format!("name = \"{name}\"\ntitle = \"M\"\nstart = {{ x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }}\n{extra}[[walls]]\npoints = [[-1, -1], [5, -1], [5, 5], [-1, 5], [-1, -1]]\n[trajectory]\nmax_speed_mps = 0.5\nlaps = 1\nwaypoints = [[4, 0], [0, 0]]\n");
+        std::fs::write(dir.path().join("dots.toml"), map("dots", "landmarks = [[2.0, 2.0]]\n")).unwrap();
+        std::fs::write(dir.path().join("box.toml"), map("box", "")).unwrap();
+        let text = |m: &str| format!("id = \"t\"\ntitle = \"T\"\nseed = 5\nreplicates = 3\nmaps = [\"{m}\"]\nalgorithms = [\"ekf_slam\"]\n[base.sim]\ndt_s = 0.3\n[base.landmark_sensor]\nrate_hz = 1.0\n");
+        let plan = |m: &str| build(crate::spec::parse(Path::new("s.toml"), &text(m)).map_err(InputErrors::from).unwrap(), dir.path());
+        // 1/(1 Hz · 0.3 s) is not whole either: the point map's sensor is checked
+        let e = plan("dots").unwrap_err();
+        assert_eq!(e.0[0].errors.iter().map(|e| e.key.as_str()).collect::<Vec<_>>(), ["base.landmark_sensor.rate_hz"]);
+        let fits = text("dots").replace("dt_s = 0.3", "dt_s = 0.25").replace("rate_hz = 1.0", "rate_hz = 2.0");
+        assert!(build(crate::spec::parse(Path::new("s.toml"), &fits).unwrap(), dir.path()).is_ok(), "the laser's 5 Hz at Δt = 0.25 s is not checked on a point map");
+        let e = build(crate::spec::parse(Path::new("s.toml"), &fits.replace("\"dots\"", "\"box\"")).unwrap(), dir.path()).unwrap_err();
+        assert_eq!(e.0[0].errors[0].key, "base.laser.rate_hz");
+    }
 
     #[test]
     fn one_at_a_time_shares_the_base_point() {
