@@ -509,6 +509,18 @@ mod tests {
 
     const HEAD: &str = "id = \"t\"\ntitle = \"T\"\nseed = 5\nreplicates = 3\nmaps = [\"box\"]\nalgorithms = [\"odometry\"]\n";
 
+    /// `[[report.contrasts]]` pairs name sweep points: a named zip cell or a plan label; an unknown
+    /// one is an error at the pair's key.
+    #[test]
+    fn contrast_pairs_must_name_sweep_points() {
+        let spec = format!("{HEAD}[[sweeps]]\nkind = \"zip\"\nlabels = [\"low\", \"high\"]\nvalues = {{ \"odometry.k\" = [0.05, 0.2] }}\n[report]\nmetrics = [\"ate_rmse_m\"]\n[[report.contrasts]]\ntitle = \"c\"\npairs = [[\"high\", \"low\"], [\"high\", \"middle\"]]\n");
+        let e = plan_of(&spec).unwrap_err();
+        let err = &e.0[0].errors[0];
+        assert_eq!(err.key, "report.contrasts[0].pairs[1]");
+        assert!(err.message.contains("no sweep point `middle`") && err.message.contains("low, high"), "{}", err.message);
+        assert!(plan_of(&spec.replace(", [\"high\", \"middle\"]", "")).is_ok());
+    }
+
     /// A sensor's rate must fit the clock only where the study simulates that sensor: EKF-SLAM on
     /// a point-landmark map reads no laser, so the laser's default 5 Hz at Δt = 0.3 s is no error
     /// there ([EV]'s 1 s steps), but is one on a laser map.

@@ -995,7 +995,12 @@ fn contrast_entry(c: &stats::compare::PairedContrast) -> String {
         return "—".into();
     }
     let signed = |v: f64| if v > 0.0 { format!("+{}", sig(v, 2)) } else { sig(v, 2) };
-    let rel = if c.against_mean != 0.0 && c.against_mean.is_finite() { format!(" ({}{:.0} %)", if c.mean > 0.0 { "+" } else { "" }, 100.0 * c.mean / c.against_mean) } else { String::new() };
+    let rel = match (100.0 * c.mean / c.against_mean).round() {
+        p if !p.is_finite() => String::new(),
+        p if p == 0.0 => " (0 %)".to_string(),
+        p if p > 0.0 => format!(" (+{p} %)"),
+        p => format!(" (−{} %)", -p),
+    };
     format!("{} [{}, {}]{rel}", signed(c.mean), signed(lo), signed(hi))
 }
 
@@ -1097,5 +1102,16 @@ mod tests {
     fn csv_quotes_when_needed() {
         assert_eq!(csv_field("a,b"), "\"a,b\"");
         assert_eq!(csv_field("plain"), "plain");
+    }
+
+    #[test]
+    fn contrast_entries_show_sign_interval_and_relative_change() {
+        use crate::stats::compare::PairedContrast;
+        let c = PairedContrast { pairs: 3, mean: 0.052, ci: (0.031, 0.073), against_mean: 0.25 };
+        assert_eq!(contrast_entry(&c), "+0.052 [+0.031, +0.073] (+21 %)");
+        let fall = PairedContrast { mean: -0.1, ci: (-0.2, 0.01), ..c };
+        assert_eq!(contrast_entry(&fall), "−0.10 [−0.20, +0.010] (−40 %)");
+        assert_eq!(contrast_entry(&PairedContrast { mean: -0.0004, ci: (-0.001, 0.0002), ..c }), "−0.00040 [−0.0010, +0.00020] (0 %)");
+        assert_eq!(contrast_entry(&PairedContrast { ci: (f64::NAN, f64::NAN), ..c }), "—");
     }
 }
