@@ -148,8 +148,6 @@ impl MapOutcome {
     }
 }
 
-/// The decision of a one-sample test of paired differences d against a margin δ, claimed above
-/// (d > δ) or below (d < δ), at [`CONFIDENCE`].
 /// A cell's 95 % CI against the range (a, b): confirmed when the CI lies inside it, refuted when
 /// it lies wholly outside. `strict` (above / below a threshold) excludes the bounds, so a CI that
 /// touches the threshold — a constant count equal to it — is not above it; `between` includes them.
@@ -164,17 +162,16 @@ pub fn decide_range((lo, hi): (f64, f64), (a, b): (f64, f64), strict: bool) -> V
     }
 }
 
+/// The decision of a one-sample test of paired differences d against a margin δ, claimed above
+/// (d > δ) or below (d < δ), at [`CONFIDENCE`]: the interval rule of [`decide_range`], strict, so
+/// a constant difference equal to δ is not "more than δ" (refuted) nor "less than δ".
 pub fn decide_margin(d: &[f64], delta: f64, claimed_above: bool) -> Verdict {
-    let (lo, hi) = t_interval(d, CONFIDENCE);
-    if lo.is_nan() {
+    let ci = t_interval(d, CONFIDENCE);
+    if ci.0.is_nan() {
         return Verdict::Untestable;
     }
-    let (above, below) = (lo > delta, hi < delta);
-    match (claimed_above, above, below) {
-        (true, true, _) | (false, _, true) => Verdict::Confirmed,
-        (true, _, true) | (false, true, _) => Verdict::Refuted,
-        _ => Verdict::Inconclusive,
-    }
+    let range = if claimed_above { (delta, f64::INFINITY) } else { (f64::NEG_INFINITY, delta) };
+    decide_range(ci, range, true)
 }
 
 /// The decision of a two-sided equivalence claim over paired-difference samples (one per pair of
@@ -567,6 +564,9 @@ mod tests {
         assert_eq!(decide_margin(&big, 0.05, false), Refuted);
         assert_eq!(decide_margin(&[0.01, -0.01, 0.0, 0.005], 0.05, false), Confirmed);
         assert_eq!(decide_margin(&[0.3], 0.0, true), Untestable);
+        // a constant difference exactly at the margin is not beyond it, either way
+        assert_eq!(decide_margin(&[0.5, 0.5, 0.5], 0.5, true), Refuted);
+        assert_eq!(decide_margin(&[0.5, 0.5, 0.5], 0.5, false), Refuted);
     }
 
     /// A 0.1 % difference with a tight CI is significant but not a confirmation with the default

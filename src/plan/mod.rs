@@ -122,6 +122,13 @@ pub fn build(spec: LoadedSpec, maps_dir: &Path) -> Result<ExperimentPlan, InputE
             (Vec::new(), Vec::new())
         }
     };
+    // Walls given in bitmap pixels need each laser map's bitmap scale (else every run would fail).
+    if sensors.laser && points.iter().any(|p| p.params.laser.wall_thickness_px > 0.0) {
+        let unscaled: Vec<_> = spec.spec.maps.iter().enumerate().filter(|(_, name)| maps.iter().any(|m| &&m.name == name && m.map.world_kind() == crate::world::WorldKind::Laser && m.map.bitmap_m_per_px.is_none())).map(|(i, name)| spec.error_at(&format!("maps[{i}]"), format!("map `{name}` states no bitmap_m_per_px, which laser.wall_thickness_px needs"))).collect();
+        if !unscaled.is_empty() {
+            errors.push(SpecError::new(&spec.path, unscaled));
+        }
+    }
     if !errors.is_empty() {
         return Err(InputErrors(errors));
     }
@@ -519,6 +526,17 @@ mod tests {
         assert_eq!(err.key, "report.contrasts[0].pairs[1]");
         assert!(err.message.contains("no sweep point `middle`") && err.message.contains("low, high"), "{}", err.message);
         assert!(plan_of(&spec.replace(", [\"high\", \"middle\"]", "")).is_ok());
+    }
+
+    /// Walls in bitmap pixels on a map without a bitmap scale: an input error naming the map, not
+    /// a failure of every run.
+    #[test]
+    fn wall_pixels_need_the_maps_bitmap_scale() {
+        let spec = format!("{HEAD}[base.laser]\nwall_thickness_px = 2.5\n").replace("[\"odometry\"]", "[\"fastslam1\"]");
+        let e = plan_of(&spec).unwrap_err();
+        assert_eq!(e.0[0].errors[0].key, "maps[0]");
+        assert!(e.0[0].errors[0].message.contains("no bitmap_m_per_px"));
+        assert!(plan_of(&spec.replace("wall_thickness_px = 2.5", "wall_thickness_m = 0.05")).is_ok());
     }
 
     /// A sensor's rate must fit the clock only where the study simulates that sensor: EKF-SLAM on

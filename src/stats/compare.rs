@@ -74,7 +74,7 @@ pub fn t_one_sided_p(x: &[f64], delta: f64, above: bool) -> f64 {
         return if signed > 0.0 { 0.0 } else { 1.0 };
     }
     match student(n - 1.0) {
-        Some(t) => 1.0 - t.cdf(signed / se),
+        Some(t) => t.sf(signed / se),
         None => f64::NAN,
     }
 }
@@ -114,16 +114,26 @@ pub fn prediction_interval(x: &[f64], confidence: f64, m: u32) -> (f64, f64) {
     (c - half, c + half)
 }
 
+/// The most extreme tail probability a map contributes to Stouffer's sum (|z| ≤ 7.9).
+const STOUFFER_P_MIN: f64 = 1e-15;
+
 /// Stouffer's combination of independent one-sided p-values ([St]): p = 1 − Φ(Σ Φ⁻¹(1 − p_i) / √k).
-/// p-values of exactly 0 or 1 are clamped to [1e-300, 1 − 1e-16] so a decisive map counts as a
-/// very large |z| rather than an infinite one. NaN when the list is empty or holds a NaN.
+/// p-values of exactly 0 or 1 count as the tail probability [`STOUFFER_P_MIN`], a very large |z|
+/// rather than an infinite one. NaN when the list is empty or holds a NaN.
 pub fn stouffer(p: &[f64]) -> f64 {
     if p.is_empty() || p.iter().any(|v| v.is_nan()) {
         return f64::NAN;
     }
     let n = Normal::new(0.0, 1.0).expect("standard normal");
-    let z: f64 = p.iter().map(|&pi| n.inverse_cdf(1.0 - pi.clamp(1e-300, 1.0 - 1e-16))).sum::<f64>() / (p.len() as f64).sqrt();
-    1.0 - n.cdf(z)
+    // z_i = Φ⁻¹(1 − p_i), from the nearer tail and bounded there, so p and 1 − p give exactly
+    // opposite z: a decisive map (p = 0, a constant difference) weighs as much as a decisive map
+    // the other way (p = 1), never +∞.
+    let z_of = |pi: f64| {
+        let z = -n.inverse_cdf(pi.min(1.0 - pi).max(STOUFFER_P_MIN));
+        if pi > 0.5 { -z } else { z }
+    };
+    let z: f64 = p.iter().map(|&pi| z_of(pi)).sum::<f64>() / (p.len() as f64).sqrt();
+    n.sf(z)
 }
 
 /// Average ranks (1-based), ties sharing their mean rank.
@@ -178,8 +188,8 @@ mod tests {
         assert_eq!(paired_differences(&a, &b), vec![2.0, 3.0, 1.0]);
         let c = paired_contrast(&a, &b, 0.95);
         assert_eq!((c.pairs, c.mean, c.against_mean), (3, 2.0, 2.0));
-        assert_eq!(c.ci, t_interval(&[2.0, 3.0, 1.0], 0.95));
-        assert!(c.ci.0 < 2.0 && c.ci.1 > 2.0);
+        // 2 ± t(0.975, 2)·1/√3 = 2 ± 4.3027·0.57735
+        assert!((c.ci.0 - (2.0 - 2.48414)).abs() < 1e-4 && (c.ci.1 - (2.0 + 2.48414)).abs() < 1e-4, "{:?}", c.ci);
     }
     use rand_distr::{Distribution, Normal as RNormal};
 
@@ -243,6 +253,11 @@ mod tests {
         assert!((stouffer(&[0.05, 0.05]) - 0.0100).abs() < 2e-4);
         // opposite evidence cancels
         assert!((stouffer(&[0.05, 0.95]) - 0.5).abs() < 1e-9);
+        // so does opposite decisive evidence (a constant difference gives p = 0 or 1): one
+        // decisive map must not outweigh a decisive map the other way
+        assert!((stouffer(&[0.0, 1.0]) - 0.5).abs() < 1e-9);
+        assert!((stouffer(&[1.0, 0.0]) - 0.5).abs() < 1e-9);
+        assert!(stouffer(&[0.0, 0.5]) < 1e-6 && stouffer(&[1.0, 0.5]) > 1.0 - 1e-6);
     }
 
     #[test]

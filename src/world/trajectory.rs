@@ -35,7 +35,8 @@ pub fn inset(spec: &TrajectorySpec, walls: &[Segment], inset_m: f64) -> Trajecto
     let (xs, ys): (Vec<f64>, Vec<f64>) = walls.iter().flat_map(|w| [(w.a.x, w.a.y), (w.b.x, w.b.y)]).unzip();
     let mid = |v: &[f64]| (v.iter().copied().fold(f64::INFINITY, f64::min) + v.iter().copied().fold(f64::NEG_INFINITY, f64::max)) / 2.0;
     let (cx, cy) = (mid(&xs), mid(&ys));
-    let towards = |v: f64, c: f64| if v == c { v } else { v + inset_m * (c - v).signum() };
+    // never past the centre: a coordinate nearer to it than the inset stops on it
+    let towards = |v: f64, c: f64| v + inset_m.min((c - v).abs()) * (c - v).signum();
     TrajectorySpec { waypoints: spec.waypoints.iter().map(|w| [towards(w[0], cx), towards(w[1], cy)]).collect(), ..spec.clone() }
 }
 
@@ -110,8 +111,10 @@ mod tests {
         let walls = [Segment::new(p(-1.0, -1.0), p(5.0, -1.0)), Segment::new(p(5.0, -1.0), p(5.0, 7.0)), Segment::new(p(-1.0, 7.0), p(-1.0, -1.0))];
         let mut spec = square();
         spec.waypoints.push([2.0, 3.0]);
+        spec.waypoints.push([2.2, 3.3]);
         let moved = inset(&spec, &walls, 0.5);
-        assert_eq!(moved.waypoints, vec![[3.5, 0.5], [3.5, 3.5], [0.5, 3.5], [0.5, 0.5], [2.0, 3.0]]);
+        // the last waypoint, within 0.5 m of the centre, stops on it instead of crossing it
+        assert_eq!(moved.waypoints, vec![[3.5, 0.5], [3.5, 3.5], [0.5, 3.5], [0.5, 0.5], [2.0, 3.0], [2.0, 3.0]]);
         assert_eq!(inset(&spec, &walls, 0.0), spec);
     }
 

@@ -72,8 +72,9 @@ pub struct FastSlamParams {
     /// default, so existing run hashes are unchanged.
     #[serde(skip_serializing_if = "DataAssociation::is_default")]
     pub association: DataAssociation,
-    /// The trajectory (and map) reported: `best_per_step` ([FT]: at every step the pose of the
-    /// particle with the highest current weight; the map of the final best particle),
+    /// The trajectory (and map) reported: `best_per_step` (at every step the pose of the particle
+    /// with the highest current weight; the map of the final best particle),
+    /// `path_of_final_best` ([FT] §5: the final best particle's map and its own pose history),
     /// `path_of_best` ([PF] Eq. 20: the whole path and the map of the particle with the highest
     /// log-weight accumulated along its lineage), or `weighted_mean` (the weighted mean pose at
     /// every step; the final best particle's map). Written out only when not the default.
