@@ -20,8 +20,10 @@
 //! update sequentially with the matched ones (Joseph form, O(n²) per observation: H has only the
 //! pose's and one landmark's columns), then augment the state with the new ones.
 //!
-//! Known limitations (as in [TB]): two observations of one step may match the same landmark and
-//! both update it; two observations of one unseen landmark create two landmarks.
+//! Under known association, several readings of one identity in a step arrive fused into one
+//! ([`super::observations::fuse`]). Known limitations of gated association (as in [TB]): two
+//! observations of one step may match the same landmark and both update it; two observations of
+//! one unseen landmark create two landmarks.
 
 use super::fastslam::models::Model;
 use super::observations::{Cursor, Observation, StepObservations};
@@ -34,7 +36,7 @@ use nalgebra::{DMatrix, DVector, Dyn, Matrix2, Matrix2x3, Matrix3, OMatrix, U2, 
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-pub const CODE_VERSION: &str = "ekf-slam-3";
+pub const CODE_VERSION: &str = "ekf-slam-4";
 
 /// Dimension of the robot pose (x, y, θ) in the joint state.
 const POSE_DIM: usize = 3;
@@ -501,7 +503,7 @@ fn symmetrise(p: &mut DMatrix<f64>) {
 /// (laser features), else to `points`.
 pub fn run(world: &World, motion: &MotionModel, params: &EkfParams, observations: &[StepObservations], points_as_corners: bool) -> Result<Trace, SlamError> {
     let mut filter = Ekf::new(params, motion, world.truth[0]);
-    let mut cursor = Cursor::new(observations);
+    let mut cursor = Cursor::new(observations, params.association == EkfAssociation::Known);
     let steps = world.odometry.len();
     let mut estimate = Vec::with_capacity(steps + 1);
     let mut pose_belief = Vec::with_capacity(steps + 1);

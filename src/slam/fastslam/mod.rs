@@ -32,7 +32,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
-pub const CODE_VERSION: &str = "fastslam1-3";
+pub const CODE_VERSION: &str = "fastslam1-4";
 
 /// ln(2π), the normalising constant of a bivariate Gaussian's log density.
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -446,9 +446,6 @@ impl<'a> FastSlam1<'a> {
                             failures += 1;
                         }
                     }
-                    (Association::New, _) if known && m.landmark.is_some() && map.of(m.model).iter().any(|l| l.id == m.landmark) => {
-                        // an identity seen twice in one step: its first sighting made it
-                    }
                     (Association::New, _) => match initialise(m, &pose, &m.r) {
                         Some(l) => {
                             // identities are kept only when the filter uses them
@@ -522,7 +519,7 @@ pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionMode
         return Err(SlamError::NoIdentities);
     }
     let mut filter = FastSlam1::new(params, motion, world.truth[0]);
-    let mut cursor = Cursor::new(observations);
+    let mut cursor = Cursor::new(observations, params.association == DataAssociation::Known);
     let steps = world.odometry.len();
     let mut neff = Vec::with_capacity(steps + 1);
     let mut pose_belief = Vec::new();
@@ -713,7 +710,8 @@ mod tests {
 
     /// Two features matched to one landmark in one scan update it one after the other, each
     /// against the landmark as the previous one left it (a sequential EKF), and weigh by the
-    /// sequential factors; a second "new" with an identity the step already created adds nothing.
+    /// sequential factors (matches under gated association); a new identity read twice in one
+    /// step arrives fused and makes one landmark.
     #[test]
     fn two_features_on_one_landmark_update_it_sequentially() {
         let p = FastSlamParams { particles: 1, association: DataAssociation::Known, ..FastSlamParams::default() };
@@ -735,9 +733,11 @@ mod tests {
         assert!((got.cov - expected.cov).abs().max() < 1e-12, "{} vs sequential {}", got.cov, expected.cov);
         assert!((f.particles[0].log_weight - log_weight).abs() < 1e-9);
 
-        // a new identity seen twice in one step: one landmark
+        // a new identity seen twice in one step: the filter reads it fused (known association),
+        // so one landmark
+        let stream = [StepObservations { step: 0, observations: vec![o, o] }];
         let mut f = FastSlam1::new(&p, None, pose);
-        f.weigh_and_update(0, &[o, o]);
+        f.weigh_and_update(0, Cursor::new(&stream, true).at(0));
         assert_eq!(f.particles[0].map.corners.len(), 1);
         assert!((f.particles[0].log_weight - p.p0.ln()).abs() < 1e-12, "one new landmark, one P0 factor");
     }

@@ -74,7 +74,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use std::f64::consts::PI;
 
-pub const CODE_VERSION: &str = "fastslam2-2";
+pub const CODE_VERSION: &str = "fastslam2-3";
 
 /// ln(2π), the normalising constant of a bivariate Gaussian's log density.
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -434,9 +434,6 @@ impl<'a> FastSlam2<'a> {
                     }
                     Association::New => {
                         let id = if known { o.landmark } else { None };
-                        if id.is_some() && map.of(o.model).iter().any(|l| l.id == id) {
-                            continue; // an identity seen twice in one step: its first sighting made it
-                        }
                         match initialise(o, &pose, id) {
                             Some(l) => {
                                 map.of_mut(o.model).push(l);
@@ -509,7 +506,7 @@ fn run_with(world: &World, params: &FastSlamParams, motion: &MotionModel, observ
     let steps = world.odometry.len();
     let mut neff = Vec::with_capacity(steps + 1);
     let mut pose_belief = Vec::with_capacity(steps + 1);
-    let mut cursor = Cursor::new(observations);
+    let mut cursor = Cursor::new(observations, params.association == DataAssociation::Known);
     let mut estimator = Estimator::new(params.estimate, steps + 1);
     for k in 0..=steps {
         let control = k.checked_sub(1).map(|j| &world.odometry[j]);

@@ -471,3 +471,57 @@ fn two_matched_observations_weigh_by_their_joint_density() {
     let w = f.particles[0].log_weight;
     assert!((w - joint).abs() < 0.05 * joint.abs().max(1.0), "log weight {w}, joint density {joint}, product of marginals {marginals}");
 }
+
+/// One landmark read twice in a step (known association): its readings share the landmark's
+/// error as well as the pose's, so the joint density has the cross term H_m P H_mᵀ between them.
+/// The filter reads them fused (`Cursor`), and its weight is that joint density up to the factor
+/// N(z₂ − z₁; 0, 2R), the same for every particle. Weighing the two readings against the same
+/// unchanged landmark, as the proposal would, misses the cross term.
+#[test]
+fn one_landmark_read_twice_weighs_by_the_joint_density() {
+    let motion = MotionModel::Pose { sigma_x_m: 0.08, sigma_y_m: 0.08, sigma_theta_rad: 0.03 };
+    let u = Pose2::new(0.3, 0.02, 0.05);
+    let r = Matrix2::new(1e-4, 0.0, 0.0, 1e-5);
+    let truth = Pose2::new(0.55, 0.12, 0.47);
+    let p = params(1, DataAssociation::Known);
+    let (mut f, l) = one_particle(&p, &motion);
+    let loose = Landmark { cov: Matrix2::new(0.04, 0.0, 0.0, 0.04), ..l }; // an uncertain landmark
+    f.particles[0].map_mut().corners[0] = loose;
+    let reading = |dz: f64| Observation { model: Model::Point, z: Model::Point.predict(&loose.mean, &truth).z + Vector2::new(dz, -dz / 10.0), r, landmark: loose.id };
+    let (z1, z2) = (reading(0.004), reading(-0.003));
+    let stream = [StepObservations { step: 1, observations: vec![z1, z2] }];
+    let mut cursor = Cursor::new(&stream, true);
+    let fused = cursor.at(1).to_vec();
+    assert_eq!(fused.len(), 1);
+    let previous = f.particles[0].pose;
+    f.advance(0, Some(&u), &fused, &mut ChaCha8Rng::seed_from_u64(1));
+    assert_eq!(f.numerical_failures, 0);
+
+    let predicted = previous.compose(u);
+    let q = motion.covariance(&previous, &u);
+    let a = Model::Point.predict_full(&loose.mean, &predicted);
+    let mut hx = nalgebra::Matrix4x3::zeros();
+    let mut hm = nalgebra::Matrix4x2::zeros();
+    for k in 0..2 {
+        hx.fixed_view_mut::<2, 3>(2 * k, 0).copy_from(&a.h_pose);
+        hm.fixed_view_mut::<2, 2>(2 * k, 0).copy_from(&a.h_landmark);
+    }
+    let mut s = hx * q * hx.transpose() + hm * loose.cov * hm.transpose();
+    for k in 0..2 {
+        for i in 0..2 {
+            for j in 0..2 {
+                s[(2 * k + i, 2 * k + j)] += r[(i, j)];
+            }
+        }
+    }
+    let (n1, n2) = (Model::Point.innovation(&z1.z, &a.z), Model::Point.innovation(&z2.z, &a.z));
+    let nu = nalgebra::Vector4::new(n1[0], n1[1], n2[0], n2[1]);
+    let joint = -0.5 * (nu.transpose() * s.try_inverse().unwrap() * nu)[0] - 0.5 * (TAU.powi(4) * s.determinant()).ln();
+    let d = Model::Point.innovation(&z2.z, &z1.z);
+    let common = -0.5 * (d.transpose() * (2.0 * r).try_inverse().unwrap() * d)[0] - 0.5 * (TAU.powi(2) * (2.0 * r).determinant()).ln();
+    let unchanged: f64 = [&z1, &z2].iter().map(|o| evaluate(o, &loose, &predicted, &q).unwrap().log_likelihood).sum();
+    assert!((unchanged - joint).abs() > 1.0, "the test must tell the two apart: {unchanged} vs {joint}");
+    let w = f.particles[0].log_weight + common;
+    assert!((w - joint).abs() < 0.05 * joint.abs().max(1.0), "log weight + common factor {w}, joint density {joint}");
+    assert_eq!(f.particles[0].map.corners.len(), 1);
+}
