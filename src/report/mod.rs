@@ -146,7 +146,10 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
         let Some(entry) = std::fs::read(dir.join(ENTRY)).ok().and_then(|b| serde_json::from_slice::<view::IndexEntry>(&b).ok()) else { continue };
         for (rel, bytes) in read_tree(&dir)? {
             if rel == CLAIMS {
-                claims.extend(serde_json::from_slice::<Vec<ClaimResult>>(&bytes).unwrap_or_default());
+                // a kept report's claims enter the scoreboard: unreadable, they would silently
+                // turn its items into "claims not evaluated"
+                let path = dir.join(CLAIMS);
+                claims.extend(serde_json::from_slice::<Vec<ClaimResult>>(&bytes).map_err(|e| ReportError::Items { path, message: format!("kept report's claims do not parse: {e}") })?);
             }
             files.push((format!("{id}/{rel}"), bytes));
         }

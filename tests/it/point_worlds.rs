@@ -163,6 +163,15 @@ fn a_study_without_results_keeps_its_report_when_its_spec_remains() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("smoke: no results here; its previous report is kept"));
     assert_eq!(crate::util::tree(&reports.join("smoke")), before, "kept byte for byte");
     assert_eq!(std::fs::read(reports.join("index.html")).unwrap(), index, "and listed in the index");
+    // its claims enter the scoreboard: unreadable, they are an error naming the file, not a
+    // silent "claims not evaluated"
+    let claims = reports.join("smoke/claims.json");
+    let good = std::fs::read(&claims).unwrap();
+    std::fs::write(&claims, "not json").unwrap();
+    let out = slamlab(&["report", "--results", s(&results), "--out", s(&reports), "--specs", s(&specs)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("claims.json"), "{err}");
+    std::fs::write(&claims, good).unwrap();
     // without its spec the study is retired
     std::fs::remove_file(specs.join("smoke.toml")).unwrap();
     ok(&["report", "--results", s(&results), "--out", s(&reports), "--specs", s(&specs)]);
