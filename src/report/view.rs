@@ -309,7 +309,7 @@ fn filter_choices(study: &Study<'_>, kinds: &[crate::world::WorldKind]) -> Vec<S
 
 /// The scan matchers' settings ([EP] leaves most of them open).
 fn scan_matching_choices(study: &Study<'_>) -> Vec<String> {
-    use crate::scanmatch::{psm, track};
+    use crate::scanmatch::track;
     use crate::slam::AlgorithmKind as A;
     let algos = &study.spec().algorithms;
     if !algos.iter().any(|a| a.is_scan_matcher()) {
@@ -319,7 +319,7 @@ fn scan_matching_choices(study: &Study<'_>) -> Vec<String> {
     let sm = &b.scan_matching;
     let mut out = vec![sm.describe(), sm.objective.describe(), sm.segmentation.describe()];
     if algos.iter().any(|a| matches!(a, A::Psm | A::PsmOriginal)) {
-        out.push(psm::describe().into());
+        out.push(b.psm.describe());
     }
     if algos.iter().any(|a| matches!(a, A::Epsm)) {
         out.push(b.epsm.describe());

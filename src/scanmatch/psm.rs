@@ -100,13 +100,18 @@ impl Default for PsmParams {
     }
 }
 
-/// The report's sentence on PSM: the published algorithm and constants, and the one deliberate
-/// fix (see the module docs).
-pub fn describe() -> &'static str {
-    "PSM: Diosi & Kleeman's published algorithm and constants (orientation by shifting the range array ±20 beams with the parabolic refinement on even iterations; Dudek-weighted least-squares translation, C = 70² cm² divided by 50 from iteration 10; stop after 3 small corrections or 30 iterations), with the proper symmetric 2 × 2 inverse instead of the C code's quirk."
-}
-
 impl PsmParams {
+    /// The report's sentence on PSM: the algorithm with the study's constants (Diosi & Kleeman's
+    /// when default) and the one deliberate fix (see the module docs).
+    pub fn describe(&self) -> String {
+        let constants = if *self == PsmParams::default() { "and constants" } else { "with these constants" };
+        let c_cm = (self.weighting_factor_m2.sqrt() * 100.0 * 1e6).round() / 1e6;
+        format!(
+            "PSM: Diosi & Kleeman's published algorithm {constants} (orientation by shifting the range array ±{} beams with the parabolic refinement on even iterations; Dudek-weighted least-squares translation, C = {c_cm}² cm² divided by {} from iteration {}; stop after {} small corrections or {} iterations), with the proper symmetric 2 × 2 inverse instead of the C code's quirk.",
+            self.search_window_beams, self.weight_reduction, self.change_weight_iter, self.small_corrections_to_stop, self.max_iter
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.positive("max_range_m", self.max_range_m);
@@ -362,11 +367,14 @@ mod tests {
 
     #[test]
     fn describe_states_the_default_constants() {
-        // The sentence is fixed: it must keep quoting the defaults it names.
         let p = PsmParams::default();
-        let s = describe();
+        let s = p.describe();
         assert_eq!((p.search_window_beams, p.weight_reduction, p.change_weight_iter, p.small_corrections_to_stop, p.max_iter), (20, 50.0, 10, 3, 30));
         assert!(s.contains("±20 beams") && s.contains("divided by 50 from iteration 10") && s.contains("3 small corrections or 30 iterations"), "{s}");
+        assert!(s.contains("algorithm and constants") && s.contains("C = 70² cm²"), "{s}");
+        // a study's own constants are what the report states
+        let s = PsmParams { search_window_beams: 35, max_iter: 60, ..p }.describe();
+        assert!(s.contains("with these constants") && s.contains("±35 beams") && s.contains("or 60 iterations"), "{s}");
     }
 
     fn prepared_pair(delta: Pose2, method: Segmentation) -> (PolarScan, PolarScan) {
