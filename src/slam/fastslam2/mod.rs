@@ -381,8 +381,9 @@ impl<'a> FastSlam2<'a> {
     }
 
     /// Draws particle `i`'s pose from the proposal: the motion prediction (x̂, Q) refined by
-    /// every observation matched to a known landmark (Eqs. 4–6). Always draws three standard
-    /// normals; with nothing matched, or an indefinite Σx (counted), the motion model's sample.
+    /// every observation matched to a known landmark (Eqs. 4–6): three standard normals. With
+    /// nothing matched, or an indefinite Σx (counted), the motion model's sample instead, with the
+    /// normals that model draws ([`MotionModel::sample`]).
     /// Each matched observation's weight factor becomes its chain-rule factor (see [`refine`]):
     /// together they are the joint predictive density of the matched observations, whose shared
     /// pose error the product of their marginals would count once per observation. A failed
