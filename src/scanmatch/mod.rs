@@ -12,7 +12,8 @@
 //! - [`segment`]: preprocessing — Diosi's heuristics, line segmentation, or none.
 //! - [`objective`]: projection (Eq. 1–2), interpolation within segments, z-buffer, the occlusion
 //!   rule (Eq. 3) and f (Eq. 4): the one cost every matcher is scored by.
-//! - [`psm`]: Diosi & Kleeman's Polar Scan Matching as published.
+//! - [`psm`]: Diosi & Kleeman's Polar Scan Matching as Diosi's v0.3 program computes it.
+//! - [`real`]: the precision PSM computes in (single, as v0.3, or double).
 //! - [`epsm`]: E-PSM's alternating orientation/position search (§5.3.1), with the BOBYQA
 //!   position step and the f-check as options.
 //! - [`search`]: simultaneous (x, y, θ) search with NLopt's optimisers (§5.3.2).
@@ -23,6 +24,7 @@ pub mod brute;
 pub mod epsm;
 pub mod objective;
 pub mod psm;
+pub mod real;
 pub mod scan;
 pub mod search;
 pub mod segment;

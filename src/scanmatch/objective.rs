@@ -147,7 +147,7 @@ pub enum PairStatus {
 
 /// Projection of a current scan into the reference frame and its interpolation at the reference
 /// bearings with a min-range z-buffer (Eq. 1–2, [EP] §5.2 rule 1, Diosi's `pm_scan_project`).
-/// Shared by [`Objective`] and PSM. Allocation-free after construction.
+/// Used by [`Objective`] (PSM has its own, [`super::psm`]). Allocation-free after construction.
 #[derive(Debug, Clone)]
 pub(crate) struct Projection {
     /// cos, sin of the current bearings φ_{c,i}.
@@ -169,9 +169,6 @@ pub(crate) struct Projection {
     pphi: Vec<f64>,
     /// r̂_{c,j} per reference beam [m]; +∞ = no value ("empty").
     pub(crate) interpolated: Vec<f64>,
-    /// Whether the kept value came from a pair seen in reversed bearing order, i.e. a surface seen
-    /// from behind (PSM's PM_OCCLUDED tag; unused by E-PSM).
-    pub(crate) reversed: Vec<bool>,
 }
 
 impl Projection {
@@ -194,7 +191,6 @@ impl Projection {
             pr: vec![0.0; n_cur],
             pphi: vec![0.0; n_cur],
             interpolated: vec![f64::INFINITY; n_ref],
-            reversed: vec![false; n_ref],
         }
     }
 
@@ -205,10 +201,9 @@ impl Projection {
     }
 
     /// Projects `current` (the scan given to [`Projection::new`]) at `pose` and fills
-    /// `interpolated`/`reversed`. A non-finite pose leaves every bearing empty.
+    /// `interpolated`. A non-finite pose leaves every bearing empty.
     pub(crate) fn project(&mut self, current: &PolarScan, pose: Pose2, interpolation: Interpolation) {
         self.interpolated.fill(f64::INFINITY);
-        self.reversed.fill(false);
         let n_ref = self.interpolated.len();
         if !pose.is_finite() || n_ref == 0 {
             return;
@@ -237,8 +232,9 @@ impl Projection {
             if seg == 0 || seg != current.segment[i - 1] || !current.valid[i] || !current.valid[i - 1] {
                 continue;
             }
-            // Bearing order reversed ⇒ the surface is seen from behind (PSM's "occluded" pair).
-            let (a, b, reversed) = if self.pphi[i] >= self.pphi[i - 1] { (i - 1, i, false) } else { (i, i - 1, true) };
+            // (a bearing order reversed means a surface seen from behind: its values still hide
+            // farther ones; Eq. 3 judges them in `Objective`)
+            let (a, b) = if self.pphi[i] >= self.pphi[i - 1] { (i - 1, i) } else { (i, i - 1) };
             let (lo, hi) = (self.pphi[a], self.pphi[b]);
             if hi - lo >= PI || (hi - lo).is_nan() {
                 continue; // spans the ±π seam (or a degenerate point)
@@ -273,7 +269,6 @@ impl Projection {
                 // z-buffer: the closest surface wins ([EP] L143, occlusion rule 1)
                 if r < self.interpolated[j] {
                     self.interpolated[j] = r;
-                    self.reversed[j] = reversed;
                 }
             }
         }

@@ -1,55 +1,91 @@
-//! Diosi & Kleeman's Polar Scan Matching (PSM) as published ([EP] reference §2.2 (b)–(f); Diosi's
-//! `polar_match.cpp`, `pm_psm`): (reference [`PolarScan`], current [`PolarScan`], initial pose) →
-//! [`MatchResult`]. "Diosi" in [EP] Tables 2 and 4.
+//! Diosi & Kleeman's Polar Scan Matching (PSM) as Diosi wrote it ([EP] reference §2.2 (b)–(f);
+//! `polar_match.cpp` v0.3, `pm_psm`): (reference [`PolarScan`], current [`PolarScan`], initial
+//! pose) → [`MatchResult`]. "Diosi" in [EP] Tables 2 and 4.
 //!
-//! Each iteration projects the current scan into the reference frame (Eq. 1–2, linear
-//! interpolation within segments, min-range z-buffer, PSM's own "seen from behind" tagging — not
-//! E-PSM's Eq. 3), then alternates:
-//! - even iterations: orientation by shifting the range array ±`search_window_beams` beams,
+//! The loop, in PSM's own working frame (X right, Y forward, centimetres, bearings φ from X;
+//! [`Frame`]):
+//! - each pass projects the current scan into the reference frame ([`project`]: every point to
+//!   polar coordinates, linear interpolation in bearing between consecutive points of one segment,
+//!   the closest value kept per reference bearing, pairs seen in reversed bearing order tagged
+//!   occluded);
+//! - even passes search the orientation by shifting the range array ±`search_window_beams` beams,
 //!   minimising the mean *absolute* range residual, refined by a parabola ([`orientation_search`]);
-//! - odd iterations: translation by one weighted least-squares step with w = C/(C + e²) (Dudek)
-//!   ([`translation_step`]); C ← C/50 after iteration 10.
+//! - odd passes take one Dudek-weighted least-squares translation step, w = C/(C + e²)
+//!   ([`translation_step`]).
 //!
-//! It stops after 3 consecutive small corrections or 30 iterations. The reported f, f_initial and
-//! pairs come from the caller's common [`Cost`] (so every matcher is scored alike); `evaluations`
-//! counts PSM's own projections.
+//! It stops after 3 consecutive small corrections or 30 passes; a pass that cannot go on (too few
+//! pairs, a small determinant, no orientation overlap) fails the match, where the C code throws.
+//! The reported f, f_initial and pairs come from the caller's common [`Cost`] (so every matcher is
+//! scored alike); `evaluations` counts PSM's own projections.
 //!
-//! Differences from the C code, all deliberate:
-//! - SI units; the cm constants are converted at their definition in [`PsmParams`], except the
-//!   stopping test, whose mixed units (cm + cm + rad) are kept ([`PsmParams::stop_cond`]).
-//! - The proper symmetric 2×2 inverse in the translation step (v0.3 leaves `hwh21` at 0, so its
-//!   determinant is h11·h22 while the inverse uses −h12).
-//! - The bearing step is the scans' own (the C code uses FOV/(L + 1), 0.989° for 181 beams).
-//! - A failure (too few pairs, singular system, no orientation overlap) returns the initial guess
-//!   with the reason in [`Stop`], where the C code throws.
-//! - The C ← C/50 switch: [EP]'s pseudo-code tests `iter == 10` after the even-iteration `continue`,
-//!   so it would never fire; the public ROS port uses `iter > 10` with C = 100 cm² (≈ 70²/50 = 98).
-//!   We apply C/50 to every translation step with iter > `change_weight_iter`.
-//! - The ROS port (Dryanovski) runs the orientation search on odd iterations; we follow [EP]'s
-//!   description (even iterations).
+//! **Defaults reproduce v0.3 per match** (tested against the outputs of Diosi's program on 3 636
+//! Intel-lab matches, `tests/it/psm_reference.rs`), including what v0.3 does that its description
+//! does not say. Each such behaviour is a named option ([`PsmParams`]):
+//! - `precision`: v0.3 computes in single precision (`PM_TYPE float`), and PSM's fixed-point
+//!   iteration is sensitive enough to it that a double-precision port ends more than 1 mm away on
+//!   a sizeable share of real matches;
+//! - `inverse`: v0.3's 2 × 2 inverse of HᵀWH leaves `hwh21` at 0, so its determinant is h11·h22
+//!   while the off-diagonal terms use −h12 (`symmetric` is the proper inverse);
+//! - `weight_schedule`: v0.3 means to divide C by 50 at pass 10, but tests `iter == 10` on the
+//!   translation branch, which only odd passes reach, so C never changes (`reduced_after` divides
+//!   C on every translation pass after `change_weight_iter`, as the ROS port does);
+//! - `max_range_m`: v0.3's 10 m gate on far points and on projected ranges (`PM_MAX_RANGE`).
+//!
+//! Not copied: v0.3 returns the heading unwrapped; ours is wrapped to (−π, π].
 //!
 //! Known behaviour (tested): PSM does not recover a noise-free transform exactly. Its parabola
 //! through a V-shaped mean-absolute error puts the vertex where e(−1) = e(+1), not at the minimum
 //! (≈ 0.2° off on the test room even when started at the truth), and the translation step, whose
 //! Jacobian h = (cos φ, sin φ) assumes beam-normal surfaces, absorbs part of the heading error as
-//! a lateral shift: ≈ 15 mm / 0.5° for (0.2 m, −0.1 m, 3°) from the identity — within [EP]
-//! Table 2's "Diosi" no-noise maxima (34 mm, 40 mm, 1.3°).
+//! a lateral shift.
 
-use super::objective::{Interpolation, Projection};
+use super::real::{Precision, Real};
 use super::scan::PolarScan;
 use super::{Cost, MatchResult, Stop};
 use crate::config::{Checks, Violation};
 use crate::geom::{Pose2, wrap_angle};
 use serde::{Deserialize, Serialize};
 
-/// m → cm, for PSM's mixed-unit stopping test.
+/// m → cm: PSM works in centimetres.
 const M_TO_CM: f64 = 100.0;
 
-/// PSM's constants ([EP] reference §2.2g, `polar_match.h` for a SICK LMS200), in SI.
+/// The range an empty interpolated bearing holds [cm] (v0.3: 10000).
+const EMPTY_RANGE_CM: f64 = 10_000.0;
+
+/// The error of a shift with no overlap, and the bound on a usable one [cm] (v0.3's LARGE_NUMBER).
+const NO_OVERLAP_ERROR_CM: f64 = 10_000.0;
+
+/// How HᵀWH is inverted in the translation step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Inverse {
+    /// v0.3: determinant h11·h22 (`hwh21` is never accumulated), off-diagonals −h12/det.
+    #[default]
+    V03,
+    /// The symmetric inverse: determinant h11·h22 − h12².
+    Symmetric,
+}
+
+/// When the weighting factor C is reduced.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WeightSchedule {
+    /// v0.3 in effect: C never changes (its `iter == 10` test sits on a branch only odd passes
+    /// reach).
+    #[default]
+    Constant,
+    /// C / `weight_reduction` on every translation pass after `change_weight_iter` (the intent
+    /// of v0.3's comment, and the ROS port's `iter > 10`).
+    ReducedAfter,
+}
+
+/// PSM's constants ([EP] reference §2.2g, `polar_match.h` for a SICK LMS200), in SI, and the
+/// v0.3 behaviours that are options (see the module doc).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PsmParams {
-    /// Projected ranges must be below this [m] to enter the translation step. PM_MAX_RANGE = 1000 cm.
+    /// Projected ranges must be below this [m] to enter the translation step; PSM's own
+    /// preprocessing also marks readings beyond it bad. PM_MAX_RANGE = 1000 cm.
     pub max_range_m: f64,
     /// ...and above this [m]. PM_MIN_RANGE = 10 cm.
     pub min_range_m: f64,
@@ -57,10 +93,12 @@ pub struct PsmParams {
     pub max_error_m: f64,
     /// C of the weight w = C/(C + e²) [m²]. PM_WEIGHTING_FACTOR = 70² cm² = 0.49 m².
     pub weighting_factor_m2: f64,
-    /// C is divided by this after `change_weight_iter`. PSM: 50.
+    /// With `weight_schedule = "reduced_after"`, C is divided by this. PSM: 50.
     pub weight_reduction: f64,
-    /// Iteration after which C is reduced. PM_CHANGE_WEIGHT_ITER = 10.
+    /// ...after this pass. PM_CHANGE_WEIGHT_ITER = 10.
     pub change_weight_iter: u32,
+    /// Whether C is ever reduced. Default `constant`, what v0.3 does.
+    pub weight_schedule: WeightSchedule,
     /// Half-window of the orientation search [beams]. PM_SEARCH_WINDOW = 20 (≈ ±20° at 1°).
     pub search_window_beams: usize,
     /// Minimum pairs of a translation step. PM_MIN_VALID_POINTS = 40.
@@ -71,13 +109,17 @@ pub struct PsmParams {
     pub stop_cond: f64,
     /// Consecutive small corrections that stop the search. PSM: 3.
     pub small_corrections_to_stop: u32,
-    /// Maximum iterations (orientation and translation steps each count one). PM_MAX_ITER = 30.
+    /// Maximum passes (orientation and translation passes each count one). PM_MAX_ITER = 30.
     pub max_iter: u32,
     /// Parabolic refinement only when the curvature D = e₋ + e₊ − 2e₀ exceeds this [m]. PSM: 0.01 cm.
     pub parabola_min_curvature_m: f64,
     /// The translation step fails below this determinant of HᵀWH (dimensionless: h = (cos φ,
     /// sin φ), w ≤ 1). PSM: 0.001.
     pub min_determinant: f64,
+    /// Arithmetic. Default `single`, v0.3's `PM_TYPE float`.
+    pub precision: Precision,
+    /// The 2 × 2 inverse. Default `v03`.
+    pub inverse: Inverse,
 }
 
 impl Default for PsmParams {
@@ -89,6 +131,7 @@ impl Default for PsmParams {
             weighting_factor_m2: 0.70 * 0.70,
             weight_reduction: 50.0,
             change_weight_iter: 10,
+            weight_schedule: WeightSchedule::Constant,
             search_window_beams: 20,
             min_valid_points: 40,
             stop_cond: 0.4,
@@ -96,19 +139,32 @@ impl Default for PsmParams {
             max_iter: 30,
             parabola_min_curvature_m: 1e-4,
             min_determinant: 0.001,
+            precision: Precision::Single,
+            inverse: Inverse::V03,
         }
     }
 }
 
 impl PsmParams {
     /// The report's sentence on PSM: the algorithm with the study's constants (Diosi & Kleeman's
-    /// when default) and the one deliberate fix (see the module docs).
+    /// when default) and the v0.3 behaviours in force.
     pub fn describe(&self) -> String {
         let constants = if *self == PsmParams::default() { "and constants" } else { "with these constants" };
         let c_cm = (self.weighting_factor_m2.sqrt() * 100.0 * 1e6).round() / 1e6;
+        let weight = match self.weight_schedule {
+            WeightSchedule::Constant => format!("C = {c_cm}² cm² throughout, as v0.3 runs"),
+            WeightSchedule::ReducedAfter => format!("C = {c_cm}² cm² divided by {} after pass {}", self.weight_reduction, self.change_weight_iter),
+        };
+        let inverse = match self.inverse {
+            Inverse::V03 => "v0.3's 2 × 2 inverse (determinant h11·h22)",
+            Inverse::Symmetric => "the symmetric 2 × 2 inverse",
+        };
         format!(
-            "PSM: Diosi & Kleeman's published algorithm {constants} (orientation by shifting the range array ±{} beams with the parabolic refinement on even iterations; Dudek-weighted least-squares translation, C = {c_cm}² cm² divided by {} from iteration {}; stop after {} small corrections or {} iterations), with the proper symmetric 2 × 2 inverse instead of the C code's quirk.",
-            self.search_window_beams, self.weight_reduction, self.change_weight_iter, self.small_corrections_to_stop, self.max_iter
+            "PSM: Diosi & Kleeman's v0.3 program {constants} (orientation by shifting the range array ±{} beams with the parabolic refinement on even passes; Dudek-weighted least-squares translation on odd passes, {weight}, {inverse}; stop after {} small corrections or {} passes), in {} precision.",
+            self.search_window_beams,
+            self.small_corrections_to_stop,
+            self.max_iter,
+            self.precision.name()
         )
     }
 
@@ -166,192 +222,270 @@ pub fn psm<C: Cost + ?Sized>(
         });
     }
     let f_initial = score.f(initial);
-    let (outcome, iterations, evaluations) = if reference.is_consistent() && current.is_consistent() && initial.is_finite() {
-        iterate(reference, current, initial, params)
+    let run = if reference.is_consistent() && current.is_consistent() && initial.is_finite() && !reference.is_empty() {
+        match params.precision {
+            Precision::Single => iterate::<f32>(reference, current, initial, params),
+            Precision::Double => iterate::<f64>(reference, current, initial, params),
+        }
     } else {
-        (Err(Stop::TooFewPairs), 0, 0)
+        Run { outcome: Err(Stop::TooFewPairs), passes: 0 }
     };
-    let (pose, stop) = match outcome {
+    let (pose, stop) = match run.outcome {
         Ok((pose, stop)) => (pose, stop),
         Err(stop) => (initial, stop),
     };
     let mut residuals = vec![0.0; score.beams()];
     let pairs = score.residuals(pose, &mut residuals);
-    Ok(MatchResult { pose, f: score.f(pose), f_initial, pairs, iterations, evaluations, fallback: false, stop })
+    let passes = run.passes;
+    Ok(MatchResult { pose, f: score.f(pose), f_initial, pairs, iterations: passes, evaluations: passes as u64, fallback: false, stop })
 }
 
-/// `pm_psm`'s loop ([EP] reference §2.2f). Returns (pose and why it stopped, or the failure),
-/// iterations, projections.
-fn iterate(reference: &PolarScan, current: &PolarScan, initial: Pose2, params: &PsmParams) -> (Result<(Pose2, Stop), Stop>, u32, u64) {
-    let mut projection = Projection::new(reference, current);
-    let beam_cos_sin: Vec<(f64, f64)> = (0..reference.len()).map(|j| projection.ref_cos_sin(j)).collect();
-    let mut pose = initial;
-    let (mut dx, mut dy, mut dth) = (0.0f64, 0.0f64, 0.0f64);
+/// One `pm_psm` call: the estimate and why it stopped, or why it failed; passes begun (for a
+/// failure, the pass that failed). Each pass projects once.
+struct Run {
+    outcome: Result<(Pose2, Stop), Stop>,
+    passes: u32,
+}
+
+/// PSM's working frame and beam table (`pm_init`): bearings φᵢ = φ_min + i·Δφ from PSM's X axis
+/// (X right, Y forward: φ = α + 90° for a bearing α in our x-forward frame), with their sine and
+/// cosine, in the working precision.
+struct Frame<T> {
+    fi_min: T,
+    dfi: T,
+    fi: Vec<T>,
+    co: Vec<T>,
+    si: Vec<T>,
+}
+
+impl<T: Real> Frame<T> {
+    fn new(scan: &PolarScan) -> Self {
+        let fi_min = T::from_f64(scan.angle_min_rad + std::f64::consts::FRAC_PI_2);
+        let dfi = T::from_f64(scan.angle_increment_rad);
+        let fi: Vec<T> = (0..scan.len()).map(|i| T::from_usize(i) * dfi + fi_min).collect();
+        Self { fi_min, dfi, co: fi.iter().map(|f| f.cos()).collect(), si: fi.iter().map(|f| f.sin()).collect(), fi }
+    }
+}
+
+/// A prepared scan as PSM holds it (`PMScan`): ranges [cm] in the working precision, bad flags
+/// (v0.3's PM_RANGE: invalid beams) and segment labels (0 = an isolated point).
+struct Ranges<T> {
+    r: Vec<T>,
+    bad: Vec<bool>,
+    seg: Vec<u32>,
+}
+
+impl<T: Real> Ranges<T> {
+    fn new(scan: &PolarScan) -> Self {
+        Self {
+            r: scan.ranges.iter().map(|&r| T::from_f64(r * M_TO_CM)).collect(),
+            bad: scan.valid.iter().map(|v| !v).collect(),
+            seg: scan.segment.clone(),
+        }
+    }
+}
+
+/// The current scan projected and interpolated at the reference bearings (`new_r`, `new_bad`).
+struct Projected<T> {
+    /// r̂ⱼ [cm]; [`EMPTY_RANGE_CM`] where empty.
+    r: Vec<T>,
+    /// Whether r̂ⱼ may be used: it holds a value and the value is not from a surface seen from
+    /// behind (v0.3: `new_bad[j] == 0`, i.e. neither PM_EMPTY nor PM_OCCLUDED).
+    usable: Vec<bool>,
+}
+
+/// `pm_psm`'s loop, in PSM's frame and units (see the module doc).
+fn iterate<T: Real>(reference: &PolarScan, current: &PolarScan, initial: Pose2, params: &PsmParams) -> Run {
+    let frame = Frame::<T>::new(reference);
+    let (reference, current) = (Ranges::<T>::new(reference), Ranges::<T>::new(current));
+    let mut projected = Projected { r: vec![T::ZERO; frame.fi.len()], usable: vec![false; frame.fi.len()] };
+    // our (x forward, y left) m → PSM's (X right, Y forward) cm; the heading is the same angle
+    let (mut ax, mut ay, mut ath) =
+        (T::from_f64(-M_TO_CM * initial.y), T::from_f64(M_TO_CM * initial.x), T::from_f64(initial.theta));
+    let weighting_factor = T::from_f64(params.weighting_factor_m2 * M_TO_CM * M_TO_CM);
+    let (mut dx, mut dy, mut dth) = (T::ZERO, T::ZERO, T::ZERO);
     let mut small = 0u32;
-    let mut iter = 0u32;
-    let mut evaluations = 0u64;
-    while iter < params.max_iter && small < params.small_corrections_to_stop {
+    let mut pass = 0u32;
+    while pass < params.max_iter && small < params.small_corrections_to_stop {
         // mixed units as published: cm + cm + rad
-        small = if M_TO_CM * (dx.abs() + dy.abs()) + dth.abs() < params.stop_cond { small + 1 } else { 0 };
-        projection.project(current, pose, Interpolation::Linear);
-        evaluations += 1;
-        if iter.is_multiple_of(2) {
-            // orientation search ([EP] reference §2.2d)
-            match orientation_search(reference, &projection.interpolated, &projection.reversed, params) {
+        small = if (dx.abs() + dy.abs() + dth.abs()).to_f64() < params.stop_cond { small + 1 } else { 0 };
+        project(&frame, &current, (ax, ay, ath), &mut projected);
+        if pass.is_multiple_of(2) {
+            match orientation_search(&frame, &reference, &projected, params) {
                 Some(d) => dth = d,
-                None => return (Err(Stop::TooFewPairs), iter + 1, evaluations),
+                None => return Run { outcome: Err(Stop::TooFewPairs), passes: pass + 1 },
             }
-            pose.theta += dth;
+            ath += dth;
         } else {
-            // translation estimation ([EP] reference §2.2e)
-            let c = if iter > params.change_weight_iter {
-                params.weighting_factor_m2 / params.weight_reduction
-            } else {
-                params.weighting_factor_m2
-            };
-            match translation_step(reference, &beam_cos_sin, &projection.interpolated, &projection.reversed, c, params) {
-                Ok(step) => {
-                    dx = step.dx;
-                    dy = step.dy;
+            let c = match params.weight_schedule {
+                WeightSchedule::ReducedAfter if pass > params.change_weight_iter => {
+                    T::from_f64(weighting_factor.to_f64() / params.weight_reduction)
                 }
-                Err(stop) => return (Err(stop), iter + 1, evaluations),
+                _ => weighting_factor,
+            };
+            match translation_step(&frame, &reference, &projected, c, params) {
+                Ok(step) => (dx, dy) = (step.dx, step.dy),
+                Err(stop) => return Run { outcome: Err(stop), passes: pass + 1 },
             }
-            pose.x += dx;
-            pose.y += dy;
+            ax += dx;
+            ay += dy;
         }
-        iter += 1;
+        pass += 1;
     }
-    pose.theta = wrap_angle(pose.theta);
+    let pose = Pose2::new(ay.to_f64() / M_TO_CM, -ax.to_f64() / M_TO_CM, wrap_angle(ath.to_f64()));
     let stop = if small >= params.small_corrections_to_stop { Stop::Converged } else { Stop::Budget };
-    (Ok((pose, stop)), iter, evaluations)
+    Run { outcome: Ok((pose, stop)), passes: pass }
 }
 
-/// Whether interpolated bearing j is usable: a value exists and it is not from a surface seen from
-/// behind (PSM's `new_bad` = EMPTY | OCCLUDED).
-#[inline]
-fn interpolated_ok(interpolated: &[f64], reversed: &[bool], j: usize) -> bool {
-    interpolated[j].is_finite() && !reversed[j]
-}
-
-/// `pm_orientation_search`: the shift di ∈ [−W, W] minimising e(di) = mean |r̂[i] − r_ref[i + di]|
-/// (a mean *absolute* residual), refined by [`parabolic_refinement`]; returns dθ = (di + d)·Δφ
-/// [rad], or `None` when no shift has a pair. Assumes that a rotation is a pure shift of the range
-/// array (the invariance [EP] L151 drops).
-pub(crate) fn orientation_search(reference: &PolarScan, interpolated: &[f64], reversed: &[bool], params: &PsmParams) -> Option<f64> {
-    let n = reference.len();
-    let w = params.search_window_beams as isize;
-    // Branch-free form of the pair test: unusable beams get weight 0 (and a finite value), so
-    // that each shift's sum is a plain multiply-add loop the compiler vectorises.
-    let (mut cur, mut cur_w) = (vec![0.0; n], vec![0.0; n]);
-    for i in 0..n {
-        if interpolated_ok(interpolated, reversed, i) {
-            cur[i] = interpolated[i];
-            cur_w[i] = 1.0;
-        }
-    }
-    let (mut refr, mut ref_w) = (vec![0.0; n], vec![0.0; n]);
-    for k in 0..n {
-        if reference.valid[k] && reference.ranges[k].is_finite() {
-            refr[k] = reference.ranges[k];
-            ref_w[k] = 1.0;
-        }
-    }
-    let errors: Vec<f64> = (-w..=w)
-        .map(|di| {
-            // pairs (i, i + di) with both indices inside the scan
-            let shift = di.unsigned_abs().min(n);
-            let (i0, k0, len) = if di <= 0 { (shift, 0, n - shift) } else { (0, shift, n - shift) };
-            let (c, cw, r, rw) = (&cur[i0..i0 + len], &cur_w[i0..i0 + len], &refr[k0..k0 + len], &ref_w[k0..k0 + len]);
-            let (mut e, mut count) = (0.0, 0.0);
-            for t in 0..len {
-                let m = cw[t] * rw[t];
-                e += m * (c[t] - r[t]).abs();
-                count += m;
+/// `pm_scan_project`: every current point into the reference frame at (X, Y, θ), in polar
+/// coordinates (φ ∈ (−π/2, 3π/2]: the seam is straight behind the laser); then, for each pair of
+/// consecutive points of one segment (both good), every reference bearing between their bearings
+/// gets the range interpolated linearly in bearing, and the closest value wins. A pair whose
+/// bearings run backwards is a surface seen from behind: its values still hide farther ones but
+/// are tagged unusable. Pairs spanning π or more are skipped (v0.3's seam guard).
+fn project<T: Real>(frame: &Frame<T>, current: &Ranges<T>, (ax, ay, ath): (T, T, T), out: &mut Projected<T>) {
+    let n = frame.fi.len();
+    let (r, fi): (Vec<T>, Vec<T>) = (0..n)
+        .map(|i| {
+            let delta = ath + frame.fi[i];
+            let x = current.r[i] * delta.cos() + ax;
+            let y = current.r[i] * delta.sin() + ay;
+            let mut fi = y.atan2(x);
+            if x < T::ZERO && y < T::ZERO {
+                fi = T::from_f64(fi.to_f64() + 2.0 * std::f64::consts::PI);
             }
-            if count > 0.0 { e / count } else { f64::INFINITY }
+            ((x * x + y * y).sqrt(), fi)
+        })
+        .unzip();
+    out.r.fill(T::from_f64(EMPTY_RANGE_CM));
+    out.usable.fill(false);
+    let mut filled = vec![false; n];
+    for i in 1..n {
+        if current.seg[i] == 0 || current.seg[i] != current.seg[i - 1] || current.bad[i] || current.bad[i - 1] {
+            continue;
+        }
+        if (fi[i] - fi[i - 1]).abs().to_f64() >= std::f64::consts::PI {
+            continue;
+        }
+        let (a0, a1, r0, r1, occluded) = if fi[i] > fi[i - 1] { (fi[i - 1], fi[i], r[i - 1], r[i], false) } else { (fi[i], fi[i - 1], r[i], r[i - 1], true) };
+        let j0 = ((a0 - frame.fi_min) / frame.dfi).to_f64().ceil();
+        let j1 = ((a1 - frame.fi_min) / frame.dfi).to_f64().floor();
+        if !(j0.is_finite() && j1.is_finite()) || j1 < 0.0 || j0 > (n - 1) as f64 {
+            continue;
+        }
+        for j in (j0.max(0.0) as usize)..=(j1.min((n - 1) as f64) as usize) {
+            let ri = (r1 - r0) / (a1 - a0) * ((T::from_usize(j) * frame.dfi + frame.fi_min) - a0) + r0;
+            if out.r[j] > ri {
+                out.r[j] = ri;
+                filled[j] = true;
+                out.usable[j] = !occluded;
+            }
+        }
+    }
+    debug_assert!(out.usable.iter().zip(&filled).all(|(u, f)| !u || *f));
+}
+
+/// `pm_orientation_search`: the shift di ∈ [−W, W] minimising e(di) = mean |r̂ᵢ − r_ref,i+di| over
+/// the bearings usable in both (a mean *absolute* residual), refined by [`parabolic_refinement`];
+/// returns dθ = (di + d)·Δφ [rad], or `None` when no shift has a pair. Assumes that a rotation is a
+/// pure shift of the range array (the invariance [EP] L151 drops).
+fn orientation_search<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projected: &Projected<T>, params: &PsmParams) -> Option<T> {
+    let n = reference.r.len() as isize;
+    let w = params.search_window_beams as isize;
+    let errors: Vec<T> = (-w..=w)
+        .map(|di| {
+            let (mut e, mut count) = (T::ZERO, T::ZERO);
+            for i in (-di).max(0)..n.min(n - di) {
+                let k = (i + di) as usize;
+                let i = i as usize;
+                if projected.usable[i] && !reference.bad[k] {
+                    e += (projected.r[i] - reference.r[k]).abs();
+                    count += T::from_f64(1.0);
+                }
+            }
+            if count > T::ZERO { e / count } else { T::from_f64(NO_OVERLAP_ERROR_CM) }
         })
         .collect();
-    let (imin, &emin) = errors.iter().enumerate().min_by(|a, b| a.1.total_cmp(b.1))?;
-    if !emin.is_finite() {
+    // the first smallest error (v0.3 scans with a strict <)
+    let mut imin = 0;
+    for (k, e) in errors.iter().enumerate() {
+        if *e < errors[imin] {
+            imin = k;
+        }
+    }
+    if errors[imin].to_f64() >= NO_OVERLAP_ERROR_CM {
         return None;
     }
-    let mut shift = imin as f64 - w as f64;
+    let mut dth = T::from_f64((imin as isize - w) as f64) * frame.dfi;
     if imin >= 1 && imin + 1 < errors.len() {
-        shift += parabolic_refinement(errors[imin - 1], emin, errors[imin + 1], params.parabola_min_curvature_m);
+        let d = parabolic_refinement(errors[imin - 1], errors[imin], errors[imin + 1], params.parabola_min_curvature_m * M_TO_CM);
+        if let Some(d) = d {
+            dth += d * frame.dfi;
+        }
     }
-    Some(shift * reference.angle_increment_rad)
+    Some(dth)
 }
 
 /// Diosi's parabola through (−1, e₋), (0, e₀), (1, e₊): the vertex offset d = (e₋ − e₊)/(2D),
-/// D = e₋ + e₊ − 2e₀, applied only when |D| > `min_curvature`, both neighbours exceed e₀ and
-/// |d| < 1; else 0.
-pub(crate) fn parabolic_refinement(e_minus: f64, e0: f64, e_plus: f64, min_curvature: f64) -> f64 {
-    let d_curv = e_minus + e_plus - 2.0 * e0;
-    if d_curv.abs() > min_curvature && e_minus > e0 && e_plus > e0 {
-        let d = (e_minus - e_plus) / (2.0 * d_curv);
-        if d.abs() < 1.0 {
-            return d;
+/// D = e₋ + e₊ − 2e₀, when |D| > `min_curvature`, both neighbours exceed e₀ and |d| < 1.
+/// (`2e₀` is a double product in the C code, as here.)
+fn parabolic_refinement<T: Real>(e_minus: T, e0: T, e_plus: T, min_curvature: f64) -> Option<T> {
+    let d_curv = T::from_f64((e_minus + e_plus).to_f64() - 2.0 * e0.to_f64());
+    if d_curv.abs().to_f64() > min_curvature && e_minus > e0 && e_plus > e0 {
+        let d = (e_minus - e_plus) / d_curv / T::from_f64(2.0);
+        if d.abs().to_f64() < 1.0 {
+            return Some(d);
         }
     }
-    0.0
+    None
 }
 
-/// One translation step's outcome.
+/// One translation step's outcome [cm].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct TranslationStep {
-    pub dx: f64,
-    pub dy: f64,
-    /// PSM's "error": mean |e| over the pairs used [m].
-    pub avg_err: f64,
-    pub pairs: usize,
+struct TranslationStep<T> {
+    dx: T,
+    dy: T,
+    pairs: usize,
 }
 
 /// `pm_translation_estimation`: one weighted least-squares step [dx, dy]ᵀ = (HᵀWH)⁻¹HᵀW e with
-/// rows hᵢ = (cos φᵢ, sin φᵢ) (∂r̂/∂(x, y) at the reference bearing), e = r_ref − r̂ and
+/// rows hⱼ = (cos φⱼ, sin φⱼ) (∂r̂/∂(X, Y) at reference bearing j, PSM's frame), e = r_ref − r̂ and
 /// w = C/(C + e²). Pairs: both usable, min_range < r̂ < max_range and |e| < max_error. Fails with
-/// [`Stop::TooFewPairs`] below `min_valid_points` and [`Stop::Singular`] when det(HᵀWH) <
-/// `min_determinant` (the proper symmetric inverse; see the module doc).
-pub(crate) fn translation_step(
-    reference: &PolarScan,
-    beam_cos_sin: &[(f64, f64)],
-    interpolated: &[f64],
-    reversed: &[bool],
-    c_m2: f64,
-    params: &PsmParams,
-) -> Result<TranslationStep, Stop> {
-    let (mut hw1, mut hw2, mut hwh11, mut hwh12, mut hwh22) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    let (mut abs_err, mut n) = (0.0, 0usize);
-    for (j, &(h1, h2)) in beam_cos_sin.iter().enumerate() {
-        if !(reference.valid[j] && interpolated_ok(interpolated, reversed, j)) {
+/// [`Stop::TooFewPairs`] below `min_valid_points` and [`Stop::Singular`] when the determinant
+/// (per `params.inverse`) is below `min_determinant`.
+fn translation_step<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projected: &Projected<T>, c: T, params: &PsmParams) -> Result<TranslationStep<T>, Stop> {
+    let (max_range, min_range, max_error) = (params.max_range_m * M_TO_CM, params.min_range_m * M_TO_CM, params.max_error_m * M_TO_CM);
+    let (mut hw1, mut hw2, mut hwh11, mut hwh12, mut hwh22) = (T::ZERO, T::ZERO, T::ZERO, T::ZERO, T::ZERO);
+    let mut n = 0usize;
+    for j in 0..reference.r.len() {
+        let r_hat = projected.r[j];
+        let e = reference.r[j] - r_hat;
+        let paired = !reference.bad[j] && projected.usable[j];
+        if !(paired && r_hat.to_f64() < max_range && r_hat.to_f64() > min_range && e.abs().to_f64() < max_error) {
             continue;
         }
-        let r_hat = interpolated[j];
-        let e = reference.ranges[j] - r_hat;
-        if !(r_hat > params.min_range_m && r_hat < params.max_range_m && e.abs() < params.max_error_m) {
-            continue;
-        }
-        let w = c_m2 / (c_m2 + e * e); // Dudek's weight
-        hw1 += w * h1 * e; // Hᵀ W e
-        hw2 += w * h2 * e;
-        hwh11 += w * h1 * h1; // Hᵀ W H (symmetric)
-        hwh12 += w * h1 * h2;
-        hwh22 += w * h2 * h2;
-        abs_err += e.abs();
+        let w = c / (e * e + c); // Dudek's weight
+        let (h1, h2) = (frame.co[j], frame.si[j]);
+        let (hw_1, hw_2) = (h1 * w, h2 * w);
+        hw1 += hw_1 * e; // Hᵀ W e
+        hw2 += hw_2 * e;
+        hwh11 += hw_1 * h1; // Hᵀ W H
+        hwh12 += hw_1 * h2;
+        hwh22 += hw_2 * h2;
         n += 1;
     }
     if n < params.min_valid_points {
         return Err(Stop::TooFewPairs);
     }
-    let det = hwh11 * hwh22 - hwh12 * hwh12;
-    if det.is_nan() || det < params.min_determinant {
+    let det = match params.inverse {
+        Inverse::V03 => hwh11 * hwh22,
+        Inverse::Symmetric => hwh11 * hwh22 - hwh12 * hwh12,
+    };
+    if !(det.to_f64() >= params.min_determinant) {
         return Err(Stop::Singular);
     }
-    Ok(TranslationStep {
-        dx: (hwh22 * hw1 - hwh12 * hw2) / det,
-        dy: (hwh11 * hw2 - hwh12 * hw1) / det,
-        avg_err: abs_err / n as f64,
-        pairs: n,
-    })
+    let (inv11, inv12, inv22) = (hwh22 / det, -hwh12 / det, hwh11 / det);
+    Ok(TranslationStep { dx: inv11 * hw1 + inv12 * hw2, dy: inv12 * hw1 + inv22 * hw2, pairs: n })
 }
 
 #[cfg(test)]
@@ -366,15 +500,24 @@ mod tests {
     }
 
     #[test]
-    fn describe_states_the_default_constants() {
+    fn describe_states_the_constants_and_the_v03_behaviours() {
         let p = PsmParams::default();
         let s = p.describe();
         assert_eq!((p.search_window_beams, p.weight_reduction, p.change_weight_iter, p.small_corrections_to_stop, p.max_iter), (20, 50.0, 10, 3, 30));
-        assert!(s.contains("±20 beams") && s.contains("divided by 50 from iteration 10") && s.contains("3 small corrections or 30 iterations"), "{s}");
-        assert!(s.contains("algorithm and constants") && s.contains("C = 70² cm²"), "{s}");
-        // a study's own constants are what the report states
-        let s = PsmParams { search_window_beams: 35, max_iter: 60, ..p }.describe();
-        assert!(s.contains("with these constants") && s.contains("±35 beams") && s.contains("or 60 iterations"), "{s}");
+        assert!(s.contains("±20 beams") && s.contains("C = 70² cm² throughout") && s.contains("3 small corrections or 30 passes"), "{s}");
+        assert!(s.contains("v0.3 program and constants") && s.contains("determinant h11·h22") && s.contains("single precision"), "{s}");
+        // a study's own constants and choices are what the report states
+        let q = PsmParams {
+            search_window_beams: 35,
+            max_iter: 60,
+            weight_schedule: WeightSchedule::ReducedAfter,
+            inverse: Inverse::Symmetric,
+            precision: Precision::Double,
+            ..p
+        };
+        let s = q.describe();
+        assert!(s.contains("with these constants") && s.contains("±35 beams") && s.contains("or 60 passes"), "{s}");
+        assert!(s.contains("divided by 50 after pass 10") && s.contains("symmetric 2 × 2 inverse") && s.contains("double precision"), "{s}");
     }
 
     fn prepared_pair(delta: Pose2, method: Segmentation) -> (PolarScan, PolarScan) {
@@ -385,28 +528,36 @@ mod tests {
         (prep(&r), prep(&c))
     }
 
-    /// The brief's must-show (1 mm / 0.05° on a noise-free pair) is NOT reachable by PSM as
-    /// published: its orientation step has a biased fixed point (see
-    /// `heading_bias_of_the_parabola_on_mean_absolute_errors`), and the translation step then
-    /// compensates part of the heading error with a lateral shift. What PSM does reach here —
-    /// ≈ 13–17 mm / 0.5° from the identity guess, f 3500 → ≈ 5 cm² — is within [EP] Table 2's
-    /// "Diosi" no-noise maxima (34 / 40 mm, 1.3°). This test pins that level.
+    fn matched(r: &PolarScan, c: &PolarScan, initial: Pose2, params: &PsmParams) -> MatchResult {
+        let mut score = Objective::new(r, c, &ObjectiveParams { max_residual_m: None, ..ObjectiveParams::default() });
+        psm(r, c, initial, params, &mut score).unwrap()
+    }
+
+    /// PSM as published does not recover a noise-free transform to 1 mm / 0.05°: its orientation
+    /// step has a biased fixed point (see `heading_bias_of_the_parabola_on_mean_absolute_errors`),
+    /// and the translation step then compensates part of the heading error with a lateral shift.
+    /// What v0.3 reaches here from the identity guess is within [EP] Table 2's "Diosi" no-noise
+    /// maxima (34 / 40 mm, 1.3°), in both precisions and with either inverse. This test pins that
+    /// level.
     #[test]
     fn recovers_a_known_transform_to_published_psm_accuracy() {
         let truth = Pose2::new(0.2, -0.1, deg(3.0));
         for method in [Segmentation::PsmHeuristics, Segmentation::Lines] {
             let (r, c) = prepared_pair(truth, method);
-            let mut score = Objective::new(&r, &c, &ObjectiveParams { max_residual_m: None, ..ObjectiveParams::default() });
-            let m = psm(&r, &c, Pose2::IDENTITY, &PsmParams::default(), &mut score).unwrap();
-            let (ex, ey, et) = (m.pose.x - truth.x, m.pose.y - truth.y, wrap_angle(m.pose.theta - truth.theta));
-            assert!(
-                ex.abs() < 0.005 && ey.abs() < 0.025 && et.abs() < deg(0.7),
-                "{method:?}: {m:?} err ({ex}, {ey}, {}°)",
-                et.to_degrees()
-            );
-            assert_eq!(m.stop, Stop::Converged, "{method:?}");
-            assert!(m.f < m.f_initial / 100.0 && m.pairs >= 40, "{method:?}: {m:?}");
-            assert_eq!(m.evaluations, m.iterations as u64);
+            for precision in [Precision::Single, Precision::Double] {
+                for inverse in [Inverse::V03, Inverse::Symmetric] {
+                    let m = matched(&r, &c, Pose2::IDENTITY, &PsmParams { precision, inverse, ..PsmParams::default() });
+                    let (ex, ey, et) = (m.pose.x - truth.x, m.pose.y - truth.y, wrap_angle(m.pose.theta - truth.theta));
+                    assert!(
+                        ex.abs() < 0.010 && ey.abs() < 0.034 && et.abs() < deg(0.7),
+                        "{method:?} {precision:?} {inverse:?}: {m:?} err ({ex}, {ey}, {}°)",
+                        et.to_degrees()
+                    );
+                    assert_eq!(m.stop, Stop::Converged, "{method:?}");
+                    assert!(m.f < m.f_initial / 100.0 && m.pairs >= 40, "{method:?}: {m:?}");
+                    assert_eq!(m.evaluations, m.iterations as u64);
+                }
+            }
         }
     }
 
@@ -427,30 +578,29 @@ mod tests {
 
     /// The weighted least-squares half of PSM: with the heading known, repeated translation steps
     /// from a 0.2 m / 0.1 m error converge to the truth up to the bias of linear interpolation in
-    /// bearing (≈ 0.1 mm residuals, amplified to 1–2 mm in x because h = (cos φ, sin φ) assumes
-    /// beam-normal surfaces while the side walls carry no x information). With chord interpolation
-    /// on line-filtered scans the fixed point is exact.
+    /// bearing (h = (cos φ, sin φ) assumes beam-normal surfaces). With the symmetric inverse the
+    /// fixed point is the least-squares one; v0.3's inverse, whose determinant drops the h12²
+    /// term, converges to the same point (a fixed point has HᵀWe = 0, whatever the inverse).
     #[test]
     fn translation_steps_recover_the_position_when_the_heading_is_known() {
         let truth = Pose2::new(0.2, -0.1, deg(3.0));
-        for (method, interpolation, tol) in [
-            (Segmentation::PsmHeuristics, Interpolation::Linear, 2.5e-3),
-            (Segmentation::Lines, Interpolation::Linear, 2.5e-3),
-            (Segmentation::Lines, Interpolation::Chord, 1e-5),
-        ] {
+        for method in [Segmentation::PsmHeuristics, Segmentation::Lines] {
             let (r, c) = prepared_pair(truth, method);
-            let params = PsmParams::default();
-            let mut projection = Projection::new(&r, &c);
-            let cs: Vec<(f64, f64)> = (0..r.len()).map(|j| projection.ref_cos_sin(j)).collect();
-            let mut pose = Pose2::new(0.0, 0.0, truth.theta);
-            for _ in 0..60 {
-                projection.project(&c, pose, interpolation);
-                let s =
-                    translation_step(&r, &cs, &projection.interpolated, &projection.reversed, params.weighting_factor_m2, &params).unwrap();
-                pose.x += s.dx;
-                pose.y += s.dy;
+            for inverse in [Inverse::V03, Inverse::Symmetric] {
+                let params = PsmParams { inverse, ..PsmParams::default() };
+                let frame = Frame::<f64>::new(&r);
+                let (reference, current) = (Ranges::<f64>::new(&r), Ranges::<f64>::new(&c));
+                let mut projected = Projected { r: vec![0.0; r.len()], usable: vec![false; r.len()] };
+                let (mut ax, mut ay, ath) = (-100.0 * 0.0, 100.0 * 0.0, truth.theta);
+                for _ in 0..60 {
+                    project(&frame, &current, (ax, ay, ath), &mut projected);
+                    let s = translation_step(&frame, &reference, &projected, 4900.0, &params).unwrap();
+                    ax += s.dx;
+                    ay += s.dy;
+                }
+                let (x, y) = (ay / 100.0, -ax / 100.0);
+                assert!((x - truth.x).abs() < 2.5e-3 && (y - truth.y).abs() < 2.5e-3, "{method:?} {inverse:?}: ({x}, {y})");
             }
-            assert!((pose.x - truth.x).abs() < tol && (pose.y - truth.y).abs() < tol, "{method:?} {interpolation:?}: {pose:?}");
         }
     }
 
@@ -458,74 +608,124 @@ mod tests {
     fn parabolic_refinement_finds_the_vertex() {
         // e(x) = 2(x − 0.3)² + 1 sampled at −1, 0, 1
         let e = |x: f64| 2.0 * (x - 0.3f64).powi(2) + 1.0;
-        assert!((parabolic_refinement(e(-1.0), e(0.0), e(1.0), 1e-4) - 0.3).abs() < 1e-12);
+        assert!((parabolic_refinement(e(-1.0), e(0.0), e(1.0), 0.01).unwrap() - 0.3).abs() < 1e-12);
         let e = |x: f64| 0.5 * (x + 0.45f64).powi(2);
-        assert!((parabolic_refinement(e(-1.0), e(0.0), e(1.0), 1e-4) + 0.45).abs() < 1e-12);
+        assert!((parabolic_refinement(e(-1.0), e(0.0), e(1.0), 0.01).unwrap() + 0.45).abs() < 1e-12);
         // flat (|D| ≤ threshold), not a minimum, or vertex beyond ±1: no refinement
-        assert_eq!(parabolic_refinement(1.0, 1.0, 1.0, 1e-4), 0.0);
-        assert_eq!(parabolic_refinement(1.0, 2.0, 3.0, 1e-4), 0.0);
-        assert_eq!(parabolic_refinement(3.0, 1.0, 0.9, 1e-4), 0.0);
+        assert_eq!(parabolic_refinement(1.0, 1.0, 1.0, 0.01), None);
+        assert_eq!(parabolic_refinement(1.0, 2.0, 3.0, 0.01), None);
+        assert_eq!(parabolic_refinement(3.0, 1.0, 0.9, 0.01), None);
         // a V (mean absolute residual) with its vertex at 0.3: the parabola says 3/14 — PSM's bias
         let v = |x: f64| (x - 0.3f64).abs();
-        assert!((parabolic_refinement(v(-1.0), v(0.0), v(1.0), 1e-4) - 3.0 / 14.0).abs() < 1e-12);
+        assert!((parabolic_refinement(v(-1.0), v(0.0), v(1.0), 0.01).unwrap() - 3.0 / 14.0).abs() < 1e-12);
+        // single precision: the same vertex to float accuracy
+        let d = parabolic_refinement(v(-1.0) as f32, v(0.0) as f32, v(1.0) as f32, 0.01).unwrap();
+        assert!((d as f64 - 3.0 / 14.0).abs() < 1e-6);
     }
 
-    fn tiny_reference(bearings_deg: &[f64], ranges: &[f64]) -> (PolarScan, Vec<(f64, f64)>) {
-        // beams need not be uniform for the translation step: it only reads validity and ranges
-        let scan = PolarScan {
-            angle_min_rad: 0.0,
-            angle_increment_rad: 1.0,
-            ranges: ranges.to_vec(),
-            valid: vec![true; ranges.len()],
-            segment: vec![1; ranges.len()],
-        };
-        let cs = bearings_deg.iter().map(|d| (deg(*d).cos(), deg(*d).sin())).collect();
-        (scan, cs)
+    /// A reference of `bearings_deg` (PSM frame, from X) with ranges [cm], and the projected ranges.
+    fn by_hand(bearings_deg: &[f64], ranges_cm: &[f64], projected_cm: &[f64]) -> (Frame<f64>, Ranges<f64>, Projected<f64>) {
+        let fi: Vec<f64> = bearings_deg.iter().map(|d| deg(*d)).collect();
+        let frame = Frame { fi_min: fi[0], dfi: 1.0, co: fi.iter().map(|f| f.cos()).collect(), si: fi.iter().map(|f| f.sin()).collect(), fi };
+        let reference = Ranges { r: ranges_cm.to_vec(), bad: vec![false; ranges_cm.len()], seg: vec![1; ranges_cm.len()] };
+        let projected = Projected { r: projected_cm.to_vec(), usable: vec![true; projected_cm.len()] };
+        (frame, reference, projected)
     }
 
     #[test]
     fn weighted_least_squares_step_by_hand() {
-        let params = PsmParams { min_valid_points: 2, ..Default::default() };
+        let params = PsmParams { min_valid_points: 2, inverse: Inverse::Symmetric, ..Default::default() };
         // two orthogonal beams: the step is the residuals themselves
-        let (r, cs) = tiny_reference(&[0.0, 90.0], &[3.0, 2.0]);
-        let s = translation_step(&r, &cs, &[2.9, 1.8], &[false; 2], 0.49, &params).unwrap();
-        assert!((s.dx - 0.1).abs() < 1e-12 && (s.dy - 0.2).abs() < 1e-12 && s.pairs == 2);
-        // two beams along x with residuals 0.1 and 0.3 and one along y with 0.2:
-        // dx = (w₁·0.1 + w₂·0.3)/(w₁ + w₂), w = C/(C + e²); dy = 0.2
-        let c = 0.49;
-        let (w1, w2) = (c / (c + 0.01), c / (c + 0.09));
-        let (r, cs) = tiny_reference(&[0.0, 0.0, 90.0], &[3.0, 3.0, 2.0]);
-        let s = translation_step(&r, &cs, &[2.9, 2.7, 1.8], &[false; 3], c, &params).unwrap();
-        assert!((s.dx - (w1 * 0.1 + w2 * 0.3) / (w1 + w2)).abs() < 1e-12, "{s:?}");
-        assert!((s.dy - 0.2).abs() < 1e-12);
-        assert!((s.avg_err - 0.2).abs() < 1e-12);
-        // a smaller C (the late iterations) down-weights the larger residual more
-        let late = translation_step(&r, &cs, &[2.9, 2.7, 1.8], &[false; 3], c / 50.0, &params).unwrap();
-        assert!(late.dx < s.dx && late.dx > 0.1);
-        // oblique beams couple x and y: a consistent linear model is solved exactly
-        let (dx, dy) = (0.05, -0.03);
-        let bearings = [-60.0, -10.0, 20.0, 75.0];
-        let (r, cs) = tiny_reference(&bearings, &[2.0, 3.0, 4.0, 5.0]);
-        let interp: Vec<f64> = r.ranges.iter().zip(&cs).map(|(rr, (co, si))| rr - (co * dx + si * dy)).collect();
-        let s = translation_step(&r, &cs, &interp, &[false; 4], c, &params).unwrap();
-        assert!((s.dx - dx).abs() < 1e-12 && (s.dy - dy).abs() < 1e-12, "{s:?}");
-        // gates: residual ≥ max_error, reversed, below min range; then too few / singular
-        let s = translation_step(&r, &cs, &[2.0 - 1.5, 3.0, 0.05, 5.0], &[false, false, false, true], c, &params);
-        assert_eq!(s, Err(Stop::TooFewPairs));
-        let (r, cs) = tiny_reference(&[10.0, 10.0], &[3.0, 3.0]);
-        assert_eq!(translation_step(&r, &cs, &[2.9, 2.9], &[false; 2], c, &params), Err(Stop::Singular));
+        let (f, r, p) = by_hand(&[0.0, 90.0], &[300.0, 200.0], &[290.0, 180.0]);
+        let s = translation_step(&f, &r, &p, 4900.0, &params).unwrap();
+        assert!((s.dx - 10.0).abs() < 1e-12 && (s.dy - 20.0).abs() < 1e-12 && s.pairs == 2);
+        // two beams along X with residuals 10 and 30 cm and one along Y with 20:
+        // dx = (w₁·10 + w₂·30)/(w₁ + w₂), w = C/(C + e²); dy = 20
+        let c = 4900.0;
+        let (w1, w2) = (c / (c + 100.0), c / (c + 900.0));
+        let (f, r, p) = by_hand(&[0.0, 0.0, 90.0], &[300.0, 300.0, 200.0], &[290.0, 270.0, 180.0]);
+        let s = translation_step(&f, &r, &p, c, &params).unwrap();
+        assert!((s.dx - (w1 * 10.0 + w2 * 30.0) / (w1 + w2)).abs() < 1e-9, "{s:?}");
+        assert!((s.dy - 20.0).abs() < 1e-9);
+        // a smaller C down-weights the larger residual more
+        let late = translation_step(&f, &r, &p, c / 50.0, &params).unwrap();
+        assert!(late.dx < s.dx && late.dx > 10.0);
+        // oblique beams couple X and Y: a consistent linear model is solved exactly
+        let (dx, dy) = (5.0, -3.0);
+        let bearings = [20.0, 35.0, 50.0, 70.0];
+        let ranges = [200.0, 300.0, 400.0, 500.0];
+        let projected: Vec<f64> = bearings.iter().zip(&ranges).map(|(b, rr)| rr - (deg(*b).cos() * dx + deg(*b).sin() * dy)).collect();
+        let (f, r, p) = by_hand(&bearings, &ranges, &projected);
+        let s = translation_step(&f, &r, &p, c, &params).unwrap();
+        assert!((s.dx - dx).abs() < 1e-9 && (s.dy - dy).abs() < 1e-9, "{s:?}");
+        // v0.3's inverse: determinant h11·h22 and off-diagonals −h12: not the solution where h12 ≠ 0
+        let v03 = translation_step(&f, &r, &p, c, &PsmParams { inverse: Inverse::V03, ..params.clone() }).unwrap();
+        let (mut h11, mut h12, mut h22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for j in 0..4 {
+            let e: f64 = r.r[j] - p.r[j];
+            let w = c / (e * e + c);
+            let (h1, h2) = (f.co[j], f.si[j]);
+            (h11, h12, h22, b1, b2) = (h11 + w * h1 * h1, h12 + w * h1 * h2, h22 + w * h2 * h2, b1 + w * h1 * e, b2 + w * h2 * e);
+        }
+        let d = h11 * h22;
+        assert!(h12.abs() > 0.1, "the case needs coupling: h12 = {h12}");
+        assert!((v03.dx - (h22 * b1 - h12 * b2) / d).abs() < 1e-9 && (v03.dy - (h11 * b2 - h12 * b1) / d).abs() < 1e-9, "{v03:?}");
+        assert!((v03.dx - dx).abs() > 0.1, "{v03:?}");
+        // gates: residual ≥ max_error (100 cm), unusable, below min range; then too few / singular
+        let (f, r, _) = by_hand(&bearings, &[200.0, 300.0, 400.0, 500.0], &[0.0; 4]);
+        let gated = Projected { r: vec![200.0 - 150.0, 300.0, 5.0, 500.0], usable: vec![true, true, true, false] };
+        assert_eq!(translation_step(&f, &r, &gated, c, &params), Err(Stop::TooFewPairs));
+        let (f, r, p) = by_hand(&[10.0, 10.0], &[300.0, 300.0], &[290.0, 290.0]);
+        assert_eq!(translation_step(&f, &r, &p, c, &params), Err(Stop::Singular));
+        // a NaN projected range is never a pair
+        let (f, r, _) = by_hand(&[0.0, 90.0], &[300.0, 200.0], &[0.0; 2]);
+        let nan = Projected { r: vec![f64::NAN, 180.0], usable: vec![true; 2] };
+        assert_eq!(translation_step(&f, &r, &nan, c, &params), Err(Stop::TooFewPairs));
     }
 
     #[test]
     fn orientation_search_finds_a_shift_of_the_range_array() {
         let (r, _) = prepared_pair(Pose2::IDENTITY, Segmentation::PsmHeuristics);
+        let (frame, reference) = (Frame::<f64>::new(&r), Ranges::<f64>::new(&r));
         // current scan rotated by +4 beams seen at θ = 0: r̂[i] = r_ref[i + 4]
         let n = r.len();
-        let interp: Vec<f64> = (0..n).map(|i| if i + 4 < n { r.ranges[i + 4] } else { f64::INFINITY }).collect();
-        let d = orientation_search(&r, &interp, &vec![false; n], &PsmParams::default()).unwrap();
+        let shifted = Projected { r: (0..n).map(|i| if i + 4 < n { reference.r[i + 4] } else { EMPTY_RANGE_CM }).collect(), usable: (0..n).map(|i| i + 4 < n).collect() };
+        let d = orientation_search(&frame, &reference, &shifted, &PsmParams::default()).unwrap();
         // (the parabolic refinement moves it by a fraction of a beam: the V-shape bias)
         assert!((d - 4.0 * r.angle_increment_rad).abs() < 0.02 * r.angle_increment_rad, "{}", d.to_degrees());
-        assert_eq!(orientation_search(&r, &vec![f64::INFINITY; n], &vec![false; n], &PsmParams::default()), None);
+        let empty = Projected { r: vec![EMPTY_RANGE_CM; n], usable: vec![false; n] };
+        assert_eq!(orientation_search(&frame, &reference, &empty, &PsmParams::default()), None);
+    }
+
+    /// v0.3 never reduces C: its `iter == 10` test is on the translation branch, which only odd
+    /// passes reach. `reduced_after` does what the comment meant; the two differ only after pass 10.
+    #[test]
+    fn the_weight_schedule_is_constant_as_v03_runs() {
+        let truth = Pose2::new(0.25, 0.1, deg(-4.0));
+        let (r, c) = prepared_pair(truth, Segmentation::PsmHeuristics);
+        let v03 = PsmParams { stop_cond: 1e-9, ..PsmParams::default() }; // run all 30 passes
+        let a = matched(&r, &c, Pose2::IDENTITY, &v03);
+        let b = matched(&r, &c, Pose2::IDENTITY, &PsmParams { weight_schedule: WeightSchedule::ReducedAfter, ..v03.clone() });
+        assert_eq!((a.iterations, b.iterations), (30, 30));
+        assert_ne!(a.pose, b.pose, "C/50 after pass 10 must change the late steps");
+        // before pass 11 the schedules agree
+        let early = PsmParams { max_iter: 11, ..v03 };
+        let a = matched(&r, &c, Pose2::IDENTITY, &early);
+        let b = matched(&r, &c, Pose2::IDENTITY, &PsmParams { weight_schedule: WeightSchedule::ReducedAfter, ..early.clone() });
+        assert_eq!(a.pose, b.pose);
+    }
+
+    /// Single precision is what v0.3 computes in; the two precisions agree to well below PSM's own
+    /// accuracy on a clean pair, but not bit for bit.
+    #[test]
+    fn single_and_double_precision_differ_only_in_rounding_here() {
+        let truth = Pose2::new(0.2, -0.1, deg(3.0));
+        let (r, c) = prepared_pair(truth, Segmentation::PsmHeuristics);
+        let single = matched(&r, &c, Pose2::IDENTITY, &PsmParams::default());
+        let double = matched(&r, &c, Pose2::IDENTITY, &PsmParams { precision: Precision::Double, ..PsmParams::default() });
+        assert_ne!(single.pose, double.pose);
+        assert!(single.pose.position().distance(double.pose.position()) < 1e-3, "{single:?} {double:?}");
+        assert!(wrap_angle(single.pose.theta - double.pose.theta).abs() < deg(0.01));
     }
 
     #[test]
@@ -565,6 +765,9 @@ mod tests {
         assert_eq!(keys, ["min_range_m", "stop_cond"]);
         let p: PsmParams = toml::from_str("max_error_m = 0.3\nweighting_factor_m2 = 0.09").unwrap();
         assert_eq!((p.max_error_m, p.weighting_factor_m2), (0.3, 0.09));
+        let p: PsmParams = toml::from_str("precision = \"double\"\ninverse = \"symmetric\"\nweight_schedule = \"reduced_after\"").unwrap();
+        assert_eq!((p.precision, p.inverse, p.weight_schedule), (Precision::Double, Inverse::Symmetric, WeightSchedule::ReducedAfter));
         assert!(toml::from_str::<PsmParams>("max_err = 1").is_err());
+        assert!(toml::from_str::<PsmParams>("precision = \"half\"").is_err());
     }
 }

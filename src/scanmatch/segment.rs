@@ -14,6 +14,7 @@
 //! - [`Segmentation::None`]: raw ranges; one segment per contiguous run of valid readings (no jump
 //!   test), single readings valid but in segment 0.
 
+use super::real::{Precision, Real};
 use super::scan::{PolarScan, usable_range};
 use crate::config::{Checks, Violation};
 use serde::{Deserialize, Serialize};
@@ -82,11 +83,16 @@ pub struct PsmHeuristicsParams {
     pub median_window: usize,
     /// Range jump that breaks a segment [m]. PSM: MAX_DIST = PM_SEG_MAX_DIST = 20 cm.
     pub max_jump_m: f64,
+    /// Arithmetic of the far-point and jump tests, on ranges in centimetres as v0.3 holds them.
+    /// Default `single` (v0.3's `PM_TYPE float`): on a log with centimetre ranges an exact 20 cm
+    /// jump breaks a segment there, where in double-precision metres 1.3 − 1.1 < 0.2 would not.
+    /// `psm_original` runs its heuristics in PSM's own precision.
+    pub precision: Precision,
 }
 
 impl Default for PsmHeuristicsParams {
     fn default() -> Self {
-        Self { median_window: 5, max_jump_m: 0.20 }
+        Self { median_window: 5, max_jump_m: 0.20, precision: Precision::Single }
     }
 }
 
@@ -186,7 +192,10 @@ pub fn prepare(
 // ---------------------------------------------------------------------------------------------
 // PSM heuristics
 
-/// Diosi's `pm_median_filter` → `pm_find_far_points` → `pm_segment_scan` ([EP] §2.2a).
+/// Diosi's `pm_median_filter` → `pm_find_far_points` → `pm_segment_scan` ([EP] §2.2a), as
+/// v0.3 computes them: the median filter works in place (a running median: each window sees the
+/// already filtered ranges to its left), and the far-point and jump tests compare centimetres in
+/// `params.precision`.
 ///
 /// No-return, non-finite and non-positive readings enter as +∞ (PSM receives the scanner's
 /// max-range value there), so the median sees them as far and they end up bad. Labels of bad beams
@@ -201,21 +210,23 @@ pub fn psm_heuristics(
 ) -> PolarScan {
     let n = ranges.len();
     let raw: Vec<f64> = ranges.iter().map(|r| r.filter(|r| r.is_finite() && *r > 0.0).unwrap_or(f64::INFINITY)).collect();
-    // 1. median filter, window 5, indices clamped at the scan ends
+    // 1. median filter, window 5, indices clamped at the scan ends, in place as v0.3 runs it:
+    // beam i's window already holds the filtered values of beams i − 2 and i − 1
     let half = params.median_window / 2;
     let mut window = Vec::with_capacity(params.median_window.max(1));
-    let r: Vec<f64> = (0..n)
-        .map(|i| {
-            window.clear();
-            window.extend((0..params.median_window.max(1)).map(|k| raw[(i + k).saturating_sub(half).min(n - 1)]));
-            window.sort_by(f64::total_cmp);
-            window[window.len() / 2]
-        })
-        .collect();
-    // 2. far points are bad
-    let bad: Vec<bool> = r.iter().map(|&r| r.is_nan() || r > max_range_m).collect();
-    // 3. segmentation by range discontinuity (pm_segment_scan, line by line)
-    let seg = psm_segment(&r, &bad, params.max_jump_m);
+    let mut r = raw;
+    for i in 0..n {
+        window.clear();
+        window.extend((0..params.median_window.max(1)).map(|k| r[(i + k).saturating_sub(half).min(n - 1)]));
+        window.sort_by(f64::total_cmp);
+        r[i] = window[window.len() / 2];
+    }
+    // 2. far points are bad; 3. segmentation by range discontinuity (pm_segment_scan, line by
+    // line): both on centimetres in PSM's precision
+    let (bad, seg) = match params.precision {
+        Precision::Single => psm_far_and_segment::<f32>(&r, max_range_m, params.max_jump_m),
+        Precision::Double => psm_far_and_segment::<f64>(&r, max_range_m, params.max_jump_m),
+    };
     let valid: Vec<bool> = bad.iter().map(|b| !b).collect();
     PolarScan {
         angle_min_rad,
@@ -226,8 +237,21 @@ pub fn psm_heuristics(
     }
 }
 
-/// `pm_segment_scan`: segment numbers from 1; 0 = a single isolated point.
-fn psm_segment(r: &[f64], bad: &[bool], max_dist: f64) -> Vec<u32> {
+/// `pm_find_far_points` and `pm_segment_scan` on ranges [m] converted to centimetres in `T`:
+/// (bad, segment labels).
+fn psm_far_and_segment<T: Real>(r_m: &[f64], max_range_m: f64, max_jump_m: f64) -> (Vec<bool>, Vec<u32>) {
+    const M_TO_CM: f64 = 100.0;
+    let r: Vec<T> = r_m.iter().map(|&r| T::from_f64(r * M_TO_CM)).collect();
+    let max_range = T::from_f64(max_range_m * M_TO_CM);
+    let bad: Vec<bool> = r.iter().map(|&r| !(r <= max_range)).collect(); // NaN is bad too
+    let seg = psm_segment(&r, &bad, T::from_f64(max_jump_m * M_TO_CM));
+    (bad, seg)
+}
+
+/// `pm_segment_scan`: segment numbers from 1; 0 = a single isolated point. The extrapolation
+/// r[i] − (2r[i−1] − r[i−2]) is a double expression in the C code, rounded to `T`.
+fn psm_segment<T: Real>(r: &[T], bad: &[bool], max_dist: T) -> Vec<u32> {
+    let extrapolation_error = |i: usize| T::from_f64(r[i].to_f64() - (2.0 * r[i - 1].to_f64() - r[i - 2].to_f64()));
     let n = r.len();
     let mut seg = vec![0u32; n];
     if n < 2 {
@@ -251,7 +275,7 @@ fn psm_segment(r: &[f64], bad: &[bool], max_dist: f64) -> Vec<u32> {
             break_seg = true;
             seg[i] = 0;
         } else {
-            let dr = r[i] - (2.0 * r[i - 1] - r[i - 2]); // linear extrapolation
+            let dr = extrapolation_error(i); // linear extrapolation
             if (r[i] - r[i - 1]).abs() < max_dist || (seg[i - 1] == seg[i - 2] && dr.abs() < max_dist) {
                 cnt += 1;
                 seg[i] = seg_cnt;
@@ -262,7 +286,7 @@ fn psm_segment(r: &[f64], bad: &[bool], max_dist: f64) -> Vec<u32> {
         if break_seg {
             if cnt == 1 {
                 // are the last three on a line by coincidence?
-                let dr = r[i] - (2.0 * r[i - 1] - r[i - 2]);
+                let dr = extrapolation_error(i);
                 if seg[i - 2] == 0 && !bad[i] && !bad[i - 1] && !bad[i - 2] && dr.abs() < max_dist {
                     seg[i] = seg_cnt;
                     seg[i - 1] = seg_cnt;
@@ -754,6 +778,16 @@ mod tests {
         assert_eq!(psm_heuristics(&raw, 0.0, 0.01, 10.0, &p).segment, [1, 1, 1, 0, 2, 2]);
         p.median_window = 5;
         assert_eq!(psm_heuristics(&raw, 0.0, 0.01, 10.0, &p).segment, [1; 6]);
+    }
+
+    /// v0.3's median filter writes each result back before the next window is read: a running
+    /// median. On alternating ranges the filtered left half of each window keeps the first value.
+    #[test]
+    fn psm_median_filter_runs_in_place_as_v03() {
+        let raw: Vec<Option<f64>> = [5.0, 1.0, 5.0, 1.0, 5.0, 1.0, 5.0].iter().map(|&r| Some(r)).collect();
+        let s = psm_heuristics(&raw, 0.0, 0.01, 10.0, &PsmHeuristicsParams::default());
+        assert_eq!(s.ranges, [5.0; 7]);
+        // (a median of the raw ranges would alternate from beam 3 on: 5, 5, 5, 1, 5, 1, 5)
     }
 
     #[test]

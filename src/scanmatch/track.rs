@@ -28,7 +28,7 @@ use crate::world::World;
 use serde::{Deserialize, Serialize};
 
 /// Part of every scan-matching run's content hash: bump when a matcher's output changes.
-pub const CODE_VERSION: &str = "scanmatch-1";
+pub const CODE_VERSION: &str = "scanmatch-2";
 
 /// Where a match starts from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -175,9 +175,15 @@ fn prepared(scan: &Scan, geometry: &LaserGeometry, segmentation: &SegmentationPa
 /// optimisers (one derived seed per match); `clock` returns seconds.
 pub fn track(world: &World, matcher: Matcher<'_>, params: &ScanMatchingParams, seed: u64, clock: &mut dyn FnMut() -> f64) -> Result<Tracked, SlamError> {
     let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
-    let segmentation = match matcher {
-        Matcher::Psm { own_heuristics: true, .. } => SegmentationParams { method: Segmentation::PsmHeuristics, ..params.segmentation.clone() },
-        _ => params.segmentation.clone(),
+    // `psm_original` preprocesses as v0.3 does: its own heuristics, in its own precision, with
+    // readings beyond its range gate (PM_MAX_RANGE) marked bad
+    let (segmentation, geometry) = match matcher {
+        Matcher::Psm { own_heuristics: true, params: psm } => {
+            let mut segmentation = SegmentationParams { method: Segmentation::PsmHeuristics, ..params.segmentation.clone() };
+            segmentation.psm_heuristics.precision = psm.precision;
+            (segmentation, LaserGeometry { max_range_m: geometry.max_range_m.min(psm.max_range_m), ..geometry })
+        }
+        _ => (params.segmentation.clone(), geometry),
     };
     let mut estimate = vec![world.truth[0]];
     let mut matches = Vec::new();

@@ -12,6 +12,7 @@ mod layering;
 mod nlopt_threads;
 mod pipeline;
 mod point_worlds;
+mod psm_reference;
 mod psm_samples;
 mod scan_matching;
 mod specs;
