@@ -98,6 +98,20 @@ enum Command {
         #[arg(long)]
         report: Option<PathBuf>,
     },
+    /// Write the laser scans of one scan-matching run (scans.txt), the pairs it matched with their
+    /// initial guesses (pairs.txt) and slamlab's estimates (matches.txt), as plain text a peer
+    /// implementation can match (e.g. Diosi's PSM program). Recomputes the run; writes nothing
+    /// into the results or the cache.
+    ExportScans {
+        spec: PathBuf,
+        /// The run id (`slamlab plan SPEC` lists them).
+        #[arg(long = "run")]
+        run_id: String,
+        out_dir: PathBuf,
+        /// Directory of map files (<name>.toml).
+        #[arg(long, default_value = "data/maps")]
+        maps: PathBuf,
+    },
     /// Write <run-id>.gt.tum and <run-id>.est.tum for every run of a study (or of every study
     /// under a results root), for evaluation with evo.
     ExportTum {
@@ -188,6 +202,7 @@ fn dispatch(command: Command) -> Result<()> {
         }
         Command::Plan { spec, dry_run: _, dirs, force } => cmd_plan(&spec, &dirs, force),
         Command::ExportTum { results_dir, out_dir, runs } => cmd_export_tum(&results_dir, &out_dir, &runs),
+        Command::ExportScans { spec, run_id, out_dir, maps } => cmd_export_scans(&spec, &run_id, &out_dir, &maps),
     }
 }
 
@@ -289,6 +304,36 @@ fn cmd_plan(spec_path: &Path, dirs: &Dirs, force: bool) -> Result<()> {
         count(Reason::Forced),
         count(Reason::Cached)
     );
+    Ok(())
+}
+
+fn cmd_export_scans(spec_path: &Path, run_id: &str, out_dir: &Path, maps: &Path) -> Result<()> {
+    let plans = load_plans(std::slice::from_ref(&spec_path.to_path_buf()), maps)?;
+    let plan = &plans[0];
+    let Some(run) = plan.runs.iter().find(|r| r.run_id == run_id) else {
+        bail!("{}: no run `{run_id}` in study {} (`slamlab plan {}` lists its runs)", spec_path.display(), plan.id(), spec_path.display());
+    };
+    if !run.algorithm.is_scan_matcher() {
+        bail!("run `{run_id}` is {}, not a scan matcher: it has no scan pairs", run.algorithm.name());
+    }
+    let world = run::world_of(plan, run).map_err(|e| anyhow::anyhow!("run `{run_id}`: {e}"))?;
+    let geometry = world.laser.context("the run's world has no laser")?;
+    let params = &plan.points[run.point].params;
+    let mut clock = || 0.0;
+    let tracked = crate::scanmatch::track::track(&world, run::scan_matcher(run.algorithm, params), &params.scan_matching, run.filter_seed, &mut clock)
+        .map_err(|e| anyhow::anyhow!("run `{run_id}`: {e}"))?;
+    std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
+    let files = [
+        ("scans.txt", store::scans::scans_text(&geometry, &world.scans)),
+        ("pairs.txt", store::scans::pairs_text(&tracked.trace.matches)),
+        ("matches.txt", store::scans::matches_text(&tracked.trace.matches)),
+    ];
+    for (name, text) in files {
+        let (path, tmp) = (out_dir.join(name), out_dir.join(format!(".{name}.tmp")));
+        std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
+        std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
+    }
+    eprintln!("wrote {} scans and {} pairs of {run_id} into {}", world.scans.len(), tracked.trace.matches.len(), out_dir.display());
     Ok(())
 }
 

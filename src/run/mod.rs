@@ -235,8 +235,9 @@ pub fn execute(plan: &ExperimentPlan, run: &RunSpec) -> CachedRun {
     CachedRun { row, trace, landmarks, matches, wall_ms }
 }
 
+/// Why a run's world or algorithm failed.
 #[derive(Debug, thiserror::Error)]
-enum SimError {
+pub enum SimError {
     #[error("world: {0}")]
     World(#[from] WorldError),
     #[error("{0}")]
@@ -245,35 +246,43 @@ enum SimError {
     Dataset(String),
 }
 
+/// The world a run sees: its map's simulation with the run's world seed, or its dataset's log
+/// (with the study's odometry model applied where the log has none).
+pub fn world_of(plan: &ExperimentPlan, run: &RunSpec) -> Result<world::World, SimError> {
+    let params = &plan.points[run.point].params;
+    let map = &plan.maps[run.map].map;
+    let sensors = run.algorithm.sensors(map.world_kind());
+    let mut world = match &map.dataset {
+        // Real data: read from its files (relative paths from the working directory, the
+        // repository); the plan hashed their bytes.
+        Some(dataset) => crate::dataset::load(dataset, Path::new(".")).map_err(|e| SimError::Dataset(e.to_string()))?,
+        None => {
+            let spec = WorldSpec {
+                map,
+                sim: &params.sim,
+                odometry: &params.odometry,
+                laser: sensors.laser.then_some(&params.laser),
+                landmark_sensor: sensors.landmarks.then_some(&params.landmark_sensor),
+            };
+            world::generate(&spec, run.world_seed)?
+        }
+    };
+    if map.dataset.as_ref().is_some_and(|d| d.odometry_is_truth()) {
+        // A log without raw odometry (its increments are the truth's): the study's
+        // [odometry] model makes the odometry from them.
+        let mut rng = ChaCha8Rng::seed_from_u64(run.world_seed);
+        world.odometry = params.odometry.perturb(&world.odometry, &mut rng);
+    }
+    Ok(world)
+}
+
 /// World → algorithm → metrics. Returns the trace, the final map, the metrics, and whether the
 /// estimate diverged.
 fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandmarks, MatchRows, metrics::RunMetrics, bool), String> {
     (|| -> Result<_, SimError> {
         let params = &plan.points[run.point].params;
-        let map = &plan.maps[run.map].map;
-        let kind = map.world_kind();
-        let sensors = run.algorithm.sensors(kind);
-        let mut world = match &map.dataset {
-            // Real data: read from its files (relative paths from the working directory, the
-            // repository); the plan hashed their bytes.
-            Some(dataset) => crate::dataset::load(dataset, Path::new(".")).map_err(|e| SimError::Dataset(e.to_string()))?,
-            None => {
-                let spec = WorldSpec {
-                    map,
-                    sim: &params.sim,
-                    odometry: &params.odometry,
-                    laser: sensors.laser.then_some(&params.laser),
-                    landmark_sensor: sensors.landmarks.then_some(&params.landmark_sensor),
-                };
-                world::generate(&spec, run.world_seed)?
-            }
-        };
-        if map.dataset.as_ref().is_some_and(|d| d.odometry_is_truth()) {
-            // A log without raw odometry (its increments are the truth's): the study's
-            // [odometry] model makes the odometry from them.
-            let mut rng = ChaCha8Rng::seed_from_u64(run.world_seed);
-            world.odometry = params.odometry.perturb(&world.odometry, &mut rng);
-        }
+        let kind = plan.maps[run.map].map.world_kind();
+        let mut world = world_of(plan, run)?;
         let mut filter_rng = ChaCha8Rng::seed_from_u64(run.filter_seed);
         let trace = if run.algorithm.is_scan_matcher() {
             let start = Instant::now();
@@ -309,7 +318,7 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
 }
 
 /// A scan-matching algorithm with its parameters.
-fn scan_matcher(algorithm: AlgorithmKind, params: &crate::spec::Params) -> crate::scanmatch::track::Matcher<'_> {
+pub fn scan_matcher(algorithm: AlgorithmKind, params: &crate::spec::Params) -> crate::scanmatch::track::Matcher<'_> {
     use crate::scanmatch::track::Matcher;
     match algorithm {
         AlgorithmKind::PsmOriginal => Matcher::Psm { params: &params.psm, own_heuristics: true },

@@ -10,6 +10,7 @@
 
 mod parquet;
 pub mod reference;
+pub mod scans;
 pub mod tum;
 
 use crate::geom::Pose2;

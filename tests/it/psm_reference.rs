@@ -127,3 +127,49 @@ fn each_v03_behaviour_matters_on_the_intel_pairs() {
         assert!(a.agree + a.rows / 20 < base.agree, "{name}: {a:?} against {base:?}");
     }
 }
+
+/// Contract: on the simulated [EP] room, replicate 0 of each of ep-segmentation's eight noise
+/// cells, `psm_original` gives what Diosi's v0.3 program gives on the same scans and guesses
+/// (`data/reference/psm-v03-ep-room/`, 922 matches). PSM's errors in the [EP] reports are then
+/// PSM's own, not a defect of ours.
+#[test]
+fn psm_original_equals_diosis_program_on_the_simulated_ep_room() {
+    use slamlab::plan;
+    use slamlab::run;
+    use slamlab::scanmatch::track::track;
+    let repo = crate::util::repo();
+    let text = std::fs::read_to_string(repo.join("data/reference/psm-v03-ep-room/diosi-ep-room.csv")).expect("the reference reads");
+    let mut lines = text.lines();
+    let header: HashMap<&str, usize> = lines.next().unwrap().split(',').enumerate().map(|(i, h)| (h, i)).collect();
+    let mut by_run: HashMap<String, Vec<Vec<String>>> = HashMap::new();
+    for line in lines {
+        let f: Vec<String> = line.split(',').map(str::to_string).collect();
+        by_run.entry(f[header["run_id"]].clone()).or_default().push(f);
+    }
+    assert_eq!(by_run.len(), 8);
+    let spec = slamlab::spec::load(&repo.join("experiments/ep-segmentation.toml")).expect("the spec loads");
+    let plan = plan::build(spec, &repo.join("data/maps")).expect("the spec plans");
+    let (mut total, mut identical) = (0, 0);
+    for (run_id, rows) in &by_run {
+        let spec = plan.runs.iter().find(|r| &r.run_id == run_id).unwrap_or_else(|| panic!("{run_id} is planned"));
+        let world = run::world_of(&plan, spec).expect("the world builds");
+        let params = &plan.points[spec.point].params;
+        let tracked = track(&world, run::scan_matcher(spec.algorithm, params), &params.scan_matching, spec.filter_seed, &mut || 0.0).unwrap();
+        let matches = &tracked.trace.matches;
+        assert_eq!(matches.len(), rows.len(), "{run_id}: the simulation changed; regenerate the reference (its README)");
+        for (m, f) in matches.iter().zip(rows) {
+            let num = |k: &str| f[header[k]].parse::<f64>().unwrap();
+            assert_eq!((m.reference_step, m.current_step), (num("ref_step") as usize, num("cur_step") as usize), "{run_id}");
+            assert_eq!((m.initial.x, m.initial.y, m.initial.theta), (num("guess_x_m"), num("guess_y_m"), num("guess_theta_rad")), "{run_id}: guesses");
+            total += 1;
+            let ok = m.stop == "Converged" || m.stop == "Budget";
+            assert_eq!(ok, f[header["diosi_ok"]] == "1", "{run_id} {}→{}", m.reference_step, m.current_step);
+            let d = Pose2::new(num("diosi_x_m"), num("diosi_y_m"), num("diosi_theta_rad"));
+            let same = !ok || (m.estimate.x == d.x && m.estimate.y == d.y && wrap_angle(m.estimate.theta - d.theta) == 0.0);
+            identical += usize::from(same && m.iterations == num("diosi_iterations") as u32);
+        }
+    }
+    eprintln!("psm_reference (ep room): {identical} of {total} matches identical to Diosi's program");
+    assert_eq!(total, 922);
+    assert_eq!(identical, total);
+}
