@@ -176,6 +176,10 @@ fn dispatch(command: Command) -> Result<()> {
             let published = published.or_else(|| default.is_file().then_some(default));
             let summary = crate::report::render_all(&results, &out, &keep, published.as_deref()).context("rendering reports")?;
             eprintln!("rendered {} studies into {}", summary.studies.len(), out.display());
+            let timed = crate::report::render_timings(&results).context("writing the timing pages")?;
+            if !timed.is_empty() {
+                eprintln!("timing pages (machine-dependent, not in the reports): {}/<study>/{} for {}", results.display(), crate::report::TIMINGS, timed.join(", "));
+            }
             for id in &summary.kept {
                 eprintln!("{id}: no results here; its previous report is kept");
             }

@@ -8,6 +8,7 @@ pub mod fidelity;
 pub mod figure;
 pub mod latex;
 pub mod pgf;
+pub mod timings;
 pub mod view;
 
 use crate::judge::claims::ClaimResult;
@@ -65,6 +66,7 @@ fn environment() -> Environment<'static> {
         ("diff.tex", include_str!("../../templates/diff.tex.j2")),
         ("fidelity.html", include_str!("../../templates/fidelity.html.j2")),
         ("fidelity.tex", include_str!("../../templates/fidelity.tex.j2")),
+        ("timings.html", include_str!("../../templates/timings.html.j2")),
     ] {
         env.add_template(name, source).expect("bundled templates parse");
     }
@@ -202,6 +204,30 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
     })?;
     Ok(ReportSummary { studies: pages.iter().map(|p| p.view.id.clone()).collect(), kept: kept.into_iter().map(|(id, _)| id).collect() })
 }
+
+/// Writes `timings.html` into every scan-matching study's results folder under `results_dir`
+/// (see [`timings`]); returns the studies written. Machine-dependent, so never into `reports/`.
+pub fn render_timings(results_dir: &Path) -> Result<Vec<String>, ReportError> {
+    let env = environment();
+    let mut written = Vec::new();
+    for dir in store::list_studies(results_dir)? {
+        let data = store::read_study(&dir)?;
+        if !data.resolved.spec.algorithms.iter().any(|a| a.is_scan_matcher()) {
+            continue;
+        }
+        let matches = store::read_matches(&dir, &|_| true)?;
+        let Some(page) = timings::build(&data, &matches) else { continue };
+        let html = render(&env, "timings.html", minijinja::context! { page => page })?;
+        let (path, tmp) = (dir.join(TIMINGS), dir.join(format!(".{TIMINGS}.tmp")));
+        std::fs::write(&tmp, html).map_err(|e| StoreError::Io { path: tmp.clone(), source: e })?;
+        std::fs::rename(&tmp, &path).map_err(|e| StoreError::Io { path: path.clone(), source: e })?;
+        written.push(data.resolved.spec.id.clone());
+    }
+    Ok(written)
+}
+
+/// The timing page's file name in a study's results folder.
+pub const TIMINGS: &str = "timings.html";
 
 /// A kept report's index line.
 const ENTRY: &str = "entry.json";

@@ -109,7 +109,7 @@ impl ScanMatchingParams {
 /// The report's sentence on how matches are scored: the per-match errors ax, ay, aθ and the cost
 /// in objective evaluations.
 pub fn describe_errors() -> &'static str {
-    "Errors ([EP] §5): ax, ay [mm] and aθ [deg] are the estimated minus the true pose change of each match, in the reference frame; tables give the mean and max of their absolute values over a run's matches. Cost is counted in objective evaluations (deterministic); times per match are measured by `make bench`."
+    "Errors ([EP] §5): ax, ay [mm] and aθ [deg] are the estimated minus the true pose change of each match, in the reference frame; tables give the mean and max of their absolute values over a run's matches. Cost is counted in objective evaluations (deterministic); times per match depend on the machine and are on the timing page `slamlab report` writes beside the results (`data/results/<study>/timings.html`), not in this report."
 }
 
 /// Which matcher runs, with its parameters.

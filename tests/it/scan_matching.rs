@@ -39,6 +39,17 @@ values = { "odometry.k" = [0.0, 0.01, 0.05, 0.1, 0.0, 0.0, 0.05, 0.1], "laser.ra
 [report]
 metrics = ["atheta_mean_deg", "ax_mean_mm", "f_mean", "evals_mean"]
 reference = { file = "data/reference/epsm-tables.csv", experiments = ["2"], label = "[EP]" }
+
+[[claims]]
+id = "cost-epsm-over-psm"
+source = "[EP] Table 2"
+kind = "seed"
+text = "E-PSM costs more than PSM per match"
+metric = "evals_mean"
+algorithm = "epsm"
+test = "greater"
+at = { "odometry.k" = 0.1, "laser.range_sigma_m" = 0.0 }
+than_algorithm = "psm"
 "#;
 
 #[test]
@@ -78,6 +89,13 @@ fn scan_matching_study_end_to_end_and_thread_independent() {
     assert!(html.contains("scan20_odo10"));
 
     let (ra, rb) = (tree(&a.path().join("reports")), tree(&b.path().join("reports")));
+    // times are machine-dependent: a timing page beside the results, named by the report, never
+    // in it; [EP]'s 2 ms for PSM beside ours, and the cost claim re-read on time
+    let timing = std::fs::read_to_string(dir.join("timings.html")).expect("a timing page beside the results");
+    assert!(timing.contains("Machine-dependent") && timing.contains("(2.00)") && timing.contains("(68.9)"), "{timing}");
+    assert!(timing.contains("Cost claims re-read on time") && timing.contains("cost-epsm-over-psm") && timing.contains("E-PSM at odo10 / PSM at odo10"), "{timing}");
+    assert!(!ra.iter().any(|(n, _)| n.contains("timings")));
+    assert!(html.contains("timings.html"));
     assert_eq!(ra.len(), rb.len());
     for ((name, x), (_, y)) in ra.iter().zip(&rb) {
         assert!(x == y, "{name} differs between 1 and 2 threads");
