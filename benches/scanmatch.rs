@@ -8,6 +8,9 @@
 //!   message when absent), initial guess = the corrected increment: the peer figure is Diosi's C
 //!   PSM at ≈ 0.19 ms per match on these scans on this machine ([EP] issue brief); targets: PSM no
 //!   slower, E-PSM ≤ 5 ms, CRS2 ≤ 20 ms.
+//! - `diosi_reference`: PSM on the 3 636 matches of `../shared/data/psm-reference/intel-pairs.csv`
+//!   (scans prepared once, as Diosi's program does), to set beside the C program's own time on the
+//!   same matches (README, "Benchmarks"); skipped with a message when absent.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use slamlab::geom::Pose2;
@@ -104,5 +107,46 @@ fn intel(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, objective, synthetic, intel);
+/// PSM on the Intel reference matches: every row of `intel-pairs.csv`, scans prepared once.
+fn diosi_reference(c: &mut Criterion) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    let (csv, folder) = (root.join("psm-reference/intel-pairs.csv"), root.join("intel-lab"));
+    if !csv.is_file() || !folder.is_dir() {
+        eprintln!("skipped: scanmatch/diosi_reference: {} or {} is absent", csv.display(), folder.display());
+        return;
+    }
+    let world = slamlab::dataset::intel_lab::load(&folder, 0, 0, 1e3).expect("the Intel log reads");
+    let g = world.laser.expect("laser");
+    let params = PsmParams::default();
+    let heuristics = slamlab::scanmatch::segment::PsmHeuristicsParams::default();
+    let scans: Vec<PolarScan> =
+        world.scans.iter().map(|s| slamlab::scanmatch::segment::psm_heuristics(&s.ranges_m, g.angle_min_rad, g.angle_increment_rad, params.max_range_m, &heuristics)).collect();
+    let text = std::fs::read_to_string(&csv).expect("the reference reads");
+    let rows: Vec<(usize, usize, Pose2)> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            let n = |k: usize| f[k].parse::<f64>().expect("a number");
+            (n(1) as usize, n(2) as usize, Pose2::new(n(4), n(5), n(6)))
+        })
+        .collect();
+    let mut group = c.benchmark_group("scanmatch/diosi_reference");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(rows.len() as u64));
+    group.bench_function("psm_original", |b| {
+        b.iter(|| {
+            let mut total = 0.0;
+            for &(r, k, guess) in &rows {
+                let mut cost = Objective::new(&scans[r], &scans[k], &ObjectiveParams::default());
+                let m = psm(&scans[r], &scans[k], guess, &params, &mut cost).expect("one laser");
+                total += m.pose.x;
+            }
+            black_box(total)
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, objective, synthetic, intel, diosi_reference);
 criterion_main!(benches);

@@ -292,13 +292,22 @@ struct Projected<T> {
     /// Whether r̂ⱼ may be used: it holds a value and the value is not from a surface seen from
     /// behind (v0.3: `new_bad[j] == 0`, i.e. neither PM_EMPTY nor PM_OCCLUDED).
     usable: Vec<bool>,
+    /// Work space: each current point's range and bearing in the reference frame.
+    points_r: Vec<T>,
+    points_fi: Vec<T>,
+}
+
+impl<T: Real> Projected<T> {
+    fn new(beams: usize) -> Self {
+        Self { r: vec![T::ZERO; beams], usable: vec![false; beams], points_r: vec![T::ZERO; beams], points_fi: vec![T::ZERO; beams] }
+    }
 }
 
 /// `pm_psm`'s loop, in PSM's frame and units (see the module doc).
 fn iterate<T: Real>(reference: &PolarScan, current: &PolarScan, initial: Pose2, params: &PsmParams) -> Run {
     let frame = Frame::<T>::new(reference);
     let (reference, current) = (Ranges::<T>::new(reference), Ranges::<T>::new(current));
-    let mut projected = Projected { r: vec![T::ZERO; frame.fi.len()], usable: vec![false; frame.fi.len()] };
+    let mut projected = Projected::new(frame.fi.len());
     // our (x forward, y left) m → PSM's (X right, Y forward) cm; the heading is the same angle
     let (mut ax, mut ay, mut ath) =
         (T::from_f64(-M_TO_CM * initial.y), T::from_f64(M_TO_CM * initial.x), T::from_f64(initial.theta));
@@ -345,21 +354,19 @@ fn iterate<T: Real>(reference: &PolarScan, current: &PolarScan, initial: Pose2, 
 /// are tagged unusable. Pairs spanning π or more are skipped (v0.3's seam guard).
 fn project<T: Real>(frame: &Frame<T>, current: &Ranges<T>, (ax, ay, ath): (T, T, T), out: &mut Projected<T>) {
     let n = frame.fi.len();
-    let (r, fi): (Vec<T>, Vec<T>) = (0..n)
-        .map(|i| {
-            let delta = ath + frame.fi[i];
-            let x = current.r[i] * delta.cos() + ax;
-            let y = current.r[i] * delta.sin() + ay;
-            let mut fi = y.atan2(x);
-            if x < T::ZERO && y < T::ZERO {
-                fi = T::from_f64(fi.to_f64() + 2.0 * std::f64::consts::PI);
-            }
-            ((x * x + y * y).sqrt(), fi)
-        })
-        .unzip();
+    let (r, fi) = (&mut out.points_r, &mut out.points_fi);
+    for i in 0..n {
+        let delta = ath + frame.fi[i];
+        let x = current.r[i] * delta.cos() + ax;
+        let y = current.r[i] * delta.sin() + ay;
+        r[i] = (x * x + y * y).sqrt();
+        fi[i] = y.atan2(x);
+        if x < T::ZERO && y < T::ZERO {
+            fi[i] = T::from_f64(fi[i].to_f64() + 2.0 * std::f64::consts::PI);
+        }
+    }
     out.r.fill(T::from_f64(EMPTY_RANGE_CM));
     out.usable.fill(false);
-    let mut filled = vec![false; n];
     for i in 1..n {
         if current.seg[i] == 0 || current.seg[i] != current.seg[i - 1] || current.bad[i] || current.bad[i - 1] {
             continue;
@@ -377,12 +384,10 @@ fn project<T: Real>(frame: &Frame<T>, current: &Ranges<T>, (ax, ay, ath): (T, T,
             let ri = (r1 - r0) / (a1 - a0) * ((T::from_usize(j) * frame.dfi + frame.fi_min) - a0) + r0;
             if out.r[j] > ri {
                 out.r[j] = ri;
-                filled[j] = true;
                 out.usable[j] = !occluded;
             }
         }
     }
-    debug_assert!(out.usable.iter().zip(&filled).all(|(u, f)| !u || *f));
 }
 
 /// `pm_orientation_search`: the shift di ∈ [−W, W] minimising e(di) = mean |r̂ᵢ − r_ref,i+di| over
@@ -392,18 +397,22 @@ fn project<T: Real>(frame: &Frame<T>, current: &Ranges<T>, (ax, ay, ath): (T, T,
 fn orientation_search<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projected: &Projected<T>, params: &PsmParams) -> Option<T> {
     let n = reference.r.len() as isize;
     let w = params.search_window_beams as isize;
+    let (one, zero) = (T::from_f64(1.0), T::ZERO);
     let errors: Vec<T> = (-w..=w)
         .map(|di| {
-            let (mut e, mut count) = (T::ZERO, T::ZERO);
-            for i in (-di).max(0)..n.min(n - di) {
-                let k = (i + di) as usize;
-                let i = i as usize;
-                if projected.usable[i] && !reference.bad[k] {
-                    e += (projected.r[i] - reference.r[k]).abs();
-                    count += T::from_f64(1.0);
-                }
+            // pairs (i, i + di) with both indices inside the scan, summed in v0.3's order; the
+            // branch-free select adds an exact zero for an unusable pair
+            let (i0, k0) = if di <= 0 { ((-di) as usize, 0) } else { (0, di as usize) };
+            let len = (n - di.abs()).max(0) as usize;
+            let (cur, usable) = (&projected.r[i0..i0 + len], &projected.usable[i0..i0 + len]);
+            let (refr, bad) = (&reference.r[k0..k0 + len], &reference.bad[k0..k0 + len]);
+            let (mut e, mut count) = (zero, zero);
+            for t in 0..len {
+                let pair = usable[t] & !bad[t];
+                e += if pair { (cur[t] - refr[t]).abs() } else { zero };
+                count += if pair { one } else { zero };
             }
-            if count > T::ZERO { e / count } else { T::from_f64(NO_OVERLAP_ERROR_CM) }
+            if count > zero { e / count } else { T::from_f64(NO_OVERLAP_ERROR_CM) }
         })
         .collect();
     // the first smallest error (v0.3 scans with a strict <)
@@ -590,7 +599,7 @@ mod tests {
                 let params = PsmParams { inverse, ..PsmParams::default() };
                 let frame = Frame::<f64>::new(&r);
                 let (reference, current) = (Ranges::<f64>::new(&r), Ranges::<f64>::new(&c));
-                let mut projected = Projected { r: vec![0.0; r.len()], usable: vec![false; r.len()] };
+                let mut projected = Projected::<f64>::new(r.len());
                 let (mut ax, mut ay, ath) = (-100.0 * 0.0, 100.0 * 0.0, truth.theta);
                 for _ in 0..60 {
                     project(&frame, &current, (ax, ay, ath), &mut projected);
@@ -628,7 +637,7 @@ mod tests {
         let fi: Vec<f64> = bearings_deg.iter().map(|d| deg(*d)).collect();
         let frame = Frame { fi_min: fi[0], dfi: 1.0, co: fi.iter().map(|f| f.cos()).collect(), si: fi.iter().map(|f| f.sin()).collect(), fi };
         let reference = Ranges { r: ranges_cm.to_vec(), bad: vec![false; ranges_cm.len()], seg: vec![1; ranges_cm.len()] };
-        let projected = Projected { r: projected_cm.to_vec(), usable: vec![true; projected_cm.len()] };
+        let projected = Projected { r: projected_cm.to_vec(), usable: vec![true; projected_cm.len()], ..Projected::new(projected_cm.len()) };
         (frame, reference, projected)
     }
 
@@ -673,13 +682,13 @@ mod tests {
         assert!((v03.dx - dx).abs() > 0.1, "{v03:?}");
         // gates: residual ≥ max_error (100 cm), unusable, below min range; then too few / singular
         let (f, r, _) = by_hand(&bearings, &[200.0, 300.0, 400.0, 500.0], &[0.0; 4]);
-        let gated = Projected { r: vec![200.0 - 150.0, 300.0, 5.0, 500.0], usable: vec![true, true, true, false] };
+        let gated = Projected { r: vec![200.0 - 150.0, 300.0, 5.0, 500.0], usable: vec![true, true, true, false], ..Projected::new(4) };
         assert_eq!(translation_step(&f, &r, &gated, c, &params), Err(Stop::TooFewPairs));
         let (f, r, p) = by_hand(&[10.0, 10.0], &[300.0, 300.0], &[290.0, 290.0]);
         assert_eq!(translation_step(&f, &r, &p, c, &params), Err(Stop::Singular));
         // a NaN projected range is never a pair
         let (f, r, _) = by_hand(&[0.0, 90.0], &[300.0, 200.0], &[0.0; 2]);
-        let nan = Projected { r: vec![f64::NAN, 180.0], usable: vec![true; 2] };
+        let nan = Projected { r: vec![f64::NAN, 180.0], usable: vec![true; 2], ..Projected::new(2) };
         assert_eq!(translation_step(&f, &r, &nan, c, &params), Err(Stop::TooFewPairs));
     }
 
@@ -689,11 +698,15 @@ mod tests {
         let (frame, reference) = (Frame::<f64>::new(&r), Ranges::<f64>::new(&r));
         // current scan rotated by +4 beams seen at θ = 0: r̂[i] = r_ref[i + 4]
         let n = r.len();
-        let shifted = Projected { r: (0..n).map(|i| if i + 4 < n { reference.r[i + 4] } else { EMPTY_RANGE_CM }).collect(), usable: (0..n).map(|i| i + 4 < n).collect() };
+        let shifted = Projected {
+            r: (0..n).map(|i| if i + 4 < n { reference.r[i + 4] } else { EMPTY_RANGE_CM }).collect(),
+            usable: (0..n).map(|i| i + 4 < n).collect(),
+            ..Projected::new(n)
+        };
         let d = orientation_search(&frame, &reference, &shifted, &PsmParams::default()).unwrap();
         // (the parabolic refinement moves it by a fraction of a beam: the V-shape bias)
         assert!((d - 4.0 * r.angle_increment_rad).abs() < 0.02 * r.angle_increment_rad, "{}", d.to_degrees());
-        let empty = Projected { r: vec![EMPTY_RANGE_CM; n], usable: vec![false; n] };
+        let empty = Projected { r: vec![EMPTY_RANGE_CM; n], usable: vec![false; n], ..Projected::new(n) };
         assert_eq!(orientation_search(&frame, &reference, &empty, &PsmParams::default()), None);
     }
 
