@@ -5,12 +5,11 @@
 //! - `synthetic`: one match of every matcher on a noise-free room pair (true change 0.2 m,
 //!   −0.1 m, 3°; initial guess 5 cm and 2° off), preparation included.
 //! - `intel`: consecutive pairs of the Intel lab log (`../shared/data/intel-lab`, skipped with a
-//!   message when absent), initial guess = the corrected increment: the peer figure is Diosi's C
-//!   PSM at ≈ 0.19 ms per match on these scans on this machine ([EP] issue brief); targets: PSM no
-//!   slower, E-PSM ≤ 5 ms, CRS2 ≤ 20 ms.
+//!   message when absent), initial guess = the corrected increment; targets: E-PSM ≤ 5 ms, CRS2
+//!   ≤ 20 ms.
 //! - `diosi_reference`: PSM on the 3 636 matches of `../shared/data/psm-reference/intel-pairs.csv`
 //!   (scans prepared once, as Diosi's program does), to set beside the C program's own time on the
-//!   same matches (README, "Benchmarks"); skipped with a message when absent.
+//!   same matches (0.135 ms per match, README "Benchmarks"); skipped with a message when absent.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use slamlab::geom::Pose2;
