@@ -124,11 +124,11 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
         let trace_error = std::cell::RefCell::new(None);
         let traces = |ids: &[String]| {
             let keep = |id: &str| ids.iter().any(|i| i == id);
-            match store::read_traces(&dir, &keep).and_then(|t| Ok((t, store::read_landmarks(&dir, &keep)?))) {
+            match store::read_traces(&dir, &keep).and_then(|t| Ok((t, store::read_landmarks(&dir, &keep)?, store::read_matches(&dir, &keep)?))) {
                 Ok(x) => x,
                 Err(e) => {
                     trace_error.borrow_mut().get_or_insert(e);
-                    (Vec::new(), Vec::new())
+                    (Vec::new(), Vec::new(), Vec::new())
                 }
             }
         };

@@ -7,7 +7,7 @@ use crate::metrics::{metric_def, MetricDef};
 use crate::spec::params::flatten;
 use crate::spec::{Bands, SweepKind};
 use crate::store::reference::ReferenceRow;
-use crate::store::{LandmarkRow, ParamValue, RunLandmarks, RunRow, RunStatus, StudyData, TraceRows};
+use crate::store::{LandmarkRow, MatchRows, ParamValue, RunLandmarks, RunRow, RunStatus, StudyData, TraceRows};
 use crate::judge::agreement::{self, Published};
 use crate::world::map::Map;
 use serde::Serialize;
@@ -190,7 +190,8 @@ impl Study<'_> {
 }
 
 /// Reads the traces and final maps of the given runs.
-pub type Fetch<'a> = dyn Fn(&[String]) -> (Vec<TraceRows>, Vec<RunLandmarks>) + 'a;
+/// Reads the stored traces, final maps and per-match rows of the given runs.
+pub type Fetch<'a> = dyn Fn(&[String]) -> (Vec<TraceRows>, Vec<RunLandmarks>, Vec<MatchRows>) + 'a;
 
 pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
     let spec = &data.resolved.spec;
@@ -824,7 +825,7 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
             .iter()
             .filter_map(|a| study.runs_of(map_name, a.name(), &reference.label).find(|r| r.replicate == chosen.replicate).map(|r| r.run_id.clone()))
             .collect();
-        let (rows, maps) = traces(&ids);
+        let (rows, maps, matches) = traces(&ids);
         let Some(truth) = rows.first() else { continue };
         // Real data may lack truth at some steps: the path joins the known positions.
         let finite = |p: &&crate::geom::Pose2| p.x.is_finite() && p.y.is_finite();
@@ -872,8 +873,63 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
             svg: figure::trajectory_svg(&fig),
             pgf: super::pgf::trajectory_pgf(&fig),
         });
+        out.extend(match_error_views(study, map_name, &map.title, &ids, &matches, chosen.replicate, &reference.label));
     }
     out
+}
+
+/// [EP] Figs 16–19: every match's error, in match order, for each scan matcher of the runs `ids`
+/// (one figure per component |ax|, |ay|, |aθ|). Empty when no run has matches.
+fn match_error_views(study: &Study<'_>, map_name: &str, map_title: &str, ids: &[String], matches: &[MatchRows], replicate: u32, cell: &str) -> Vec<FigureView> {
+    let spec = study.spec();
+    let per_run: Vec<(usize, &MatchRows)> = ids
+        .iter()
+        .filter_map(|id| {
+            let ai = spec.algorithms.iter().position(|a| id.contains(&format!("--{}--", a.name())))?;
+            matches.iter().find(|m| &m.run_id == id && !m.matches.is_empty()).map(|m| (ai, m))
+        })
+        .collect();
+    if per_run.is_empty() {
+        return Vec::new();
+    }
+    type Component = fn(&crate::scanmatch::track::MatchRecord) -> f64;
+    let components: [(&str, &str, Component); 3] = [
+        ("ax", "|ax| [mm]", |m| m.error().0.abs() * 1e3),
+        ("ay", "|ay| [mm]", |m| m.error().1.abs() * 1e3),
+        ("atheta", "|aθ| [deg]", |m| m.error().2.abs().to_degrees()),
+    ];
+    components
+        .iter()
+        .map(|(key, label, value)| {
+            let series = per_run
+                .iter()
+                .map(|(ai, rows)| LineSeries {
+                    label: spec.algorithms[*ai].title().to_string(),
+                    color: *ai,
+                    points: rows
+                        .matches
+                        .iter()
+                        .enumerate()
+                        .map(|(k, m)| {
+                            let v = value(m);
+                            SeriesPoint { x: (k + 1) as f64, mean: v, lo: v, hi: v }
+                        })
+                        .collect(),
+                    dashed: false,
+                    scatter: false,
+                })
+                .collect();
+            let fig = LineFigure { x_label: "match".into(), y_label: label.to_string(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series };
+            FigureView {
+                file: slug(&format!("match-errors-{key}--{map_name}")),
+                caption: format!(
+                    "{map_title} ({map_name}): {label} of every match of replicate {replicate} at {cell}, in match order, for each scan matcher ([EP] Figs 16–19 plot E-PSM's on the rectangular map at 10 % odometry). A failed match keeps the pose it returned (PSM: its initial guess)."
+                ),
+                svg: figure::line_svg(&fig),
+                pgf: super::pgf::line_pgf(&fig),
+            }
+        })
+        .collect()
 }
 
 /// [EV]-style per-landmark tables: for each published table, our mean estimate of every true
@@ -892,7 +948,7 @@ fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
             if ids.is_empty() || map.point_landmarks.is_empty() {
                 continue;
             }
-            let (_, maps) = traces(&ids);
+            let (_, maps, _) = traces(&ids);
             let cm = |v: f64| if v.is_finite() { format!("{:.1}", v * 100.0) } else { "—".into() };
             let rows = map
                 .point_landmarks
