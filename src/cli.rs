@@ -53,6 +53,10 @@ enum Command {
         /// the default file is skipped when absent.
         #[arg(long)]
         published: Option<PathBuf>,
+        /// Remove the reports of studies that have neither results nor a kept spec (without it,
+        /// such a replacement is refused and nothing is written).
+        #[arg(long)]
+        prune: bool,
     },
     /// Check specs (and the maps they name) without running anything.
     Validate {
@@ -170,11 +174,11 @@ pub fn main() -> ExitCode {
 fn dispatch(command: Command) -> Result<()> {
     match command {
         Command::Run { specs, dirs, threads, force, quiet } => cmd_run(&specs, &dirs, threads, force, quiet),
-        Command::Report { results, out, specs, published } => {
+        Command::Report { results, out, specs, published, prune } => {
             let keep: Vec<String> = specs.as_deref().map(spec_ids).unwrap_or_default();
             let default = PathBuf::from(DEFAULT_PUBLISHED);
             let published = published.or_else(|| default.is_file().then_some(default));
-            let summary = crate::report::render_all(&results, &out, &keep, published.as_deref()).context("rendering reports")?;
+            let summary = crate::report::render_all(&results, &out, &keep, published.as_deref(), prune).context("rendering reports")?;
             eprintln!("rendered {} studies into {}", summary.studies.len(), out.display());
             let timed = crate::report::render_timings(&results).context("writing the timing pages")?;
             if !timed.is_empty() {
@@ -358,10 +362,16 @@ fn cmd_export_tum(results_dir: &Path, out_dir: &Path, only: &[String]) -> Result
         let target = if nested { out_dir.join(dir.file_name().unwrap_or_default()) } else { out_dir.to_path_buf() };
         std::fs::create_dir_all(&target).with_context(|| format!("creating {}", target.display()))?;
         for t in traces.iter().filter(|t| !t.truth.is_empty()) {
+            // both files at the steps with truth (and an estimate): evo rejects NaN lines
+            let known = |k: usize| t.truth[k].is_finite() && t.estimate.get(k).is_some_and(|p| p.is_finite());
+            let skipped = (0..t.truth.len()).filter(|&k| !known(k)).count();
+            if skipped > 0 {
+                eprintln!("{}: {skipped} of {} steps have no truth or no finite estimate; both files leave them out", t.run_id, t.truth.len());
+            }
             for (suffix, poses) in [("gt", &t.truth), ("est", &t.estimate)] {
                 let path = target.join(format!("{}.{suffix}.tum", t.run_id));
                 let tmp = target.join(format!(".{}.{suffix}.tum.tmp", t.run_id));
-                std::fs::write(&tmp, tum::tum_text(t.dt_s, poses)).with_context(|| format!("writing {}", tmp.display()))?;
+                std::fs::write(&tmp, tum::tum_text(t.dt_s, poses, &known)).with_context(|| format!("writing {}", tmp.display()))?;
                 std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
                 written += 1;
             }

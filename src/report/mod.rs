@@ -26,6 +26,12 @@ pub enum ReportError {
     Template { template: String, message: String },
     #[error("{path}: {message}")]
     Items { path: std::path::PathBuf, message: String },
+    #[error("{0}: no study results here (no <study>/runs.parquet): nothing to report; check --results")]
+    NoStudies(std::path::PathBuf),
+    #[error(
+        "{dir} has reports of {studies} that these results would drop (no results and not kept); refusing to replace it with less than it had: pass --prune to remove them, or --specs with their specs to keep them"
+    )]
+    WouldDrop { dir: std::path::PathBuf, studies: String },
 }
 
 /// Marks a folder as written by `slamlab report` (it is replaced as a whole).
@@ -108,7 +114,14 @@ pub struct ReportSummary {
 /// A study of `keep` that has no results but a previous report (with its `entry.json`) keeps
 /// that report byte for byte: real-data studies on a machine without the data; its claims
 /// (`claims.json`) still enter the scoreboard.
-pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], published: Option<&Path>) -> Result<ReportSummary, ReportError> {
+///
+/// Refuses (before writing anything) a results folder with no study when no report is to be kept,
+/// and a replacement that would drop a study report `reports_dir` has, unless `prune`.
+pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], published: Option<&Path>, prune: bool) -> Result<ReportSummary, ReportError> {
+    let study_dirs = store::list_studies(results_dir)?;
+    if study_dirs.is_empty() && keep.is_empty() && !prune {
+        return Err(ReportError::NoStudies(results_dir.to_path_buf()));
+    }
     let env = environment();
     let items = match published {
         Some(path) => {
@@ -119,7 +132,7 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
     };
     let mut pages = Vec::new();
     let mut studies = Vec::new();
-    for dir in store::list_studies(results_dir)? {
+    for dir in study_dirs {
         let data = store::read_study(&dir)?;
         let trace_error = std::cell::RefCell::new(None);
         let traces = |ids: &[String]| {
@@ -186,10 +199,15 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
     files.push(("fidelity/fidelity.md".into(), fidelity::full_markdown(&board, &block).into_bytes()));
     files.push(("index.html".into(), render(&env, "index.html", minijinja::context! { studies => index, fidelity => &board })?.into_bytes()));
 
-    // `reports_dir` is replaced as a whole: refuse to wipe a folder slamlab did not write.
+    // `reports_dir` is replaced as a whole: refuse to wipe a folder slamlab did not write, or to
+    // drop a study's report without being asked.
     let foreign = std::fs::read_dir(reports_dir).map(|mut d| d.next().is_some()).unwrap_or(false) && !reports_dir.join(MARKER).is_file();
     if foreign {
         return Err(ReportError::NotOurs(reports_dir.to_path_buf()));
+    }
+    let dropped: Vec<String> = previous_studies(reports_dir).into_iter().filter(|id| !index.iter().any(|e| &e.id == id)).collect();
+    if !dropped.is_empty() && !prune {
+        return Err(ReportError::WouldDrop { dir: reports_dir.to_path_buf(), studies: dropped.join(", ") });
     }
     files.push((MARKER.into(), MARKER_TEXT.as_bytes().to_vec()));
     store::write_dir_atomically(reports_dir, |tmp| {
@@ -231,6 +249,19 @@ pub const TIMINGS: &str = "timings.html";
 
 /// A kept report's index line.
 const ENTRY: &str = "entry.json";
+
+/// The studies a previous `slamlab report` wrote into `reports_dir` (folders with an index line).
+fn previous_studies(reports_dir: &Path) -> Vec<String> {
+    let mut ids: Vec<String> = std::fs::read_dir(reports_dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.path().join(ENTRY).is_file())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    ids.sort();
+    ids
+}
 /// A report's judged claims (what the scoreboard reads of a kept report).
 const CLAIMS: &str = "claims.json";
 

@@ -139,19 +139,37 @@ fn plan_dry_run_explains_what_will_run() {
 }
 
 #[test]
-fn report_refuses_to_wipe_a_foreign_folder() {
+fn report_replaces_only_what_it_may() {
     let work = tempfile::tempdir().unwrap();
-    let out = work.path().join("thesis");
-    std::fs::create_dir(&out).unwrap();
-    std::fs::write(out.join("chapter1.tex"), "precious").unwrap();
-    let r = crate::util::slamlab(&["report", "--results", "data/results-none", "--out", s(&out)]);
-    assert!(!r.status.success());
-    assert!(String::from_utf8_lossy(&r.stderr).contains("refusing to replace it"));
-    assert_eq!(std::fs::read_to_string(out.join("chapter1.tex")).unwrap(), "precious");
+    let results = work.path().join("results");
+    ok(&["run", "experiments/smoke.toml", "--quiet", "--results", s(&results), "--cache", s(&work.path().join("cache"))]);
+    let refused = |args: &[&str], message: &str| {
+        let r = crate::util::slamlab(args);
+        assert!(!r.status.success(), "slamlab {} succeeded", args.join(" "));
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(err.contains(message), "{err}");
+    };
+    // a foreign folder is never wiped
+    let thesis = work.path().join("thesis");
+    std::fs::create_dir(&thesis).unwrap();
+    std::fs::write(thesis.join("chapter1.tex"), "precious").unwrap();
+    refused(&["report", "--results", s(&results), "--out", s(&thesis)], "refusing to replace it");
+    assert_eq!(std::fs::read_to_string(thesis.join("chapter1.tex")).unwrap(), "precious");
     // an empty or previously generated folder is fine
-    let fresh = work.path().join("reports");
-    ok(&["report", "--results", "data/results-none", "--out", s(&fresh)]);
-    ok(&["report", "--results", "data/results-none", "--out", s(&fresh)]);
+    let out = work.path().join("reports");
+    ok(&["report", "--results", s(&results), "--out", s(&out)]);
+    ok(&["report", "--results", s(&results), "--out", s(&out)]);
+    let before = crate::util::tree(&out);
+    // a results root with no study (a typo) is an error, and the reports stay as they were
+    refused(&["report", "--results", s(&work.path().join("resluts")), "--out", s(&out)], "no study results here");
+    assert_eq!(crate::util::tree(&out), before);
+    // a study report these results would drop is kept unless --prune
+    std::fs::create_dir(out.join("ghost")).unwrap();
+    std::fs::write(out.join("ghost/entry.json"), "{}").unwrap();
+    refused(&["report", "--results", s(&results), "--out", s(&out)], "would drop (no results and not kept)");
+    assert!(out.join("ghost/entry.json").is_file() && out.join("smoke/index.html").is_file());
+    ok(&["report", "--results", s(&results), "--out", s(&out), "--prune"]);
+    assert!(!out.join("ghost").exists() && out.join("smoke/index.html").is_file());
 }
 
 #[test]

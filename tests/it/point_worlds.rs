@@ -172,8 +172,10 @@ fn a_study_without_results_keeps_its_report_when_its_spec_remains() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("claims.json"), "{err}");
     std::fs::write(&claims, good).unwrap();
-    // without its spec the study is retired
+    // without its spec the study is retired, when asked to (--prune); never silently
     std::fs::remove_file(specs.join("smoke.toml")).unwrap();
-    ok(&["report", "--results", s(&results), "--out", s(&reports), "--specs", s(&specs)]);
+    let out = slamlab(&["report", "--results", s(&results), "--out", s(&reports), "--specs", s(&specs)]);
+    assert!(!out.status.success() && reports.join("smoke/index.html").is_file(), "{}", String::from_utf8_lossy(&out.stderr));
+    ok(&["report", "--results", s(&results), "--out", s(&reports), "--specs", s(&specs), "--prune"]);
     assert!(!reports.join("smoke").exists());
 }
