@@ -271,6 +271,9 @@ fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, 
             s.diverged,
             s.dir.display()
         );
+        if s.recomputed_corrupt > 0 {
+            eprintln!("{}: {} cache entries failed verification (a file changed after it was written) and were recomputed", s.study, s.recomputed_corrupt);
+        }
     }
     if problems > 0 {
         eprintln!("warning: {problems} runs failed or diverged; they are recorded with their status and shown in the reports");

@@ -103,6 +103,8 @@ pub struct StudySummary {
     pub dir: PathBuf,
     pub runs: usize,
     pub computed: usize,
+    /// Cache entries that failed verification and were recomputed (counted in `computed`).
+    pub recomputed_corrupt: usize,
     pub failed: usize,
     pub diverged: usize,
 }
@@ -136,7 +138,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         let manifest = manifest(plan, provenance, plan.runs.len(), bad);
         if store::is_up_to_date(&dir, &ids, &resolved, &manifest, &maps, plan.reference.as_deref()) {
             let count = |s: RunStatus| stored.iter().filter(|r| r.status == s).count();
-            return Ok(StudySummary { study: plan.id().to_string(), dir, runs: plan.runs.len(), computed: 0, failed: count(RunStatus::Failed), diverged: count(RunStatus::Diverged) });
+            return Ok(StudySummary { study: plan.id().to_string(), dir, runs: plan.runs.len(), computed: 0, recomputed_corrupt: 0, failed: count(RunStatus::Failed), diverged: count(RunStatus::Diverged) });
         }
     }
     // Each distinct content hash is computed (or read) once, even when two runs share it.
@@ -153,14 +155,29 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     // runs are read first, and computed runs are cached here as the workers send them.
     let mut computed: BTreeMap<&str, (CachedRun, bool)> = BTreeMap::new();
     let mut missing: Vec<usize> = Vec::new();
+    let mut corrupt = 0usize;
     for &i in &unique {
         let run = &plan.runs[i];
-        match (reasons[i] == Reason::Cached).then(|| cache.get(&run.hash)).flatten() {
-            Some(c) => {
+        let lookup = if reasons[i] == Reason::Cached { cache.lookup(&run.hash) } else { store::Lookup::Absent };
+        match lookup {
+            store::Lookup::Hit(c) => {
                 progress.finished(c.row.status, true);
                 computed.insert(run.hash.as_str(), (c, true));
             }
-            None => missing.push(i),
+            store::Lookup::Unsealed(c) => {
+                // written before checksums: trusted once, and sealed now
+                if let Err(e) = cache.put(&run.hash, &c, true) {
+                    progress.warn(&format!("cannot re-cache {}: {e}", run.run_id));
+                }
+                progress.finished(c.row.status, true);
+                computed.insert(run.hash.as_str(), (c, true));
+            }
+            store::Lookup::Corrupt(why) => {
+                progress.warn(&format!("{}: its cache entry failed verification ({why}); recomputing it", run.run_id));
+                corrupt += 1;
+                missing.push(i);
+            }
+            store::Lookup::Absent => missing.push(i),
         }
     }
     let (sender, results) = std::sync::mpsc::channel();
@@ -203,7 +220,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
 
     let manifest = manifest(plan, provenance, rows.len(), failed + diverged);
     store::write_study(&dir, &StudyOutput { runs: &rows, traces: &traces, landmarks: &landmarks, matches: &matches, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps, reference: plan.reference.as_deref() })?;
-    Ok(StudySummary { study: plan.id().to_string(), dir, runs: rows.len(), computed: to_compute, failed, diverged })
+    Ok(StudySummary { study: plan.id().to_string(), dir, runs: rows.len(), computed: to_compute + corrupt, recomputed_corrupt: corrupt, failed, diverged })
 }
 
 /// Simulates one run; never panics outward: errors and panics become a failed row.

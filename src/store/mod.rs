@@ -28,6 +28,9 @@ pub enum StoreError {
     Parquet { path: PathBuf, message: String },
     #[error("{path}: {message}")]
     Format { path: PathBuf, message: String },
+    /// A stored file whose bytes no longer match the checksum recorded when it was written.
+    #[error("{path}: {message}")]
+    Integrity { path: PathBuf, message: String },
 }
 
 impl StoreError {
@@ -297,7 +300,7 @@ pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> 
         for (name, text) in out.maps {
             write_file(&maps.join(format!("{name}.toml")), text.as_bytes())?;
         }
-        Ok(())
+        seal(tmp)
     })
 }
 
@@ -315,6 +318,10 @@ pub fn is_up_to_date(dir: &Path, runs: &[(String, String)], resolved: &ResolvedS
         None => !dir.join("reference.csv").exists(),
     };
     if !(resolved_ok && manifest_ok && maps_ok && reference_ok && dir.join("traces.parquet").is_file() && dir.join("landmarks.parquet").is_file()) {
+        return false;
+    }
+    // a directory whose files changed (or that predates checksums) is rewritten
+    if !matches!(check_seal(dir), Ok(Seal::Intact)) {
         return false;
     }
     let Ok(stored) = read_runs(dir) else { return false };
@@ -351,6 +358,7 @@ impl StudyData {
 }
 
 pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
+    verified(dir)?;
     let resolved_path = dir.join("resolved.toml");
     let text = std::fs::read_to_string(&resolved_path).map_err(|e| StoreError::io(&resolved_path, e))?;
     let resolved: ResolvedStudy = toml::from_str(&text).map_err(|e| StoreError::format(&resolved_path, e))?;
@@ -378,16 +386,19 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
 
 /// Reads the traces of the runs `keep` accepts.
 pub fn read_traces(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<TraceRows>, StoreError> {
+    verified(dir)?;
     parquet::read_traces(&dir.join("traces.parquet"), keep)
 }
 
 /// Reads the final maps of the runs `keep` accepts.
 pub fn read_landmarks(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<RunLandmarks>, StoreError> {
+    verified(dir)?;
     parquet::read_landmarks(&dir.join("landmarks.parquet"), keep)
 }
 
 /// Per-match rows of a study's scan-matching runs (none for studies written before them).
 pub fn read_matches(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<MatchRows>, StoreError> {
+    verified(dir)?;
     let path = dir.join("matches.parquet");
     if !path.is_file() {
         return Ok(Vec::new());
@@ -396,11 +407,13 @@ pub fn read_matches(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<Match
 }
 
 pub fn read_timings(dir: &Path) -> Result<Vec<Timing>, StoreError> {
+    verified(dir)?;
     parquet::read_timings(&dir.join("timings.parquet"))
 }
 
 /// Reads `runs.parquet` alone (e.g. to compare a new plan with the previous results).
 pub fn read_runs(dir: &Path) -> Result<Vec<RunRow>, StoreError> {
+    verified(dir)?;
     parquet::read_runs(&dir.join("runs.parquet"))
 }
 
@@ -439,6 +452,18 @@ pub struct CachedRun {
 /// Column under which a cache entry keeps the run's compute time (never in study results).
 const CACHE_WALL_MS: &str = "cache_wall_ms";
 
+/// A cache lookup.
+#[derive(Debug, Clone)]
+pub enum Lookup {
+    /// Sealed and intact.
+    Hit(CachedRun),
+    /// Written before checksums existed: used once and rewritten sealed.
+    Unsealed(CachedRun),
+    /// A file changed since it was written (named): the run is recomputed.
+    Corrupt(String),
+    Absent,
+}
+
 impl Cache {
     pub fn new(dir: &Path) -> Self {
         Self { dir: dir.to_path_buf() }
@@ -452,7 +477,22 @@ impl Cache {
         self.entry(hash).join("trace.parquet").is_file()
     }
 
-    /// The cached run, or `None` when absent or unreadable (then it is simply recomputed).
+    /// The cached run and whether it is sealed (see [`Lookup`]).
+    pub fn lookup(&self, hash: &str) -> Lookup {
+        let dir = self.entry(hash);
+        if !self.contains(hash) {
+            return Lookup::Absent;
+        }
+        match check_seal(&dir) {
+            Ok(Seal::Intact) => self.get(hash).map_or(Lookup::Absent, Lookup::Hit),
+            Ok(Seal::Unsealed) => self.get(hash).map_or(Lookup::Absent, Lookup::Unsealed),
+            Ok(Seal::Broken { path, message }) => Lookup::Corrupt(format!("{}: {message}", path.display())),
+            Err(e) => Lookup::Corrupt(e.to_string()),
+        }
+    }
+
+    /// The cached run, or `None` when absent or unreadable (then it is simply recomputed). Does
+    /// not check the checksums: [`Cache::lookup`] does.
     pub fn get(&self, hash: &str) -> Option<CachedRun> {
         let dir = self.entry(hash);
         let mut rows = parquet::read_runs(&dir.join("run.parquet")).ok()?;
@@ -489,8 +529,103 @@ impl Cache {
                 parquet::write(&tmp.join("matches.parquet"), &mut df)?;
             }
             let mut df = parquet::traces_frame(std::slice::from_ref(&run.trace)).map_err(|e| StoreError::format(&dir, e))?;
-            parquet::write(&tmp.join("trace.parquet"), &mut df)
+            parquet::write(&tmp.join("trace.parquet"), &mut df)?;
+            seal(tmp)
         })
+    }
+}
+
+/// The checksum file of every store directory (a study's results, a cache entry): one line
+/// `<blake3 hex>  <path>` per file written, in `b3sum` format (`b3sum --check checksums.b3`).
+pub const CHECKSUMS: &str = "checksums.b3";
+
+/// Every file under `root` except the checksum file, as (relative path with `/`, absolute path),
+/// sorted.
+fn files_under(root: &Path) -> Result<Vec<(String, PathBuf)>, StoreError> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<(String, PathBuf)>) -> Result<(), StoreError> {
+        for entry in std::fs::read_dir(dir).map_err(|e| StoreError::io(dir, e))? {
+            let path = entry.map_err(|e| StoreError::io(dir, e))?.path();
+            if path.is_dir() {
+                walk(root, &path, out)?;
+            } else {
+                let rel = path.strip_prefix(root).expect("below root").to_string_lossy().replace('\\', "/");
+                if rel != CHECKSUMS {
+                    out.push((rel, path));
+                }
+            }
+        }
+        Ok(())
+    }
+    let mut out = Vec::new();
+    walk(root, root, &mut out)?;
+    out.sort();
+    Ok(out)
+}
+
+fn file_hash(path: &Path) -> Result<String, StoreError> {
+    let bytes = std::fs::read(path).map_err(|e| StoreError::io(path, e))?;
+    Ok(blake3::hash(&bytes).to_hex().to_string())
+}
+
+/// Records the checksum of every file of a directory being written (the last step of a fill).
+fn seal(dir: &Path) -> Result<(), StoreError> {
+    let mut text = String::new();
+    for (rel, path) in files_under(dir)? {
+        text.push_str(&format!("{}  {rel}\n", file_hash(&path)?));
+    }
+    write_file(&dir.join(CHECKSUMS), text.as_bytes())
+}
+
+/// What a store directory's checksums say about it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Seal {
+    /// Every listed file is present and matches.
+    Intact,
+    /// Written before checksums existed.
+    Unsealed,
+    /// The first listed file that does not match (or is missing), and why.
+    Broken { path: PathBuf, message: String },
+}
+
+/// Checks `dir` against its checksum file.
+pub fn check_seal(dir: &Path) -> Result<Seal, StoreError> {
+    let list = dir.join(CHECKSUMS);
+    let text = match std::fs::read_to_string(&list) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Seal::Unsealed),
+        Err(e) => return Err(StoreError::io(&list, e)),
+    };
+    let mut recorded: BTreeMap<String, String> = BTreeMap::new();
+    for (n, line) in text.lines().enumerate() {
+        let Some((hash, rel)) = line.split_once("  ") else {
+            return Ok(Seal::Broken { path: list.clone(), message: format!("line {}: not `<hash>  <path>`", n + 1) });
+        };
+        recorded.insert(rel.to_string(), hash.to_string());
+    }
+    // Files added beside them later (the timing page of `slamlab report`) are not the store's and
+    // are not read by it.
+    for (rel, hash) in &recorded {
+        let path = dir.join(rel);
+        if !path.is_file() {
+            return Ok(Seal::Broken { path, message: format!("listed in {CHECKSUMS} but missing") });
+        }
+        if *hash != file_hash(&path)? {
+            return Ok(Seal::Broken { path, message: format!("content does not match its checksum in {CHECKSUMS}: the file changed after it was written") });
+        }
+    }
+    Ok(Seal::Intact)
+}
+
+/// A study directory's files may be read: intact, or an error naming the file (an unsealed one
+/// predates checksums and must be rewritten by `slamlab run`, which finds its runs cached).
+fn verified(dir: &Path) -> Result<(), StoreError> {
+    match check_seal(dir)? {
+        Seal::Intact => Ok(()),
+        Seal::Unsealed => Err(StoreError::Integrity {
+            path: dir.join(CHECKSUMS),
+            message: "missing: these results predate checksums and cannot be verified; run `slamlab run` on the study's spec to rewrite them (cached runs make it quick)".into(),
+        }),
+        Seal::Broken { path, message } => Err(StoreError::Integrity { path, message: format!("{message}; refusing to use it (recompute with `slamlab run`)") }),
     }
 }
 
@@ -555,6 +690,40 @@ fn remove_stale(parent: &Path, name: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sealed_directory_detects_any_change_to_its_files() {
+        let work = tempfile::tempdir().unwrap();
+        let dir = work.path().join("study");
+        write_dir_atomically(&dir, |tmp| {
+            write_file(&tmp.join("runs.parquet"), b"rows")?;
+            std::fs::create_dir(tmp.join("maps")).map_err(|e| StoreError::io(tmp, e))?;
+            write_file(&tmp.join("maps/a.toml"), b"name = 'a'")?;
+            seal(tmp)
+        })
+        .unwrap();
+        assert_eq!(check_seal(&dir).unwrap(), Seal::Intact);
+        assert!(verified(&dir).is_ok());
+        // a file written beside them later is not the store's (the timing page)
+        std::fs::write(dir.join("timings.html"), "<html>").unwrap();
+        assert_eq!(check_seal(&dir).unwrap(), Seal::Intact);
+        // one flipped bit
+        std::fs::write(dir.join("maps/a.toml"), b"name = 'b'").unwrap();
+        match check_seal(&dir).unwrap() {
+            Seal::Broken { path, message } => assert!(path.ends_with("maps/a.toml") && message.contains("does not match"), "{message}"),
+            other => panic!("{other:?}"),
+        }
+        let err = verified(&dir).unwrap_err().to_string();
+        assert!(err.contains("a.toml") && err.contains("refusing"), "{err}");
+        // a missing file
+        std::fs::write(dir.join("maps/a.toml"), b"name = 'a'").unwrap();
+        std::fs::remove_file(dir.join("runs.parquet")).unwrap();
+        assert!(matches!(check_seal(&dir).unwrap(), Seal::Broken { ref message, .. } if message.contains("missing")));
+        // no checksum file: written before checksums
+        std::fs::remove_file(dir.join(CHECKSUMS)).unwrap();
+        assert_eq!(check_seal(&dir).unwrap(), Seal::Unsealed);
+        assert!(verified(&dir).unwrap_err().to_string().contains("predate checksums"));
+    }
 
     fn row(id: &str, status: RunStatus) -> RunRow {
         RunRow {

@@ -203,3 +203,57 @@ fn a_failing_run_is_recorded_and_the_study_goes_on() {
         assert!(!String::from_utf8_lossy(&bytes).contains(s(work.path())), "{name} contains an absolute path");
     }
 }
+
+/// Contract: stored numbers are intact or refused. A flipped byte in a study's results makes
+/// `report` and `diff` fail naming the file (and `run` rewrites the study); one in a cache entry
+/// is found when the entry is read, and that run is recomputed, counted and reported, with the
+/// same results as before.
+#[test]
+fn a_flipped_byte_in_stored_results_is_refused_or_recomputed() {
+    let work = tempfile::tempdir().unwrap();
+    let (results, cache, reports) = (work.path().join("results"), work.path().join("cache"), work.path().join("reports"));
+    let run = || ok(&["run", "experiments/smoke.toml", "--quiet", "--results", s(&results), "--cache", s(&cache)]);
+    run();
+    let runs = results.join("smoke/runs.parquet");
+    let good = std::fs::read(&runs).unwrap();
+    let flip = |path: &Path| {
+        let mut bytes = std::fs::read(path).unwrap();
+        let k = bytes.len() / 2;
+        bytes[k] ^= 0x10;
+        std::fs::write(path, bytes).unwrap();
+    };
+    // the study's results: refused by report and diff, naming the file
+    flip(&runs);
+    for args in [vec!["report", "--results", s(&results), "--out", s(&reports)], vec!["diff", s(&results), s(&results)]] {
+        let r = crate::util::slamlab(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success() && err.contains("runs.parquet") && err.contains("does not match its checksum"), "{}: {err}", args[0]);
+    }
+    assert!(!reports.exists(), "nothing written");
+    // `run` finds the study not up to date and rewrites it from the cache
+    run();
+    assert_eq!(std::fs::read(&runs).unwrap(), good);
+    // a cache entry: recomputed on its next read, counted, and the same results
+    let entry = walk_files(&cache).into_iter().find(|p| p.ends_with("trace.parquet")).expect("a cached trace");
+    flip(&entry);
+    std::fs::remove_dir_all(&results).unwrap();
+    let out = ok(&["run", "experiments/smoke.toml", "--results", s(&results), "--cache", s(&cache)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("failed verification") && err.contains("1 cache entries failed verification"), "{err}");
+    assert_eq!(std::fs::read(&runs).unwrap(), good, "recomputed to the same results");
+    ok(&["report", "--results", s(&results), "--out", s(&reports)]);
+}
+
+fn walk_files(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            out.extend(walk_files(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out.sort();
+    out
+}
