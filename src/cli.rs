@@ -64,6 +64,9 @@ enum Command {
         specs: Vec<PathBuf>,
         #[arg(long, default_value = "data/maps")]
         maps: PathBuf,
+        /// Refuse a spec that expands to more runs than this.
+        #[arg(long, default_value_t = plan::DEFAULT_MAX_RUNS)]
+        max_runs: u64,
     },
     /// List the runs a spec expands to and whether each will run (new / parameters changed /
     /// code version changed / cached). Never runs anything.
@@ -139,6 +142,9 @@ struct Dirs {
     /// Run cache directory.
     #[arg(long, default_value = "data/cache")]
     cache: PathBuf,
+    /// Refuse a spec that expands to more runs than this (counted before expanding it).
+    #[arg(long, default_value_t = plan::DEFAULT_MAX_RUNS)]
+    max_runs: u64,
 }
 
 /// Invalid specs or maps: exit status 2, and nothing was written.
@@ -202,8 +208,8 @@ fn dispatch(command: Command) -> Result<()> {
             }
             Ok(())
         }
-        Command::Validate { specs, maps } => {
-            for plan in load_plans(&specs, &maps)? {
+        Command::Validate { specs, maps, max_runs } => {
+            for plan in load_plans(&specs, &maps, max_runs)? {
                 println!("ok: {} ({}: {} points, {} runs)", plan.spec.path.display(), plan.id(), plan.points.len(), plan.runs.len());
             }
             Ok(())
@@ -215,11 +221,11 @@ fn dispatch(command: Command) -> Result<()> {
 }
 
 /// Loads and plans every spec; all errors of all files are reported together.
-fn load_plans(specs: &[PathBuf], maps: &Path) -> Result<Vec<ExperimentPlan>> {
+fn load_plans(specs: &[PathBuf], maps: &Path, max_runs: u64) -> Result<Vec<ExperimentPlan>> {
     let mut plans = Vec::new();
     let mut errors = Vec::new();
     for path in specs {
-        match spec::load(path).map_err(InputErrors::from).and_then(|s| plan::build(s, maps)) {
+        match spec::load(path).map_err(InputErrors::from).and_then(|s| plan::build_limited(s, maps, max_runs)) {
             Ok(p) => plans.push(p),
             Err(e) => errors.extend(e.0),
         }
@@ -235,9 +241,13 @@ fn load_plans(specs: &[PathBuf], maps: &Path) -> Result<Vec<ExperimentPlan>> {
     Ok(plans)
 }
 
+/// The most worker threads `--threads` accepts.
+const MAX_THREADS: usize = 1024;
+
 fn options(dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool) -> Result<RunOptions> {
     let threads = match threads {
         Some(0) => bail!("--threads must be at least 1"),
+        Some(n) if n > MAX_THREADS => bail!("--threads {n} is more than {MAX_THREADS}: each worker is an OS thread with its own stack; use at most the machine's cores (results do not depend on the count)"),
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
@@ -245,7 +255,7 @@ fn options(dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool) -> Res
 }
 
 fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool) -> Result<()> {
-    let plans = load_plans(specs, &dirs.maps)?;
+    let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
     let opts = options(dirs, threads, force, quiet)?;
     let provenance = Provenance::collect(Path::new("."));
     if provenance.git_dirty && !quiet {
@@ -295,7 +305,7 @@ fn spec_ids(dir: &Path) -> Vec<String> {
 }
 
 fn cmd_plan(spec_path: &Path, dirs: &Dirs, force: bool) -> Result<()> {
-    let plans = load_plans(std::slice::from_ref(&spec_path.to_path_buf()), &dirs.maps)?;
+    let plans = load_plans(std::slice::from_ref(&spec_path.to_path_buf()), &dirs.maps, dirs.max_runs)?;
     let plan = &plans[0];
     let opts = options(dirs, Some(1), force, true)?;
     let reasons = run::reasons(plan, &opts);
@@ -319,7 +329,7 @@ fn cmd_plan(spec_path: &Path, dirs: &Dirs, force: bool) -> Result<()> {
 }
 
 fn cmd_export_scans(spec_path: &Path, run_id: &str, out_dir: &Path, maps: &Path) -> Result<()> {
-    let plans = load_plans(std::slice::from_ref(&spec_path.to_path_buf()), maps)?;
+    let plans = load_plans(std::slice::from_ref(&spec_path.to_path_buf()), maps, plan::DEFAULT_MAX_RUNS)?;
     let plan = &plans[0];
     let Some(run) = plan.runs.iter().find(|r| r.run_id == run_id) else {
         bail!("{}: no run `{run_id}` in study {} (`slamlab plan {}` lists its runs)", spec_path.display(), plan.id(), spec_path.display());

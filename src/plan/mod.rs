@@ -103,8 +103,48 @@ pub fn derive_seed(study_seed: u64, map: &str, replicate: u32, stream: &str) -> 
     u64::from_le_bytes(h.finalize().as_bytes()[..8].try_into().expect("8 bytes"))
 }
 
-/// Expands a validated spec, reading its maps from `maps_dir`.
+/// The largest plan `build` expands (runs); `build_limited` takes another (`--max-runs`).
+pub const DEFAULT_MAX_RUNS: u64 = 1_000_000;
+
+/// Expands a validated spec, reading its maps from `maps_dir` (at most [`DEFAULT_MAX_RUNS`] runs).
 pub fn build(spec: LoadedSpec, maps_dir: &Path) -> Result<ExperimentPlan, InputErrors> {
+    build_limited(spec, maps_dir, DEFAULT_MAX_RUNS)
+}
+
+/// Runs a spec would expand to, counted before expanding anything (saturating): sweep points
+/// (one-at-a-time: the sum of the lists; grid: their product; zip: the list length; duplicates
+/// counted) × maps × algorithms × replicates.
+pub fn planned_runs(spec: &LoadedSpec) -> u64 {
+    let points = if spec.sweeps.is_empty() {
+        1u64
+    } else {
+        spec.sweeps.iter().fold(0u64, |acc, block| {
+            let lens = block.params.iter().map(|p| p.values.len() as u64);
+            let n = match block.kind {
+                SweepKind::OneAtATime => lens.sum(),
+                SweepKind::Grid => lens.fold(1u64, u64::saturating_mul),
+                SweepKind::Zip => lens.max().unwrap_or(0),
+            };
+            acc.saturating_add(n)
+        })
+    };
+    [spec.spec.maps.len() as u64, spec.spec.algorithms.len() as u64, u64::from(spec.spec.replicates)].into_iter().fold(points, u64::saturating_mul)
+}
+
+/// [`build`] with a limit on the number of runs: a larger spec is an error (naming the number and
+/// how to raise the limit) before anything is expanded.
+pub fn build_limited(spec: LoadedSpec, maps_dir: &Path, max_runs: u64) -> Result<ExperimentPlan, InputErrors> {
+    let planned = planned_runs(&spec);
+    if planned > max_runs {
+        let key = if spec.sweeps.is_empty() { "replicates" } else { "sweeps" };
+        let message = format!(
+            "this spec expands to {planned} runs (sweep points × {} maps × {} algorithms × {} replicates), more than the limit of {max_runs}; reduce it, or raise the limit with --max-runs",
+            spec.spec.maps.len(),
+            spec.spec.algorithms.len(),
+            spec.spec.replicates
+        );
+        return Err(SpecError::new(&spec.path, vec![spec.error_at(key, message)]).into());
+    }
     let mut errors = Vec::new();
     let maps = load_maps(&spec, maps_dir, &mut errors);
     // The sensors the study simulates, from its algorithms and its maps' world kinds: a sensor rate
@@ -256,6 +296,8 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
     }
 
     let mut points: Vec<SweepPoint> = Vec::new();
+    // resolved parameters (serialised) → index in `points`: one lookup per candidate
+    let mut seen: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
     let mut errors = Vec::new();
     for (assignments, group, name) in candidates {
         let params = match resolve(spec, &assignments, sensors) {
@@ -265,12 +307,16 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
                 continue;
             }
         };
-        if let Some(existing) = points.iter_mut().find(|p| p.params == params) {
+        // TOML spells ±inf and NaN apart (JSON would not); equal texts are equal parameters,
+        // checked anyway
+        let key = toml::to_string(&params).unwrap_or_else(|_| format!("{params:?}"));
+        if let Some(existing) = seen.get(&key).map(|&i| &mut points[i]).filter(|p| p.params == params) {
             if !existing.groups.contains(&group) {
                 existing.groups.push(group);
             }
             continue;
         }
+        seen.insert(key, points.len());
         let label = if let Some(name) = name {
             name
         } else if assignments.is_empty() {

@@ -83,3 +83,31 @@ fn a_published_landmark_table_must_name_a_sweep_point() {
     let err = rejected(&format!("{GOOD}\n[[report.landmark_reference]]\nlabel = \"T\"\nat = {{ \"odometry.var_x_m2\" = 9.0 }}\nlandmarks = []\n"));
     assert!(err.contains("report.landmark_reference[0].at") && err.contains("no sweep point"), "{err}");
 }
+
+/// A plan too large to expand is refused before anything is expanded, with the number and how to
+/// raise the limit (issue: `replicates = 1e9` and a 1e9-point grid exhausted memory).
+#[test]
+fn plans_beyond_the_run_limit_are_refused_before_expansion() {
+    let err = rejected(&GOOD.replace("replicates = 1", "replicates = 1000000000"));
+    assert!(err.contains("bad.toml:4:1: key `replicates`") && err.contains("expands to 1000000000 runs") && err.contains("--max-runs"), "{err}");
+    let values: Vec<String> = (0..1000).map(|i| format!("{}", 0.001 * (i + 1) as f64)).collect();
+    let list = values.join(", ");
+    let grid = format!("{GOOD}\n[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.var_x_m2\" = [{list}], \"odometry.var_y_m2\" = [{list}], \"odometry.var_theta_rad2\" = [{list}] }}\n");
+    let started = std::time::Instant::now();
+    let err = rejected(&grid);
+    assert!(err.contains("key `sweeps`") && err.contains("expands to 1000000000 runs"), "{err}");
+    assert!(started.elapsed().as_secs() < 60, "refused without expanding");
+    // the limit is a flag: a smaller one refuses the smoke study (8 runs)
+    let out = slamlab(&["validate", "experiments/smoke.toml", "--max-runs", "4"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.code() == Some(2) && err.contains("expands to 8 runs") && err.contains("limit of 4"), "{err}");
+}
+
+#[test]
+fn absurd_thread_counts_are_refused() {
+    let work = tempfile::tempdir().unwrap();
+    let out = slamlab(&["run", "experiments/smoke.toml", "-j", "100000", "--results", s(&work.path().join("r")), "--cache", s(&work.path().join("c"))]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--threads 100000 is more than 1024"), "{err}");
+    assert!(!work.path().join("r").exists() && !work.path().join("c").exists());
+}
