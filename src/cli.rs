@@ -382,8 +382,10 @@ fn cmd_export_tum(results_dir: &Path, out_dir: &Path, only: &[String]) -> Result
                 eprintln!("{}: {skipped} of {} steps have no truth or no finite estimate; both files leave them out", t.run_id, t.truth.len());
             }
             for (suffix, poses) in [("gt", &t.truth), ("est", &t.estimate)] {
-                let path = target.join(format!("{}.{suffix}.tum", t.run_id));
-                let tmp = target.join(format!(".{}.{suffix}.tum.tmp", t.run_id));
+                // a long run id (a many-parameter sweep point) gets a short, stable file name
+                let name = store::short_name(&t.run_id);
+                let path = target.join(format!("{name}.{suffix}.tum"));
+                let tmp = target.join(format!(".{name}.{suffix}.tum.tmp"));
                 std::fs::write(&tmp, tum::tum_text(t.dt_s, poses, &known)).with_context(|| format!("writing {}", tmp.display()))?;
                 std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
                 written += 1;

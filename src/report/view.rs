@@ -496,7 +496,7 @@ fn slug(s: &str) -> String {
             out.push('-');
         }
     }
-    out.trim_matches('-').to_string()
+    crate::store::short_name(out.trim_matches('-'))
 }
 
 fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
@@ -1152,6 +1152,11 @@ mod tests {
     fn slugs_are_file_safe() {
         assert_eq!(slug("odometry.k--ate_rmse_m"), "odometry-k-ate-rmse-m");
         assert_eq!(slug("trajectory--Big Loop"), "trajectory-big-loop");
+        // a 15-parameter sweep's figure names stay within file-name limits, distinct and stable
+        let long: Vec<String> = (0..15).map(|i| format!("fastslam.parameter_number_{i}")).collect();
+        let (a, b) = (slug(&format!("{}--ate_rmse_m", long.join("-"))), slug(&format!("{}--landmark_error_m", long.join("-"))));
+        assert!(a.len() <= 120 && b.len() <= 120 && a != b && a.starts_with("fastslam-parameter-number-0"), "{a} {b}");
+        assert_eq!(a, slug(&format!("{}--ate_rmse_m", long.join("-"))));
     }
 
     #[test]

@@ -535,6 +535,23 @@ impl Cache {
     }
 }
 
+/// The longest file-name stem slamlab derives from labels (run ids, figure names): file systems
+/// allow 255 bytes per name, and suffixes and temporary prefixes need room.
+pub const MAX_NAME: usize = 120;
+
+/// `name` if it is at most [`MAX_NAME`] bytes, else a readable prefix and the blake3 of the
+/// whole name (16 hex digits): short, stable and distinct. The full label stays inside the file.
+pub fn short_name(name: &str) -> String {
+    if name.len() <= MAX_NAME {
+        return name.to_string();
+    }
+    let mut cut = MAX_NAME - 17;
+    while !name.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    format!("{}-{}", &name[..cut], &blake3::hash(name.as_bytes()).to_hex()[..16])
+}
+
 /// The checksum file of every store directory (a study's results, a cache entry): one line
 /// `<blake3 hex>  <path>` per file written, in `b3sum` format (`b3sum --check checksums.b3`).
 pub const CHECKSUMS: &str = "checksums.b3";
@@ -690,6 +707,19 @@ fn remove_stale(parent: &Path, name: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn long_labels_get_short_stable_distinct_file_names() {
+        assert_eq!(short_name("bigloop2--fastslam1--base--r00"), "bigloop2--fastslam1--base--r00");
+        let long = |i: u32| format!("bigloop2--fastslam1--{}--r00", (0..15).map(|k| format!("fastslam.param_{k}={}", i + k)).collect::<Vec<_>>().join(","));
+        let (a, b) = (short_name(&long(1)), short_name(&long(2)));
+        assert!(a.len() <= MAX_NAME && b.len() <= MAX_NAME && a != b, "{a} {b}");
+        assert!(a.starts_with("bigloop2--fastslam1--fastslam.param_0=1"));
+        assert_eq!(a, short_name(&long(1)));
+        // never cuts inside a character
+        let accents = "é".repeat(100);
+        assert!(short_name(&accents).len() <= MAX_NAME);
+    }
 
     #[test]
     fn a_sealed_directory_detects_any_change_to_its_files() {
