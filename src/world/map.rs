@@ -160,9 +160,60 @@ impl Map {
                 err("bitmap_m_per_px", format!("must be in (0, {MAX_BITMAP_M_PER_PX}] m per pixel, got {s}"));
             }
         }
-        let all_numbers = file.walls.iter().flat_map(|w| w.points.iter()).chain(file.trajectory.iter().flat_map(|t| &t.waypoints)).chain(&file.landmarks);
-        if all_numbers.flatten().any(|v| !v.is_finite()) || ![file.start.x_m, file.start.y_m, file.start.theta_deg].iter().all(|v| v.is_finite()) {
-            err("", "coordinates must be finite numbers".into());
+        // every coordinate finite, each bad one named by its key
+        let finite = |p: &[f64; 2]| p.iter().all(|v| v.is_finite());
+        for (i, w) in file.walls.iter().enumerate() {
+            for (j, p) in w.points.iter().enumerate().filter(|(_, p)| !finite(p)) {
+                err(&format!("walls[{i}].points[{j}]"), format!("coordinates must be finite numbers, got [{}, {}]", p[0], p[1]));
+            }
+        }
+        for (k, p) in file.trajectory.iter().flat_map(|t| t.waypoints.iter().enumerate()).filter(|(_, p)| !finite(p)) {
+            err(&format!("trajectory.waypoints[{k}]"), format!("coordinates must be finite numbers, got [{}, {}]", p[0], p[1]));
+        }
+        for (k, p) in file.landmarks.iter().enumerate().filter(|(_, p)| !finite(p)) {
+            err(&format!("landmarks[{k}]"), format!("coordinates must be finite numbers, got [{}, {}]", p[0], p[1]));
+        }
+        for (key, v) in [("start.x_m", file.start.x_m), ("start.y_m", file.start.y_m), ("start.theta_deg", file.start.theta_deg)] {
+            if !v.is_finite() {
+                err(key, format!("must be a finite number, got {v}"));
+            }
+        }
+        let all_finite = file.walls.iter().all(|w| w.points.iter().all(finite))
+            && file.trajectory.iter().all(|t| t.waypoints.iter().all(finite))
+            && file.start.x_m.is_finite()
+            && file.start.y_m.is_finite();
+        // The scripted path (start → waypoints, then around again for further laps) must not
+        // pass through a wall: a robot driven through one would see the world from inside it.
+        if let (Some(t), true) = (&file.trajectory, all_finite) {
+            let start = Point2::new(file.start.x_m, file.start.y_m);
+            let points: Vec<Point2> = t.waypoints.iter().map(|p| Point2::new(p[0], p[1])).collect();
+            let mut legs: Vec<(String, Point2, Point2)> = Vec::new();
+            if let Some(&first) = points.first() {
+                legs.push(("the start".into(), start, first));
+            }
+            for k in 1..points.len() {
+                legs.push((format!("waypoint {}", k - 1), points[k - 1], points[k]));
+            }
+            if t.laps > 1 && points.len() > 1 {
+                legs.push((format!("waypoint {} (the next lap)", points.len() - 1), points[points.len() - 1], points[0]));
+            }
+            for (k, (from, a, b)) in legs.iter().enumerate() {
+                let length = a.distance(*b);
+                if length <= GEOMETRY_EPS_M {
+                    continue;
+                }
+                let (c, s) = ((b.x - a.x) / length, (b.y - a.y) / length);
+                if let Some(wall) = walls.iter().find(|w| w.ray_intersection(*a, c, s).is_some_and(|d| d > GEOMETRY_EPS_M && d < length - GEOMETRY_EPS_M)) {
+                    let key = if k == 0 { "start".to_string() } else { format!("trajectory.waypoints[{}]", (k).min(points.len() - 1)) };
+                    err(
+                        &key,
+                        format!(
+                            "the path from {from} ({}, {}) to ({}, {}) crosses the wall from ({}, {}) to ({}, {})",
+                            a.x, a.y, b.x, b.y, wall.a.x, wall.a.y, wall.b.x, wall.b.y
+                        ),
+                    );
+                }
+            }
         }
         if !errors.is_empty() {
             return Err(errors);
@@ -290,6 +341,37 @@ waypoints = [[18, 0], [0, 0]]
         let errs = Map::from_toml(&bad).unwrap_err();
         let keys: Vec<_> = errs.iter().map(|e| (e.key.as_str(), e.line)).collect();
         assert_eq!(keys, vec![("trajectory.max_speed_mps", 10), ("trajectory.laps", 11)]);
+    }
+
+    #[test]
+    fn a_path_through_a_wall_is_an_error_naming_the_waypoint() {
+        // the leg from (0, 0) up to (10, 6) crosses the free-standing wall y = 4
+        let bad = BOX.replace("waypoints = [[18, 0], [0, 0]]", "waypoints = [[18, 0], [0, 0], [10, 6]]");
+        let errs = Map::from_toml(&bad).unwrap_err();
+        // (and so does the next lap's leg back from (10, 6) to (18, 0))
+        assert_eq!(errs.len(), 2, "{errs:?}");
+        assert_eq!((errs[0].key.as_str(), errs[0].line), ("trajectory.waypoints[2]", 12));
+        assert!(errs[0].message.contains("from waypoint 1 (0, 0) to (10, 6) crosses the wall from (2, 4) to (16, 4)"), "{}", errs[0].message);
+        // a start outside the room: its leg to the first waypoint crosses the outer wall
+        let outside = BOX.replace("start = { x_m = 0.0, y_m = 0.0", "start = { x_m = -5.0, y_m = 0.0");
+        let errs = Map::from_toml(&outside).unwrap_err();
+        assert_eq!(errs[0].key, "start");
+        assert!(errs[0].message.contains("the path from the start (-5, 0)"), "{}", errs[0].message);
+        // the next lap's leg (last waypoint → first) is checked too
+        let wrap = BOX.replace("waypoints = [[18, 0], [0, 0]]", "waypoints = [[18, 0], [0, 0], [0, 6]]");
+        assert!(Map::from_toml(&wrap).unwrap_err()[0].message.contains("(the next lap)"));
+        // touching a wall's end is not crossing it
+        assert!(Map::from_toml(&BOX.replace("waypoints = [[18, 0], [0, 0]]", "waypoints = [[18, 0], [2, 4], [0, 0]]")).is_ok());
+    }
+
+    #[test]
+    fn a_non_finite_coordinate_is_named_by_its_key() {
+        let bad = BOX.replace("waypoints = [[18, 0], [0, 0]]", "waypoints = [[18, 0], [nan, 0]]");
+        let errs = Map::from_toml(&bad).unwrap_err();
+        assert_eq!((errs[0].key.as_str(), errs[0].line), ("trajectory.waypoints[1]", 12));
+        assert!(errs[0].message.contains("finite"), "{}", errs[0].message);
+        let bad = BOX.replace("[19, 9], [-1, 9]", "[19, inf], [-1, 9]");
+        assert_eq!(Map::from_toml(&bad).unwrap_err()[0].key, "walls[0].points[2]");
     }
 
     #[test]
