@@ -209,8 +209,19 @@ fn dispatch(command: Command) -> Result<()> {
             Ok(())
         }
         Command::Validate { specs, maps, max_runs } => {
+            let mut absent = Vec::new();
             for plan in load_plans(&specs, &maps, max_runs)? {
-                println!("ok: {} ({}: {} points, {} runs)", plan.spec.path.display(), plan.id(), plan.points.len(), plan.runs.len());
+                match plan.maps.iter().find_map(|m| m.missing_data.as_ref()) {
+                    // a valid spec whose real data is not on this machine: `run` would skip it
+                    Some(why) => {
+                        eprintln!("{}: valid, but its data is absent, so `run` skips it: {why}", plan.spec.path.display());
+                        absent.push(plan.id().to_string());
+                    }
+                    None => println!("ok: {} ({}: {} points, {} runs)", plan.spec.path.display(), plan.id(), plan.points.len(), plan.runs.len()),
+                }
+            }
+            if !absent.is_empty() {
+                bail!("the data of {} is absent on this machine ({})", if absent.len() == 1 { "one study".to_string() } else { format!("{} studies", absent.len()) }, absent.join(", "));
             }
             Ok(())
         }
@@ -262,10 +273,12 @@ fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, 
         eprintln!("note: inputs have uncommitted changes; results are marked dirty (commit first for clean provenance)");
     }
     let mut problems = 0;
+    let mut skipped = Vec::new();
     for plan in &plans {
         if let Some(why) = plan.maps.iter().find_map(|m| m.missing_data.as_ref()) {
             // Real data that is not on this machine: nothing to compute; stored results stay.
             eprintln!("{}: skipped: {why}", plan.id());
+            skipped.push(plan.id().to_string());
             continue;
         }
         let s = run::run_study(plan, &opts, &provenance).with_context(|| format!("running study {}", plan.id()))?;
@@ -287,6 +300,12 @@ fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, 
     }
     if problems > 0 {
         eprintln!("warning: {problems} runs failed or diverged; they are recorded with their status and shown in the reports");
+    }
+    if !skipped.is_empty() && skipped.len() == plans.len() {
+        bail!("every study was skipped (its data is absent): {}; nothing was run or written", skipped.join(", "));
+    }
+    if !skipped.is_empty() {
+        eprintln!("skipped (data absent on this machine; their stored results and reports stay): {}", skipped.join(", "));
     }
     Ok(())
 }

@@ -124,11 +124,25 @@ fn a_dataset_study_without_its_data_is_skipped_not_failed() {
     let spec = dir.path().join("gone.toml");
     std::fs::write(&spec, "id = \"gone\"\ntitle = \"g\"\nseed = 1\nreplicates = 1\nmaps = [\"gone\"]\nalgorithms = [\"odometry\"]\n").unwrap();
     let results = dir.path().join("results");
+    // alone, the skipped study means nothing was done: a non-zero exit that says so
     let out = slamlab(&["run", s(&spec), "--maps", s(&maps), "--results", s(&results), "--cache", s(&dir.path().join("cache"))]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
+    assert!(!out.status.success() && err.contains("every study was skipped"), "{err}");
     assert!(err.contains("gone: skipped") && err.contains("/nonexistent/MRCLAM_Dataset6"), "{err}");
     assert!(!results.join("gone").exists(), "nothing is written for a skipped study");
+    // beside a study that runs, it is skipped (and named), not failed
+    let smoke = repo().join("experiments/smoke.toml");
+    for m in ["bigloop2", "recinto_basico"] {
+        std::fs::copy(repo().join(format!("data/maps/{m}.toml")), maps.join(format!("{m}.toml"))).unwrap();
+    }
+    let out = slamlab(&["run", s(&spec), s(&smoke), "--quiet", "--maps", s(&maps), "--results", s(&results), "--cache", s(&dir.path().join("cache"))]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && err.contains("skipped (data absent on this machine"), "{err}");
+    assert!(results.join("smoke").exists() && !results.join("gone").exists());
+    // validate says the data is absent, naming the file, and exits non-zero
+    let out = slamlab(&["validate", s(&spec), "--maps", s(&maps)]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("its data is absent") && err.contains("/nonexistent/MRCLAM_Dataset6"), "{err}");
 }
 
 #[test]
