@@ -197,6 +197,12 @@ impl DatasetSpec {
         matches!(self, DatasetSpec::IntelLab { .. })
     }
 
+    /// Whether the log's truth is positions only in its own frame (Victoria Park's GPS): the
+    /// metrics then align the estimate to it rigidly first (`metrics::compute`).
+    pub fn truth_is_positions_only(&self) -> bool {
+        matches!(self, DatasetSpec::VictoriaPark { .. })
+    }
+
     /// What the dataset's sensor sees: laser scans (Intel lab) or point landmarks.
     pub fn world_kind(&self) -> crate::world::WorldKind {
         match self {

@@ -23,7 +23,7 @@ pub const ATE_RMSE: &str = "ate_rmse_m";
 
 /// Every metric the pipeline can produce, in display order.
 pub const METRICS: &[MetricDef] = &[
-    MetricDef { name: ATE_RMSE, title: "ATE RMSE", unit: "m", description: "root mean square of the position error over all steps (evo APE, translation, no alignment)", lower_is_better: true },
+    MetricDef { name: ATE_RMSE, title: "ATE RMSE", unit: "m", description: "root mean square of the position error over all steps (evo APE, translation; no alignment, except a rigid one where the truth is positions only: see the modelling choices)", lower_is_better: true },
     MetricDef { name: "ate_x_rmse_m", title: "ATE RMSE in x", unit: "m", description: "root mean square of the x component of the position error over all steps (the map frame's x axis)", lower_is_better: true },
     MetricDef { name: "ate_y_rmse_m", title: "ATE RMSE in y", unit: "m", description: "root mean square of the y component of the position error over all steps", lower_is_better: true },
     MetricDef {

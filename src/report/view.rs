@@ -443,7 +443,8 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     }
     out.extend(filter_choices(study, &kinds));
     out.push("Seeds derive from (study seed, map, replicate), never from the swept value: replicate k of every sweep point and algorithm sees the same world noise (paired comparisons).".into());
-    out.push("Trajectory error is evo's APE (translation part, every step, no alignment: estimate and truth start at the same pose).".into());
+    let aligned: Vec<&str> = study.maps.iter().filter(|(_, m)| m.as_ref().and_then(|m| m.dataset.as_ref()).is_some_and(|d| d.truth_is_positions_only())).map(|(n, _)| n.as_str()).collect();
+    out.push(alignment_sentence(&aligned, study.maps.len()));
     // Map notes, each stated once with the maps it applies to (in spec order).
     let mut notes: Vec<(&str, Vec<&str>)> = Vec::new();
     for (name, map) in &study.maps {
@@ -878,6 +879,17 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
     out
 }
 
+/// How the trajectory error was computed: without alignment, except on `aligned` maps (truth =
+/// positions in their own frame), where the estimate is first aligned rigidly, as evo's `--align`.
+fn alignment_sentence(aligned: &[&str], maps: usize) -> String {
+    const APE: &str = "Trajectory error is evo's APE (translation part, every step";
+    match aligned.len() {
+        0 => format!("{APE}, no alignment: estimate and truth start at the same pose)."),
+        n if n == maps => format!("{APE}) after aligning the estimate to the truth by the least-squares rigid transform (evo's --align, no scale): the truth of {} is positions only, in its own frame.", aligned.join(", ")),
+        _ => format!("{APE}): on {}, whose truth is positions only in its own frame, after aligning the estimate by the least-squares rigid transform (evo's --align, no scale); on the other maps with no alignment (estimate and truth start at the same pose).", aligned.join(", ")),
+    }
+}
+
 /// [EP] Figs 16–19: every match's error, in match order, for each scan matcher of the runs `ids`
 /// (one figure per component |ax|, |ay|, |aθ|). Empty when no run has matches.
 fn match_error_views(study: &Study<'_>, map_name: &str, map_title: &str, ids: &[String], matches: &[MatchRows], replicate: u32, cell: &str) -> Vec<FigureView> {
@@ -1152,6 +1164,11 @@ mod tests {
     fn slugs_are_file_safe() {
         assert_eq!(slug("odometry.k--ate_rmse_m"), "odometry-k-ate-rmse-m");
         assert_eq!(slug("trajectory--Big Loop"), "trajectory-big-loop");
+        // the alignment the metrics used is the one the report states
+        assert!(alignment_sentence(&[], 2).contains("no alignment"));
+        let all = alignment_sentence(&["victoria_park"], 1);
+        assert!(all.contains("--align") && all.contains("victoria_park") && !all.contains("no alignment"), "{all}");
+        assert!(alignment_sentence(&["victoria_park"], 2).contains("on the other maps with no alignment"));
         // a 15-parameter sweep's figure names stay within file-name limits, distinct and stable
         let long: Vec<String> = (0..15).map(|i| format!("fastslam.parameter_number_{i}")).collect();
         let (a, b) = (slug(&format!("{}--ate_rmse_m", long.join("-"))), slug(&format!("{}--landmark_error_m", long.join("-"))));
