@@ -116,6 +116,13 @@ pub fn metric_def(name: &str) -> Option<&'static MetricDef> {
 /// Named metric values of one run, in [`METRICS`] order.
 pub type RunMetrics = Vec<(&'static str, f64)>;
 
+/// The range every metric has: none can be negative (errors, counts, rates and lengths; +∞ is a
+/// legitimate value, e.g. f where a match has no pairs, and NaN means "does not apply"). Returns
+/// the first metric outside it.
+pub fn out_of_range<'a>(metrics: impl IntoIterator<Item = (&'a str, f64)>) -> Option<(&'a str, f64)> {
+    metrics.into_iter().find(|(_, v)| *v < 0.0)
+}
+
 /// Computes every metric that applies to this run.
 pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
     let mut out = if positions_only(&world.truth) {
@@ -492,6 +499,13 @@ mod tests {
         assert!((get(&m, ATE_RMSE) - 0.5f64.sqrt()).abs() < 1e-12);
         assert_eq!(get(&m, "final_position_error_m"), 1.0);
         assert_eq!(get(&m, "path_length_m"), 2.0, "the path through the known positions");
+    }
+
+    #[test]
+    fn no_metric_may_be_negative() {
+        assert_eq!(out_of_range([("ate_rmse_m", 0.3), ("f_mean", f64::INFINITY), ("nees_mean", f64::NAN)]), None);
+        assert_eq!(out_of_range([("ate_rmse_m", 0.3), ("landmark_error_m", -3.1e58)]), Some(("landmark_error_m", -3.1e58)));
+        assert_eq!(out_of_range([("resamples", f64::NEG_INFINITY)]).map(|(k, _)| k), Some("resamples"));
     }
 
     #[test]

@@ -234,6 +234,11 @@ pub fn execute(plan: &ExperimentPlan, run: &RunSpec) -> CachedRun {
     let (trace, landmarks, matches) = match result {
         Ok(Ok((trace_rows, landmarks, matches, metrics, diverged))) => {
             row.status = if diverged { RunStatus::Diverged } else { RunStatus::Ok };
+            // a metric out of its range is a defect of ours: the run says so instead of storing it
+            if let Some((name, value)) = crate::metrics::out_of_range(metrics.iter().copied()) {
+                row.status = RunStatus::Failed;
+                row.error = Some(format!("metric {name} = {value} is negative, which no metric can be (a defect: please report it)"));
+            }
             row.metrics = metrics.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
             (trace_rows, landmarks, matches)
         }

@@ -365,7 +365,8 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
     let manifest_path = dir.join("manifest.json");
     let text = std::fs::read_to_string(&manifest_path).map_err(|e| StoreError::io(&manifest_path, e))?;
     let manifest: Manifest = serde_json::from_str(&text).map_err(|e| StoreError::format(&manifest_path, e))?;
-    let runs = parquet::read_runs(&dir.join("runs.parquet"))?;
+    let runs_path = dir.join("runs.parquet");
+    let runs = in_range(&runs_path, parquet::read_runs(&runs_path)?)?;
     let maps_dir = dir.join("maps");
     let mut maps = Vec::new();
     for entry in std::fs::read_dir(&maps_dir).map_err(|e| StoreError::io(&maps_dir, e))? {
@@ -414,7 +415,19 @@ pub fn read_timings(dir: &Path) -> Result<Vec<Timing>, StoreError> {
 /// Reads `runs.parquet` alone (e.g. to compare a new plan with the previous results).
 pub fn read_runs(dir: &Path) -> Result<Vec<RunRow>, StoreError> {
     verified(dir)?;
-    parquet::read_runs(&dir.join("runs.parquet"))
+    let path = dir.join("runs.parquet");
+    in_range(&path, parquet::read_runs(&path)?)
+}
+
+/// Rows whose status is ok and whose metrics are in range (see `metrics::out_of_range`); else an
+/// error naming the file, the run and the metric.
+fn in_range(path: &Path, rows: Vec<RunRow>) -> Result<Vec<RunRow>, StoreError> {
+    for r in rows.iter().filter(|r| r.status == RunStatus::Ok) {
+        if let Some((name, value)) = crate::metrics::out_of_range(r.metrics.iter().map(|(k, v)| (k.as_str(), *v))) {
+            return Err(StoreError::Integrity { path: path.to_path_buf(), message: format!("run {}: {name} = {value} is negative, which no metric can be; refusing to use it", r.run_id) });
+        }
+    }
+    Ok(rows)
 }
 
 /// Study directories under `results_dir` (those with a manifest), sorted by name.
@@ -773,6 +786,16 @@ mod tests {
             params: vec![("odometry.model".into(), ParamValue::Str("proportional".into())), ("odometry.k".into(), ParamValue::Float(0.1)), ("trajectory.laps".into(), ParamValue::Int(2))],
             metrics: if status == RunStatus::Failed { vec![] } else { vec![("ate_rmse_m".into(), 1.5), ("landmark_error_m".into(), f64::INFINITY)] },
         }
+    }
+
+    #[test]
+    fn a_negative_metric_is_refused_on_read() {
+        let good = vec![row("a", RunStatus::Ok), row("b", RunStatus::Failed)];
+        assert!(in_range(Path::new("runs.parquet"), good.clone()).is_ok());
+        let mut bad = good;
+        bad[0].metrics.push(("ate_rmse_m".into(), -3.1e58));
+        let err = in_range(Path::new("runs.parquet"), bad).unwrap_err().to_string();
+        assert!(err.contains("runs.parquet") && err.contains("run a: ate_rmse_m = -31") && err.contains("negative"), "{err}");
     }
 
     #[test]
