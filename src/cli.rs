@@ -395,7 +395,7 @@ fn cmd_export_tum(results_dir: &Path, out_dir: &Path, only: &[String]) -> Result
         std::fs::create_dir_all(&target).with_context(|| format!("creating {}", target.display()))?;
         for t in traces.iter().filter(|t| !t.truth.is_empty()) {
             // both files at the steps with truth (and an estimate): evo rejects NaN lines
-            let known = |k: usize| t.truth[k].is_finite() && t.estimate.get(k).is_some_and(|p| p.is_finite());
+            let known = |k: usize| t.truth.get(k).is_some_and(|p| p.is_finite()) && t.estimate.get(k).is_some_and(|p| p.is_finite());
             let skipped = (0..t.truth.len()).filter(|&k| !known(k)).count();
             if skipped > 0 {
                 eprintln!("{}: {skipped} of {} steps have no truth or no finite estimate; both files leave them out", t.run_id, t.truth.len());

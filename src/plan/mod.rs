@@ -297,7 +297,7 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
 
     let mut points: Vec<SweepPoint> = Vec::new();
     // resolved parameters (serialised) → index in `points`: one lookup per candidate
-    let mut seen: std::collections::HashMap<String, usize> = std::collections::HashMap::new();
+    let mut seen: std::collections::HashMap<String, Vec<usize>> = std::collections::HashMap::new();
     let mut errors = Vec::new();
     for (assignments, group, name) in candidates {
         let params = match resolve(spec, &assignments, sensors) {
@@ -309,14 +309,17 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
         };
         // TOML spells ±inf and NaN apart (JSON would not); equal texts are equal parameters,
         // checked anyway
-        let key = toml::to_string(&params).unwrap_or_else(|_| format!("{params:?}"));
-        if let Some(existing) = seen.get(&key).map(|&i| &mut points[i]).filter(|p| p.params == params) {
+        // (−0 and 0 are equal parameters: one key)
+        let key = toml::to_string(&params).unwrap_or_else(|_| format!("{params:?}")).replace("= -0.0\n", "= 0.0\n");
+        let same = seen.get(&key).into_iter().flatten().copied().find(|&i| points[i].params == params);
+        if let Some(i) = same {
+            let existing = &mut points[i];
             if !existing.groups.contains(&group) {
                 existing.groups.push(group);
             }
             continue;
         }
-        seen.insert(key, points.len());
+        seen.entry(key).or_default().push(points.len());
         let label = if let Some(name) = name {
             name
         } else if assignments.is_empty() {

@@ -133,6 +133,12 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
     let mut pages = Vec::new();
     let mut studies = Vec::new();
     for dir in study_dirs {
+        // results that predate checksums and cannot be rewritten here (a real-data study whose
+        // data is absent: `run` skips it) keep their previous report, like a study without results
+        let id = dir.file_name().unwrap_or_default().to_string_lossy().into_owned();
+        if keep.contains(&id) && reports_dir.join(&id).join(ENTRY).is_file() && matches!(store::check_seal(&dir), Ok(store::Seal::Unsealed)) {
+            continue;
+        }
         let data = store::read_study(&dir)?;
         let trace_error = std::cell::RefCell::new(None);
         let traces = |ids: &[String]| {
@@ -158,7 +164,9 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
     let mut claims: Vec<ClaimResult> = pages.iter().flat_map(|p| p.view.claims.iter().cloned()).collect();
     for id in keep.iter().filter(|id| !rendered.contains(&id.as_str())) {
         let dir = reports_dir.join(id);
-        let Some(entry) = std::fs::read(dir.join(ENTRY)).ok().and_then(|b| serde_json::from_slice::<view::IndexEntry>(&b).ok()) else { continue };
+        let Ok(bytes) = std::fs::read(dir.join(ENTRY)) else { continue };
+        let entry = serde_json::from_slice::<view::IndexEntry>(&bytes)
+            .map_err(|e| ReportError::Items { path: dir.join(ENTRY), message: format!("kept report's index line does not parse: {e}") })?;
         for (rel, bytes) in read_tree(&dir)? {
             if rel == CLAIMS {
                 // a kept report's claims enter the scoreboard: unreadable, they would silently
@@ -229,6 +237,9 @@ pub fn render_timings(results_dir: &Path) -> Result<Vec<String>, ReportError> {
     let env = environment();
     let mut written = Vec::new();
     for dir in store::list_studies(results_dir)? {
+        if !matches!(store::check_seal(&dir), Ok(store::Seal::Intact)) {
+            continue; // `render_all` has said what is wrong with it, or kept its report
+        }
         let data = store::read_study(&dir)?;
         if !data.resolved.spec.algorithms.iter().any(|a| a.is_scan_matcher()) {
             continue;

@@ -119,18 +119,25 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
         let Some(cells_of) = data.resolved.claims.iter().find(|c| c.id == claim.id) else { continue };
         let Some(at) = cells_of.at.clone() else { continue };
         let than = cells_of.than.clone().unwrap_or_else(|| at.clone());
-        let rel = claim.min_effect_rel.unwrap_or(0.05);
-        let (bound, holds): (String, Box<dyn Fn(f64) -> bool>) = match claim.test {
-            ClaimTest::Greater => (format!("> {}", sig(1.0 + rel, 3)), Box::new(move |r| r > 1.0 + rel)),
-            ClaimTest::Less => (format!("< {}", sig(1.0 - rel, 3)), Box::new(move |r| r < 1.0 - rel)),
-            ClaimTest::NotGreater => (format!("≤ {}", sig(1.0 + rel, 3)), Box::new(move |r| r <= 1.0 + rel)),
-            ClaimTest::NotLess => (format!("≥ {}", sig(1.0 - rel, 3)), Box::new(move |r| r >= 1.0 - rel)),
-            _ => continue,
-        };
+        if !matches!(claim.test, ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess) {
+            continue;
+        }
         let maps: Vec<&String> = if claim.maps.is_empty() { spec.maps.iter().collect() } else { claim.maps.iter().collect() };
         for map in maps {
             let x = cells.get(&(map.clone(), a.name().to_string(), at.clone()));
             let y = cells.get(&(map.clone(), b.name().to_string(), than.clone()));
+            // the claim's minimum effect as a ratio: relative, or an absolute one over the
+            // compared cell's evaluations (as the report judges it, on evaluations)
+            let rel = match (claim.min_effect, y) {
+                (Some(m), Some(y)) if y.1 > 0.0 => m / y.1,
+                _ => claim.min_effect_rel.unwrap_or(0.05),
+            };
+            let (bound, holds): (String, Box<dyn Fn(f64) -> bool>) = match claim.test {
+                ClaimTest::Greater => (format!("> {}", sig(1.0 + rel, 3)), Box::new(move |r| r > 1.0 + rel)),
+                ClaimTest::Less => (format!("< {}", sig(1.0 - rel, 3)), Box::new(move |r| r < 1.0 - rel)),
+                ClaimTest::NotGreater => (format!("≤ {}", sig(1.0 + rel, 3)), Box::new(move |r| r <= 1.0 + rel)),
+                _ => (format!("≥ {}", sig(1.0 - rel, 3)), Box::new(move |r| r >= 1.0 - rel)),
+            };
             let ratio = |f: fn(&(f64, f64, usize)) -> f64| match (x, y) {
                 (Some(x), Some(y)) if f(y) > 0.0 => Some(f(x) / f(y)),
                 _ => None,
@@ -145,7 +152,7 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
                 text: claim.text.clone(),
                 map: map.clone(),
                 ratio_of: format!("{} at {at} / {} at {than}", a.title(), b.title()),
-                bound: bound.clone(),
+                bound,
                 time_ratio: time_ratio.map_or("—".into(), |r| sig(r, 3)),
                 evals_ratio: ratio(|c| c.1).map_or("—".into(), |r| sig(r, 3)),
                 published_ratio,

@@ -402,8 +402,10 @@ fn orientation_search<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projecte
         .map(|di| {
             // pairs (i, i + di) with both indices inside the scan, summed in v0.3's order; the
             // branch-free select adds an exact zero for an unusable pair
-            let (i0, k0) = if di <= 0 { ((-di) as usize, 0) } else { (0, di as usize) };
-            let len = (n - di.abs()).max(0) as usize;
+            // (a window wider than the scan leaves no pair at the outer shifts)
+            let shift = di.abs().min(n);
+            let (i0, k0) = if di <= 0 { (shift as usize, 0) } else { (0, shift as usize) };
+            let len = (n - shift) as usize;
             let (cur, usable) = (&projected.r[i0..i0 + len], &projected.usable[i0..i0 + len]);
             let (refr, bad) = (&reference.r[k0..k0 + len], &reference.bad[k0..k0 + len]);
             let (mut e, mut count) = (zero, zero);
@@ -768,6 +770,18 @@ mod tests {
         let mut score = Objective::new(&empty, &empty, &ObjectiveParams::default());
         let m = psm(&empty, &empty, Pose2::IDENTITY, &PsmParams::default(), &mut score).unwrap();
         assert_eq!(m.stop, Stop::TooFewPairs);
+    }
+
+    /// A scan narrower than the orientation search window: the outer shifts have no pair (no
+    /// panic, as v0.3's loop bounds give).
+    #[test]
+    fn a_scan_narrower_than_the_search_window_is_matched_without_panicking() {
+        let scan = PolarScan { angle_min_rad: -0.1, angle_increment_rad: 0.02, ranges: vec![2.0; 10], valid: vec![true; 10], segment: vec![1; 10] };
+        let mut score = Objective::new(&scan, &scan, &ObjectiveParams::default());
+        let params = PsmParams { min_valid_points: 2, ..PsmParams::default() };
+        assert!(params.search_window_beams > scan.len());
+        let m = psm(&scan, &scan, Pose2::IDENTITY, &params, &mut score).unwrap();
+        assert!(m.pose.is_finite(), "{m:?}");
     }
 
     #[test]
