@@ -358,7 +358,7 @@ impl StudyData {
 }
 
 pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
-    verified(dir)?;
+    verified(dir, None)?;
     let resolved_path = dir.join("resolved.toml");
     let text = std::fs::read_to_string(&resolved_path).map_err(|e| StoreError::io(&resolved_path, e))?;
     let resolved: ResolvedStudy = toml::from_str(&text).map_err(|e| StoreError::format(&resolved_path, e))?;
@@ -387,34 +387,34 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
 
 /// Reads the traces of the runs `keep` accepts.
 pub fn read_traces(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<TraceRows>, StoreError> {
-    verified(dir)?;
+    verified(dir, Some("traces.parquet"))?;
     parquet::read_traces(&dir.join("traces.parquet"), keep)
 }
 
 /// Reads the final maps of the runs `keep` accepts.
 pub fn read_landmarks(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<RunLandmarks>, StoreError> {
-    verified(dir)?;
+    verified(dir, Some("landmarks.parquet"))?;
     parquet::read_landmarks(&dir.join("landmarks.parquet"), keep)
 }
 
 /// Per-match rows of a study's scan-matching runs (none for studies written before them).
 pub fn read_matches(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<MatchRows>, StoreError> {
-    verified(dir)?;
     let path = dir.join("matches.parquet");
     if !path.is_file() {
         return Ok(Vec::new());
     }
+    verified(dir, Some("matches.parquet"))?;
     parquet::read_matches(&path, keep)
 }
 
 pub fn read_timings(dir: &Path) -> Result<Vec<Timing>, StoreError> {
-    verified(dir)?;
+    verified(dir, Some("timings.parquet"))?;
     parquet::read_timings(&dir.join("timings.parquet"))
 }
 
 /// Reads `runs.parquet` alone (e.g. to compare a new plan with the previous results).
 pub fn read_runs(dir: &Path) -> Result<Vec<RunRow>, StoreError> {
-    verified(dir)?;
+    verified(dir, Some("runs.parquet"))?;
     let path = dir.join("runs.parquet");
     in_range(&path, parquet::read_runs(&path)?)
 }
@@ -619,6 +619,11 @@ pub enum Seal {
 
 /// Checks `dir` against its checksum file.
 pub fn check_seal(dir: &Path) -> Result<Seal, StoreError> {
+    seal_of(dir, None)
+}
+
+/// Checks every listed file of `dir`, or only `file` (which must be listed).
+fn seal_of(dir: &Path, file: Option<&str>) -> Result<Seal, StoreError> {
     let list = dir.join(CHECKSUMS);
     let text = match std::fs::read_to_string(&list) {
         Ok(t) => t,
@@ -632,9 +637,12 @@ pub fn check_seal(dir: &Path) -> Result<Seal, StoreError> {
         };
         recorded.insert(rel.to_string(), hash.to_string());
     }
+    if let Some(f) = file.filter(|f| !recorded.contains_key(*f)) {
+        return Ok(Seal::Broken { path: dir.join(f), message: format!("not listed in {CHECKSUMS}: added after the directory was written") });
+    }
     // Files added beside them later (the timing page of `slamlab report`) are not the store's and
     // are not read by it.
-    for (rel, hash) in &recorded {
+    for (rel, hash) in recorded.iter().filter(|(rel, _)| file.is_none_or(|f| f == rel.as_str())) {
         let path = dir.join(rel);
         if !path.is_file() {
             return Ok(Seal::Broken { path, message: format!("listed in {CHECKSUMS} but missing") });
@@ -646,10 +654,11 @@ pub fn check_seal(dir: &Path) -> Result<Seal, StoreError> {
     Ok(Seal::Intact)
 }
 
-/// A study directory's files may be read: intact, or an error naming the file (an unsealed one
-/// predates checksums and must be rewritten by `slamlab run`, which finds its runs cached).
-fn verified(dir: &Path) -> Result<(), StoreError> {
-    match check_seal(dir)? {
+/// A study directory's files (or only `file`, what the caller reads) may be read: intact, or an
+/// error naming the file (an unsealed directory predates checksums and must be rewritten by
+/// `slamlab run`, which finds its runs cached). Each read hashes only what it reads.
+fn verified(dir: &Path, file: Option<&str>) -> Result<(), StoreError> {
+    match seal_of(dir, file)? {
         Seal::Intact => Ok(()),
         Seal::Unsealed => Err(StoreError::Integrity {
             path: dir.join(CHECKSUMS),
@@ -746,7 +755,7 @@ mod tests {
         })
         .unwrap();
         assert_eq!(check_seal(&dir).unwrap(), Seal::Intact);
-        assert!(verified(&dir).is_ok());
+        assert!(verified(&dir, None).is_ok() && verified(&dir, Some("runs.parquet")).is_ok());
         // a file written beside them later is not the store's (the timing page)
         std::fs::write(dir.join("timings.html"), "<html>").unwrap();
         assert_eq!(check_seal(&dir).unwrap(), Seal::Intact);
@@ -756,8 +765,11 @@ mod tests {
             Seal::Broken { path, message } => assert!(path.ends_with("maps/a.toml") && message.contains("does not match"), "{message}"),
             other => panic!("{other:?}"),
         }
-        let err = verified(&dir).unwrap_err().to_string();
+        let err = verified(&dir, None).unwrap_err().to_string();
         assert!(err.contains("a.toml") && err.contains("refusing"), "{err}");
+        // a read of another file hashes only that one; an unlisted file is refused
+        assert!(verified(&dir, Some("runs.parquet")).is_ok());
+        assert!(verified(&dir, Some("timings.html")).unwrap_err().to_string().contains("not listed"));
         // a missing file
         std::fs::write(dir.join("maps/a.toml"), b"name = 'a'").unwrap();
         std::fs::remove_file(dir.join("runs.parquet")).unwrap();
@@ -765,7 +777,7 @@ mod tests {
         // no checksum file: written before checksums
         std::fs::remove_file(dir.join(CHECKSUMS)).unwrap();
         assert_eq!(check_seal(&dir).unwrap(), Seal::Unsealed);
-        assert!(verified(&dir).unwrap_err().to_string().contains("predate checksums"));
+        assert!(verified(&dir, None).unwrap_err().to_string().contains("predate checksums"));
     }
 
     fn row(id: &str, status: RunStatus) -> RunRow {
