@@ -267,21 +267,18 @@ impl<T: Real> Frame<T> {
     }
 }
 
-/// A prepared scan as PSM holds it (`PMScan`): ranges [cm] in the working precision, bad flags
-/// (v0.3's PM_RANGE: invalid beams) and segment labels (0 = an isolated point).
-struct Ranges<T> {
+/// A prepared scan as PSM holds it (`PMScan`): ranges [cm] in the working precision, with the
+/// scan's validity (v0.3's bad flag PM_RANGE is an invalid beam) and segment labels (0 = an
+/// isolated point).
+struct Ranges<'a, T> {
     r: Vec<T>,
-    bad: Vec<bool>,
-    seg: Vec<u32>,
+    valid: &'a [bool],
+    seg: &'a [u32],
 }
 
-impl<T: Real> Ranges<T> {
-    fn new(scan: &PolarScan) -> Self {
-        Self {
-            r: scan.ranges.iter().map(|&r| T::from_f64(r * M_TO_CM)).collect(),
-            bad: scan.valid.iter().map(|v| !v).collect(),
-            seg: scan.segment.clone(),
-        }
+impl<'a, T: Real> Ranges<'a, T> {
+    fn new(scan: &'a PolarScan) -> Self {
+        Self { r: scan.ranges.iter().map(|&r| T::from_f64(r * M_TO_CM)).collect(), valid: &scan.valid, seg: &scan.segment }
     }
 }
 
@@ -368,7 +365,7 @@ fn project<T: Real>(frame: &Frame<T>, current: &Ranges<T>, (ax, ay, ath): (T, T,
     out.r.fill(T::from_f64(EMPTY_RANGE_CM));
     out.usable.fill(false);
     for i in 1..n {
-        if current.seg[i] == 0 || current.seg[i] != current.seg[i - 1] || current.bad[i] || current.bad[i - 1] {
+        if current.seg[i] == 0 || current.seg[i] != current.seg[i - 1] || !current.valid[i] || !current.valid[i - 1] {
             continue;
         }
         if (fi[i] - fi[i - 1]).abs().to_f64() >= std::f64::consts::PI {
@@ -407,10 +404,10 @@ fn orientation_search<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projecte
             let (i0, k0) = if di <= 0 { (shift as usize, 0) } else { (0, shift as usize) };
             let len = (n - shift) as usize;
             let (cur, usable) = (&projected.r[i0..i0 + len], &projected.usable[i0..i0 + len]);
-            let (refr, bad) = (&reference.r[k0..k0 + len], &reference.bad[k0..k0 + len]);
+            let (refr, valid) = (&reference.r[k0..k0 + len], &reference.valid[k0..k0 + len]);
             let (mut e, mut count) = (zero, zero);
             for t in 0..len {
-                let pair = usable[t] & !bad[t];
+                let pair = usable[t] & valid[t];
                 e += if pair { (cur[t] - refr[t]).abs() } else { zero };
                 count += if pair { one } else { zero };
             }
@@ -471,7 +468,7 @@ fn translation_step<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projected:
     for j in 0..reference.r.len() {
         let r_hat = projected.r[j];
         let e = reference.r[j] - r_hat;
-        let paired = !reference.bad[j] && projected.usable[j];
+        let paired = reference.valid[j] && projected.usable[j];
         if !(paired && r_hat.to_f64() < max_range && r_hat.to_f64() > min_range && e.abs().to_f64() < max_error) {
             continue;
         }
@@ -635,10 +632,11 @@ mod tests {
     }
 
     /// A reference of `bearings_deg` (PSM frame, from X) with ranges [cm], and the projected ranges.
-    fn by_hand(bearings_deg: &[f64], ranges_cm: &[f64], projected_cm: &[f64]) -> (Frame<f64>, Ranges<f64>, Projected<f64>) {
+    fn by_hand(bearings_deg: &[f64], ranges_cm: &[f64], projected_cm: &[f64]) -> (Frame<f64>, Ranges<'static, f64>, Projected<f64>) {
         let fi: Vec<f64> = bearings_deg.iter().map(|d| deg(*d)).collect();
         let frame = Frame { fi_min: fi[0], dfi: 1.0, co: fi.iter().map(|f| f.cos()).collect(), si: fi.iter().map(|f| f.sin()).collect(), fi };
-        let reference = Ranges { r: ranges_cm.to_vec(), bad: vec![false; ranges_cm.len()], seg: vec![1; ranges_cm.len()] };
+        let n = ranges_cm.len();
+        let reference = Ranges { r: ranges_cm.to_vec(), valid: vec![true; n].leak(), seg: vec![1; n].leak() };
         let projected = Projected { r: projected_cm.to_vec(), usable: vec![true; projected_cm.len()], ..Projected::new(projected_cm.len()) };
         (frame, reference, projected)
     }

@@ -358,7 +358,10 @@ impl StudyData {
 }
 
 pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
-    verified(dir, None)?;
+    // what this reads (traces and the rest are verified when read)
+    for file in ["resolved.toml", "manifest.json", "runs.parquet"] {
+        verified(dir, Some(file))?;
+    }
     let resolved_path = dir.join("resolved.toml");
     let text = std::fs::read_to_string(&resolved_path).map_err(|e| StoreError::io(&resolved_path, e))?;
     let resolved: ResolvedStudy = toml::from_str(&text).map_err(|e| StoreError::format(&resolved_path, e))?;
@@ -373,11 +376,15 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
         let path = entry.map_err(|e| StoreError::io(&maps_dir, e))?.path();
         if path.extension().is_some_and(|x| x == "toml") {
             let name = path.file_stem().unwrap_or_default().to_string_lossy().into_owned();
+            verified(dir, Some(&format!("maps/{name}.toml")))?;
             maps.push((name, std::fs::read_to_string(&path).map_err(|e| StoreError::io(&path, e))?));
         }
     }
     maps.sort();
     let reference_path = dir.join("reference.csv");
+    if reference_path.is_file() {
+        verified(dir, Some("reference.csv"))?;
+    }
     let reference = match std::fs::read_to_string(&reference_path) {
         Ok(text) => reference::parse(&text).map_err(|e| StoreError::format(&reference_path, e))?,
         Err(_) => Vec::new(),
