@@ -56,30 +56,33 @@ pub struct CostCheck {
 /// algorithm, point).
 type Cells = BTreeMap<(String, String, String), (f64, f64, usize)>;
 
-fn cells(data: &StudyData, matches: &[MatchRows]) -> Cells {
+/// The cells, and how many runs had timed matches.
+fn cells(data: &StudyData, matches: &[MatchRows]) -> (Cells, usize) {
     let by_run: BTreeMap<&str, &MatchRows> = matches.iter().map(|m| (m.run_id.as_str(), m)).collect();
     let mut times: BTreeMap<(String, String, String), (Vec<f64>, Vec<f64>)> = BTreeMap::new();
+    let mut runs = 0;
     for run in data.runs.iter().filter(|r| r.status == RunStatus::Ok) {
-        let Some(m) = by_run.get(run.run_id.as_str()) else { continue };
+        let Some(m) = by_run.get(run.run_id.as_str()).filter(|m| !m.matches.is_empty()) else { continue };
+        runs += 1;
         let entry = times.entry((run.map.clone(), run.algorithm.clone(), run.point.clone())).or_default();
         for record in &m.matches {
             entry.0.push(record.time_s * 1e3);
             entry.1.push(record.evaluations as f64);
         }
     }
-    times
+    let cells = times
         .into_iter()
-        .filter(|(_, (t, _))| !t.is_empty())
         .map(|(k, (t, e))| {
             let n = t.len();
             (k, (crate::metrics::median(&t), e.iter().sum::<f64>() / n as f64, n))
         })
-        .collect()
+        .collect();
+    (cells, runs)
 }
 
 /// The page, or `None` when the study has no timed matches.
 pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
-    let cells = cells(data, matches);
+    let (cells, runs) = cells(data, matches);
     if cells.is_empty() {
         return None;
     }
@@ -164,6 +167,5 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
             });
         }
     }
-    let runs = data.runs.iter().filter(|r| r.status == RunStatus::Ok && matches.iter().any(|m| m.run_id == r.run_id && !m.matches.is_empty())).count();
     Some(TimingPage { id: spec.id.clone(), title: spec.title.clone(), runs, matches: cells.values().map(|c| c.2).sum(), tables, checks })
 }
