@@ -158,7 +158,7 @@ fn padded(v: &[f64], frac: f64, from_zero: bool) -> (f64, f64) {
 
 /// Renders a line figure to an SVG document string.
 pub fn line_svg(fig: &LineFigure) -> String {
-    let entries: Vec<LegendEntry<'_>> = fig.series.iter().map(|s| LegendEntry { label: &s.label, color: rgb(s.color), dot: false, dashed: s.dashed }).collect();
+    let entries: Vec<LegendEntry<'_>> = fig.series.iter().map(|s| LegendEntry { label: &s.label, color: rgb(s.color), dot: s.scatter, dashed: s.dashed }).collect();
     let (_, legend_px) = legend_layout(&entries, WIDTH, LEFT_PX);
     let mut svg = String::new();
     {
@@ -331,7 +331,7 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
     svg
 }
 
-type Bounds = ((f64, f64), (f64, f64));
+pub type Bounds = ((f64, f64), (f64, f64));
 
 fn draw_trajectory(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &TrajectoryFigure, ((x0, x1), (y0, y1)): Bounds, (label_x, label_y, margin): (u32, u32, u32)) -> Result<(), String> {
     let e = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
@@ -356,6 +356,225 @@ fn draw_trajectory(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &TrajectoryFi
     chart.draw_series(fig.est_corners.iter().filter(|(_, c)| inside(*c)).map(|(color, c)| Cross::new(*c, 4, rgb(*color).stroke_width(2)))).map_err(e)?;
     chart.draw_series(std::iter::once(TriangleMarker::new(fig.start, 7, BLACK.filled()))).map_err(e)?;
     Ok(())
+}
+
+/// f on a grid at one heading, drawn as contour lines, with matcher paths through it
+/// ([EP] Figs 26/34/51).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContourFigure {
+    /// Contour lines per level, darker for lower levels: (level, polylines).
+    pub levels: Vec<(f64, Vec<Vec<(f64, f64)>>)>,
+    pub bounds: Bounds,
+    /// Paths: label, colour, points (the first is the start).
+    pub paths: Vec<PathSeries>,
+    /// The true position (red square) and the initial guess (black triangle).
+    pub truth: (f64, f64),
+    pub initial: (f64, f64),
+}
+
+/// Contour lines of a row-major grid `f[row * xs.len() + col]` at `level` by marching squares
+/// (saddles resolved by the cell's mean), joined into polylines; cells with a missing corner are
+/// skipped. Deterministic: segments are produced and joined in grid order.
+pub fn contour_lines(xs: &[f64], ys: &[f64], f: &[Option<f64>], level: f64) -> Vec<Vec<(f64, f64)>> {
+    let (nx, ny) = (xs.len(), ys.len());
+    if nx < 2 || ny < 2 || f.len() != nx * ny {
+        return Vec::new();
+    }
+    let at = |c: usize, r: usize| f[r * nx + c];
+    // the crossing on the edge between two grid nodes, computed from the lower-index node so that
+    // both cells sharing the edge compute the same point
+    let cross = |a: (usize, usize), b: (usize, usize)| {
+        let (a, b) = if (a.1, a.0) <= (b.1, b.0) { (a, b) } else { (b, a) };
+        let (fa, fb) = (at(a.0, a.1).unwrap_or(0.0), at(b.0, b.1).unwrap_or(0.0));
+        let t = if fb != fa { (level - fa) / (fb - fa) } else { 0.5 };
+        (xs[a.0] + t * (xs[b.0] - xs[a.0]), ys[a.1] + t * (ys[b.1] - ys[a.1]))
+    };
+    let mut segments: Vec<((f64, f64), (f64, f64))> = Vec::new();
+    for r in 0..ny - 1 {
+        for c in 0..nx - 1 {
+            let corners = [(c, r), (c + 1, r), (c + 1, r + 1), (c, r + 1)];
+            let Some(v) = corners.iter().map(|&(x, y)| at(x, y)).collect::<Option<Vec<f64>>>() else { continue };
+            let case = v.iter().enumerate().fold(0usize, |acc, (k, &x)| acc | (usize::from(x > level) << k));
+            // edges: 0 bottom (0-1), 1 right (1-2), 2 top (2-3), 3 left (3-0)
+            let edge = |e: usize| cross(corners[e], corners[(e + 1) % 4]);
+            let centre_above = v.iter().sum::<f64>() / 4.0 > level;
+            let pairs: &[(usize, usize)] = match case {
+                0 | 15 => &[],
+                1 | 14 => &[(3, 0)],
+                2 | 13 => &[(0, 1)],
+                3 | 12 => &[(3, 1)],
+                4 | 11 => &[(1, 2)],
+                6 | 9 => &[(0, 2)],
+                7 | 8 => &[(3, 2)],
+                5 => if centre_above { &[(3, 2), (0, 1)] } else { &[(3, 0), (1, 2)] },
+                10 => if centre_above { &[(3, 0), (1, 2)] } else { &[(3, 2), (0, 1)] },
+                _ => &[],
+            };
+            segments.extend(pairs.iter().map(|&(a, b)| (edge(a), edge(b))));
+        }
+    }
+    join_segments(segments)
+}
+
+/// Joins segments that share end points into polylines (exact equality of the end points).
+fn join_segments(segments: Vec<((f64, f64), (f64, f64))>) -> Vec<Vec<(f64, f64)>> {
+    use std::collections::BTreeMap;
+    let key = |p: (f64, f64)| (p.0.to_bits(), p.1.to_bits());
+    let mut by_end: BTreeMap<(u64, u64), Vec<usize>> = BTreeMap::new();
+    for (i, (a, b)) in segments.iter().enumerate() {
+        by_end.entry(key(*a)).or_default().push(i);
+        by_end.entry(key(*b)).or_default().push(i);
+    }
+    let mut used = vec![false; segments.len()];
+    let mut lines = Vec::new();
+    for start in 0..segments.len() {
+        if used[start] {
+            continue;
+        }
+        used[start] = true;
+        let mut line = std::collections::VecDeque::from([segments[start].0, segments[start].1]);
+        // extend at the back, then at the front
+        for front in [false, true] {
+            loop {
+                let end = if front { line[0] } else { line[line.len() - 1] };
+                let next = by_end.get(&key(end)).and_then(|ids| ids.iter().copied().find(|&i| !used[i]));
+                let Some(i) = next else { break };
+                used[i] = true;
+                let (a, b) = segments[i];
+                let other = if key(a) == key(end) { b } else { a };
+                if front {
+                    line.push_front(other);
+                } else {
+                    line.push_back(other);
+                }
+            }
+        }
+        lines.push(line.into_iter().collect());
+    }
+    lines
+}
+
+pub fn contour_svg(fig: &ContourFigure) -> String {
+    let ((x0, x1), (y0, y1)) = fig.bounds;
+    let side = 430u32;
+    let (label_x, label_y, margin) = (40u32, 60u32, 14u32);
+    let width = side + label_y + 2 * margin;
+    let height = side + label_x + 2 * margin;
+    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false, dashed: false }).collect();
+    entries.push(LegendEntry { label: "true position", color: CORNER, dot: true, dashed: false });
+    entries.push(LegendEntry { label: "initial guess", color: BLACK, dot: true, dashed: false });
+    let (_, legend_px) = legend_layout(&entries, width.max(WIDTH), label_y + margin);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (width.max(WIDTH), height + legend_px)).into_drawing_area();
+        root.fill(&WHITE).expect("drawing an SVG into memory");
+        let (top, plot) = root.split_vertically(legend_px);
+        draw_legend(&top, &entries, label_y + margin).expect("drawing an SVG into memory");
+        // a square plot at the left, the rest of the width for the legend above
+        let (plot, _) = plot.split_horizontally(width);
+        draw_contour(&plot, fig, ((x0, x1), (y0, y1)), (label_x, label_y, margin)).expect("drawing an SVG into memory");
+        root.present().expect("finishing an SVG in memory");
+    }
+    svg
+}
+
+/// Gray of contour level k of n: darker for lower f.
+fn level_gray(k: usize, n: usize) -> RGBColor {
+    let g = (40.0 + 170.0 * k as f64 / n.max(1) as f64) as u8;
+    RGBColor(g, g, g)
+}
+
+fn draw_contour(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &ContourFigure, ((x0, x1), (y0, y1)): Bounds, (label_x, label_y, margin): (u32, u32, u32)) -> Result<(), String> {
+    let e = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
+    let mut chart = ChartBuilder::on(root).margin(margin).x_label_area_size(label_x).y_label_area_size(label_y).build_cartesian_2d(x0..x1, y0..y1).map_err(e)?;
+    chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FONT, 12)).light_line_style(WHITE.mix(0.0)).bold_line_style(BLACK.mix(0.06)).draw().map_err(e)?;
+    let n = fig.levels.len();
+    for (k, (_, lines)) in fig.levels.iter().enumerate() {
+        let color = level_gray(k, n);
+        chart.draw_series(lines.iter().map(|l| PathElement::new(l.clone(), color.stroke_width(1)))).map_err(e)?;
+    }
+    let inside = |&(x, y): &(f64, f64)| x >= x0 && x <= x1 && y >= y0 && y <= y1;
+    for p in &fig.paths {
+        let color = p.color.map(rgb).unwrap_or(TRUTH);
+        let pts: Vec<(f64, f64)> = p.points.iter().copied().filter(inside).collect();
+        chart.draw_series(std::iter::once(PathElement::new(pts.clone(), color.stroke_width(2)))).map_err(e)?;
+        chart.draw_series(pts.iter().map(|q| Circle::new(*q, 3, color.filled()))).map_err(e)?;
+        // the estimate: a ring around the last point
+        if let Some(last) = pts.last() {
+            chart.draw_series(std::iter::once(Circle::new(*last, 6, color.stroke_width(2)))).map_err(e)?;
+        }
+    }
+    let d = 0.012 * (x1 - x0);
+    let t = fig.truth;
+    chart.draw_series(std::iter::once(Rectangle::new([(t.0 - d, t.1 - d), (t.0 + d, t.1 + d)], CORNER.filled()))).map_err(e)?;
+    chart.draw_series(std::iter::once(TriangleMarker::new(fig.initial, 7, BLACK.filled()))).map_err(e)?;
+    Ok(())
+}
+
+/// An incremental map ([EP] Figs 52–59): the walls, every occupied cell of the map an
+/// algorithm's chained poses build, and those poses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScanMapFigure {
+    pub walls: Vec<((f64, f64), (f64, f64))>,
+    /// Cell centres [m] and the cell size they were binned to.
+    pub points: Vec<(f64, f64)>,
+    pub path: Vec<(f64, f64)>,
+    pub color: usize,
+    pub label: String,
+}
+
+impl ScanMapFigure {
+    pub fn bounds(&self) -> Bounds {
+        let xs: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.0, b.0]).chain(self.points.iter().chain(&self.path).map(|p| p.0)).filter(|v| v.is_finite()).collect();
+        let ys: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.1, b.1]).chain(self.points.iter().chain(&self.path).map(|p| p.1)).filter(|v| v.is_finite()).collect();
+        (padded(&xs, 0.03, false), padded(&ys, 0.03, false))
+    }
+}
+
+pub fn scan_map_svg(fig: &ScanMapFigure) -> String {
+    let ((x0, x1), (y0, y1)) = fig.bounds();
+    let (label_x, label_y, margin) = (40u32, 52u32, 14u32);
+    let plot_w = (WIDTH - label_y - 2 * margin) as f64;
+    let plot_h = (plot_w * (y1 - y0) / (x1 - x0)).clamp(160.0, 560.0);
+    let (plot_w, height) = (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
+    let width = (plot_w as u32 + label_y + 2 * margin).min(WIDTH);
+    let entries = [
+        LegendEntry { label: &fig.label, color: rgb(fig.color), dot: true, dashed: false },
+        LegendEntry { label: "estimated scan poses", color: rgb(fig.color), dot: false, dashed: false },
+        LegendEntry { label: "walls", color: BLACK, dot: false, dashed: false },
+    ];
+    let (_, legend_px) = legend_layout(&entries, width, label_y + margin);
+    let mut svg = String::new();
+    // the map's cells, as whole pixels of one <path> (an element per cell would make the file
+    // ten times larger)
+    let mut pixels: Vec<(i32, i32)> = Vec::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (width, height + legend_px)).into_drawing_area();
+        root.fill(&WHITE).expect("drawing an SVG into memory");
+        let (top, plot) = root.split_vertically(legend_px);
+        draw_legend(&top, &entries, label_y + margin).expect("drawing an SVG into memory");
+        (|| -> Result<(), String> {
+            let e = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
+            let mut chart = ChartBuilder::on(&plot).margin(margin).x_label_area_size(label_x).y_label_area_size(label_y).build_cartesian_2d(x0..x1, y0..y1).map_err(e)?;
+            chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FONT, 12)).light_line_style(WHITE.mix(0.0)).bold_line_style(BLACK.mix(0.06)).draw().map_err(e)?;
+            chart.draw_series(fig.walls.iter().map(|(a, b)| PathElement::new(vec![*a, *b], BLACK.mix(0.5).stroke_width(1)))).map_err(e)?;
+            let color = rgb(fig.color);
+            pixels = fig.points.iter().map(|p| chart.backend_coord(p)).collect();
+            chart.draw_series(std::iter::once(PathElement::new(decimate(&fig.path, SVG_PATH_POINTS), color.mix(0.6).stroke_width(1)))).map_err(e)?;
+            Ok(())
+        })()
+        .expect("drawing an SVG into memory");
+        root.present().expect("finishing an SVG in memory");
+    }
+    pixels.sort_unstable();
+    pixels.dedup();
+    let d: String = pixels.iter().map(|(x, y)| format!("M{} {}h2v2h-2z", x - 1, y - 1)).collect();
+    let path = format!("<path fill=\"#{}\" d=\"{d}\"/>\n", PALETTE[fig.color % PALETTE.len()].to_uppercase());
+    match svg.rfind("</svg>") {
+        Some(end) => svg.insert_str(end, &path),
+        None => svg.push_str(&path),
+    }
+    svg
 }
 
 #[cfg(test)]
@@ -390,6 +609,23 @@ mod tests {
             assert!(a.contains("<svg") && a.trim_end().ends_with("</svg>"));
             assert!(a.contains("map &amp; &lt;algo&gt;"), "legend text must be XML-escaped");
         }
+    }
+
+    #[test]
+    fn contour_lines_of_a_cone_are_closed_rings_at_the_right_radius() {
+        // f = distance from (0, 0) on a 21 × 21 grid over [−1, 1]²
+        let axis: Vec<f64> = (0..21).map(|k| -1.0 + 0.1 * k as f64).collect();
+        let f: Vec<Option<f64>> = axis.iter().flat_map(|&y| axis.iter().map(move |&x| Some(x.hypot(y)))).collect();
+        let lines = contour_lines(&axis, &axis, &f, 0.55);
+        assert_eq!(lines.len(), 1, "one ring");
+        let ring = &lines[0];
+        assert_eq!(ring.first(), ring.last(), "closed");
+        // linear interpolation of a cone: every point within a grid cell's chord error of r
+        assert!(ring.iter().all(|(x, y)| (x.hypot(*y) - 0.55).abs() < 0.01), "{ring:?}");
+        // a level above every value, and a missing corner, draw nothing there
+        assert!(contour_lines(&axis, &axis, &f, 5.0).is_empty());
+        let holes: Vec<Option<f64>> = f.iter().map(|_| None).collect();
+        assert!(contour_lines(&axis, &axis, &holes, 0.5).is_empty());
     }
 
     #[test]

@@ -3,6 +3,7 @@
 //! Reads only the store. Output is byte-identical for identical results: no timestamps, no
 //! absolute paths, explicit ordering, fixed significant figures.
 
+pub mod diagnostics;
 pub mod diff_page;
 pub mod fidelity;
 pub mod figure;
@@ -151,7 +152,8 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
                 }
             }
         };
-        let built = view::build(&data, &traces);
+        let diagnostics = store::read_diagnostics(&dir)?;
+        let built = view::build(&data, &traces, diagnostics.as_ref());
         if let Some(e) = trace_error.into_inner() {
             return Err(e.into());
         }
@@ -188,7 +190,7 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
         files.push((format!("{id}/index.html"), render(&env, "study.html", ctx.clone())?.into_bytes()));
         files.push((format!("{id}/{id}.tex"), render(&env, "study.tex", ctx)?.into_bytes()));
         files.push((format!("{id}/summary.csv"), p.csv.clone().into_bytes()));
-        for f in p.view.groups.iter().flat_map(|g| &g.figures).chain(&p.view.trajectories) {
+        for f in p.view.groups.iter().flat_map(|g| &g.figures).chain(&p.view.trajectories).chain(&p.view.diagnostics) {
             files.push((format!("{id}/figures/{}.svg", f.file), f.svg.clone().into_bytes()));
             files.push((format!("{id}/figures/{}.tex", f.file), f.pgf.clone().into_bytes()));
         }

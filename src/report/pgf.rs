@@ -1,7 +1,7 @@
 //! Figure models → pgfplots code for the LaTeX reports (`\input{figures/<name>.tex}`), drawn
 //! natively by LaTeX so fonts match the document and no image conversion is needed.
 
-use super::figure::{decimate, LineFigure, TrajectoryFigure, XAxis, PALETTE};
+use super::figure::{decimate, ContourFigure, LineFigure, ScanMapFigure, TrajectoryFigure, XAxis, PALETTE};
 use super::latex::escape;
 use std::fmt::Write;
 
@@ -137,6 +137,71 @@ pub fn trajectory_pgf(fig: &TrajectoryFigure) -> String {
         let _ = writeln!(s, "\\addlegendentry{{{}}}", if fig.point_landmarks { "true landmarks" } else { "true corners" });
     }
     let _ = writeln!(s, "\\addplot[only marks, mark=triangle*, mark size=3pt, black, forget plot] coordinates {{({},{})}};", num(fig.start.0), num(fig.start.1));
+    let _ = writeln!(s, "\\end{{axis}}\n\\end{{tikzpicture}}");
+    s
+}
+
+/// Polylines as one `coordinates` stream, separated by empty lines (pgfplots' jumps).
+fn polylines(lines: &[Vec<(f64, f64)>]) -> String {
+    lines.iter().map(|l| l.iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect::<Vec<_>>().join(" ")).collect::<Vec<_>>().join("\n\n")
+}
+
+pub fn contour_pgf(fig: &ContourFigure) -> String {
+    let ((x0, x1), (y0, y1)) = fig.bounds;
+    let mut s = String::new();
+    let _ = writeln!(s, "\\begin{{tikzpicture}}");
+    let _ = writeln!(
+        s,
+        "\\begin{{axis}}[\n  axis equal image,\n  width=0.7\\linewidth,\n  xmin={}, xmax={}, ymin={}, ymax={},\n  xlabel={{$x$ [m]}}, ylabel={{$y$ [m]}},\n  legend pos=outer north east,\n  legend cell align=left,\n  legend style={{font=\\footnotesize}},\n  tick label style={{font=\\footnotesize}},\n  scaled ticks=false\n]",
+        num(x0),
+        num(x1),
+        num(y0),
+        num(y1)
+    );
+    let n = fig.levels.len().max(1);
+    for (k, (_, lines)) in fig.levels.iter().enumerate() {
+        if lines.is_empty() {
+            continue;
+        }
+        let _ = writeln!(s, "\\addplot[black!{}, thin, forget plot] coordinates {{{}}};", 85 - 60 * k / n, polylines(lines));
+    }
+    let clip = |p: &&(f64, f64)| p.0 >= x0 && p.0 <= x1 && p.1 >= y0 && p.1 <= y1;
+    for p in &fig.paths {
+        let color = p.color.map_or("black!55".to_string(), |c| format!("slamlab{}", c % PALETTE.len()));
+        let coords: Vec<String> = p.points.iter().filter(clip).map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
+        let _ = writeln!(s, "\\addplot[color={color}, thick, mark=*, mark size=1pt] coordinates {{{}}};", coords.join(" "));
+        let _ = writeln!(s, "\\addlegendentry{{{}}}", escape(&p.label));
+    }
+    let _ = writeln!(s, "\\addplot[only marks, mark=square*, mark size=2.5pt, red!80!black] coordinates {{({},{})}};", num(fig.truth.0), num(fig.truth.1));
+    let _ = writeln!(s, "\\addlegendentry{{true position}}");
+    let _ = writeln!(s, "\\addplot[only marks, mark=triangle*, mark size=3pt, black] coordinates {{({},{})}};", num(fig.initial.0), num(fig.initial.1));
+    let _ = writeln!(s, "\\addlegendentry{{initial guess}}");
+    let _ = writeln!(s, "\\end{{axis}}\n\\end{{tikzpicture}}");
+    s
+}
+
+pub fn scan_map_pgf(fig: &ScanMapFigure) -> String {
+    let ((x0, x1), (y0, y1)) = fig.bounds();
+    let mut s = String::new();
+    let _ = writeln!(s, "\\begin{{tikzpicture}}");
+    let _ = writeln!(
+        s,
+        "\\begin{{axis}}[\n  axis equal image,\n  width=0.8\\linewidth,\n  xmin={}, xmax={}, ymin={}, ymax={},\n  xlabel={{$x$ [m]}}, ylabel={{$y$ [m]}},\n  legend pos=outer north east,\n  legend cell align=left,\n  legend style={{font=\\footnotesize}},\n  tick label style={{font=\\footnotesize}}\n]",
+        num(x0),
+        num(x1),
+        num(y0),
+        num(y1)
+    );
+    for (a, b) in &fig.walls {
+        let _ = writeln!(s, "\\addplot[black!50, thin, forget plot] coordinates {{({},{}) ({},{})}};", num(a.0), num(a.1), num(b.0), num(b.1));
+    }
+    let color = format!("slamlab{}", fig.color % PALETTE.len());
+    let points: Vec<String> = fig.points.iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
+    let _ = writeln!(s, "\\addplot[only marks, mark=*, mark size=0.25pt, color={color}] coordinates {{{}}};", points.join(" "));
+    let _ = writeln!(s, "\\addlegendentry{{{}}}", escape(&fig.label));
+    let path: Vec<String> = decimate(&fig.path, PGF_PATH_POINTS).iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
+    let _ = writeln!(s, "\\addplot[color={color}, thin, opacity=0.6] coordinates {{{}}};", path.join(" "));
+    let _ = writeln!(s, "\\addlegendentry{{estimated scan poses}}");
     let _ = writeln!(s, "\\end{{axis}}\n\\end{{tikzpicture}}");
     s
 }

@@ -82,6 +82,9 @@ pub struct StudyView {
     pub groups: Vec<GroupView>,
     pub claims: Vec<crate::judge::claims::ClaimResult>,
     pub trajectories: Vec<FigureView>,
+    /// Scan matching: the match diagnostics' sentences and figures ([EP] Figs 25–27, 52–59).
+    pub diagnostics_intro: Vec<String>,
+    pub diagnostics: Vec<FigureView>,
     /// Per-landmark error tables beside published ones (`[report] landmark_reference`).
     pub landmark_tables: Vec<NamedTable>,
     /// Paired differences between chosen cells (`[[report.contrasts]]`).
@@ -193,21 +196,13 @@ impl Study<'_> {
 /// Reads the stored traces, final maps and per-match rows of the given runs.
 pub type Fetch<'a> = dyn Fn(&[String]) -> (Vec<TraceRows>, Vec<RunLandmarks>, Vec<MatchRows>) + 'a;
 
-pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
+pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::scanmatch::diagnose::Diagnostics>) -> StudyPages {
     let spec = &data.resolved.spec;
     let maps: Vec<(String, Option<Map>)> =
         spec.maps.iter().map(|name| (name.clone(), data.maps.iter().find(|(n, _)| n == name).and_then(|(_, text)| Map::from_toml(text).ok()))).collect();
     let metrics: Vec<&'static MetricDef> = spec.report.metrics.iter().filter_map(|m| metric_def(m)).collect();
     // Only the sections the study's algorithms read (what entered the run hashes).
-    let mut read = toml::Table::new();
-    let kinds = world_kinds(&maps);
-    for a in &spec.algorithms {
-        for &k in &kinds {
-            read.extend(spec.base.sections_read_by(*a, k));
-        }
-    }
-    let mut base = Vec::new();
-    flatten("", &toml::Value::Table(read), &mut base);
+    let base = crate::store::select::read_base(spec, &world_kinds(&maps));
     let study = Study { data, maps, metrics, base };
 
     let mut groups: Vec<GroupView> = data.resolved.groups.iter().enumerate().map(|(gi, _)| group_view(&study, gi)).collect();
@@ -225,6 +220,7 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
         used.push(name);
     }
     let trajectories = trajectory_views(&study, traces);
+    let diagnostics = diagnostics.map(|d| super::diagnostics::build(d, spec, study.maps.iter().find(|(n, _)| n == &d.map).and_then(|(_, m)| m.as_ref())));
     let landmark_tables = landmark_tables(&study, traces);
     let contrasts = contrast_tables(&study);
     let failed = data.runs.iter().filter(|r| r.status != RunStatus::Ok).count();
@@ -241,6 +237,8 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>) -> StudyPages {
         groups,
         claims: crate::judge::claims::evaluate(data),
         trajectories,
+        diagnostics_intro: diagnostics.as_ref().map_or(Vec::new(), |d| d.intro.clone()),
+        diagnostics: diagnostics.map_or(Vec::new(), |d| d.figures),
         landmark_tables,
         contrasts,
         failures: failures_table(data),
@@ -805,22 +803,14 @@ fn cost_figure(study: &Study<'_>, points: &[&crate::store::PointRecord], group_s
 fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
     let spec = study.spec();
     let points = &study.data.resolved.points;
-    // The base configuration if it was run, else the middle point of the first group.
-    let reference = points.iter().find(|p| p.assignments.iter().all(|(k, v)| study.base.iter().any(|(bk, bv)| bk == k && bv == v))).or_else(|| {
-        let first: Vec<_> = points.iter().filter(|p| p.groups.contains(&0)).collect();
-        first.get(first.len() / 2).copied()
-    });
-    let Some(reference) = reference else { return Vec::new() };
-    let headline = study.metrics.first().map_or(crate::metrics::ATE_RMSE, |m| m.name);
+    let Some(reference) = crate::store::select::reference_point(points, &study.base) else { return Vec::new() };
+    let headline = crate::store::select::headline(spec);
     let Some(first_algorithm) = spec.algorithms.first() else { return Vec::new() };
 
     let mut out = Vec::new();
     for (map_name, map) in &study.maps {
         let Some(map) = map else { continue };
-        // Median replicate by the headline metric (lower median; ties by run id).
-        let mut candidates: Vec<&RunRow> = study.runs_of(map_name, first_algorithm.name(), &reference.label).filter(|r| r.status == RunStatus::Ok).collect();
-        candidates.sort_by(|a, b| a.metric(headline).unwrap_or(f64::NAN).total_cmp(&b.metric(headline).unwrap_or(f64::NAN)).then(a.run_id.cmp(&b.run_id)));
-        let Some(chosen) = candidates.get(candidates.len().saturating_sub(1) / 2) else { continue };
+        let Some(chosen) = crate::store::select::median_run(&study.data.runs, map_name, first_algorithm.name(), &reference.label, headline) else { continue };
         let ids: Vec<String> = spec
             .algorithms
             .iter()

@@ -3,6 +3,7 @@
 //! thread count; rows are sorted by run id before writing. A failed run becomes a row with
 //! `status = failed` and the study goes on.
 
+pub mod diagnostics;
 pub mod progress;
 pub mod provenance;
 
@@ -136,7 +137,8 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         let stored = store::read_runs(&dir).unwrap_or_default();
         let bad = stored.iter().filter(|r| r.status != RunStatus::Ok).count();
         let manifest = manifest(plan, provenance, plan.runs.len(), bad);
-        if store::is_up_to_date(&dir, &ids, &resolved, &manifest, &maps, plan.reference.as_deref()) {
+        let diagnosed = plan.spec.spec.algorithms.iter().any(|a| a.is_scan_matcher());
+        if store::is_up_to_date(&dir, &ids, &resolved, &manifest, &maps, plan.reference.as_deref(), diagnosed) {
             let count = |s: RunStatus| stored.iter().filter(|r| r.status == s).count();
             return Ok(StudySummary { study: plan.id().to_string(), dir, runs: plan.runs.len(), computed: 0, recomputed_corrupt: 0, failed: count(RunStatus::Failed), diverged: count(RunStatus::Diverged) });
         }
@@ -218,8 +220,24 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     let failed = rows.iter().filter(|r| r.status == RunStatus::Failed).count();
     let diverged = rows.iter().filter(|r| r.status == RunStatus::Diverged).count();
 
+    // Diagnostics are an addition to the results: when they cannot be made, say why and go on.
+    let diagnosed = plan.spec.spec.algorithms.iter().any(|a| a.is_scan_matcher());
+    let diagnostics = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| diagnostics::build(plan, &resolved, &rows, &traces, &matches))) {
+        Ok(Ok(d)) => d,
+        Ok(Err(why)) => {
+            progress.warn(&format!("{}: no match diagnostics: {why}", plan.id()));
+            None
+        }
+        Err(_) => {
+            progress.warn(&format!("{}: no match diagnostics: they panicked (a defect: please report it)", plan.id()));
+            None
+        }
+    };
     let manifest = manifest(plan, provenance, rows.len(), failed + diverged);
-    store::write_study(&dir, &StudyOutput { runs: &rows, traces: &traces, landmarks: &landmarks, matches: &matches, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps, reference: plan.reference.as_deref() })?;
+    store::write_study(
+        &dir,
+        &StudyOutput { runs: &rows, traces: &traces, landmarks: &landmarks, matches: &matches, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps, reference: plan.reference.as_deref(), diagnostics: diagnosed.then_some(diagnostics.as_ref()) },
+    )?;
     Ok(StudySummary { study: plan.id().to_string(), dir, runs: rows.len(), computed: to_compute + corrupt, recomputed_corrupt: corrupt, failed, diverged })
 }
 

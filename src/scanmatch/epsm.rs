@@ -243,6 +243,12 @@ impl EpsmParams {
 
 /// E-PSM ([EP] §5.3.1, Fig 6/7; pseudocode reference §3.9).
 pub fn epsm(cost: &mut impl Cost, initial: Pose2, params: &EpsmParams) -> MatchResult {
+    epsm_observed(cost, initial, params, &mut |_| {})
+}
+
+/// [`epsm`], telling `observe` the pose after every half-iteration that completes (Fig 27's
+/// iterates): the path the diagnostics draw. The observer cannot change the result.
+pub fn epsm_observed(cost: &mut impl Cost, initial: Pose2, params: &EpsmParams, observe: &mut dyn FnMut(Pose2)) -> MatchResult {
     let evaluations_start = cost.evaluations();
     let tol_theta = params.tol_theta_deg.to_radians() * (1.0 - TOL_THETA_MARGIN);
     let mut buffers = JacobianBuffers::new(cost.beams());
@@ -273,6 +279,7 @@ pub fn epsm(cost: &mut impl Cost, initial: Pose2, params: &EpsmParams) -> MatchR
             pose.theta = o.theta;
             f_cycle = o.f;
             last_good = Some((pose, o.f));
+            observe(pose);
         } else {
             // Position half-iteration: Eq. 5–6, or BOBYQA (Fig 7).
             let step = match params.position_step {
@@ -288,6 +295,7 @@ pub fn epsm(cost: &mut impl Cost, initial: Pose2, params: &EpsmParams) -> MatchR
             };
             pose.x += dx;
             pose.y += dy;
+            observe(pose);
             // End of a cycle: the convergence test.
             small = if dx.abs() + dy.abs() < params.tol_xy_m && delta_theta.abs() < tol_theta { small + 1 } else { 0 };
             let f_stalled = f_previous_cycle.is_some_and(|fp| fp - f_cycle <= params.ftol_rel * fp.abs());

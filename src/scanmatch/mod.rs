@@ -19,8 +19,11 @@
 //! - [`search`]: simultaneous (x, y, θ) search with NLopt's optimisers (§5.3.2).
 //! - [`brute`]: the brute-force reference (translation grid + E-PSM's orientation search).
 //! - [`track`]: laser odometry — a world's scans matched in sequence, with the per-match records.
+//! - [`diagnose`]: one match re-run with observers — f(θ) slices, PSM's criterion, f contours,
+//!   paths — and the incremental maps ([EP] Figs 25–27, 52–59).
 
 pub mod brute;
+pub mod diagnose;
 pub mod epsm;
 pub mod objective;
 pub mod psm;

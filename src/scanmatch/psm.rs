@@ -211,6 +211,19 @@ pub fn psm<C: Cost + ?Sized>(
     params: &PsmParams,
     score: &mut C,
 ) -> Result<MatchResult, PsmError> {
+    psm_observed(reference, current, initial, params, score, &mut |_| {})
+}
+
+/// [`psm`], telling `observe` the pose after every pass (our frame; a pass that fails is not
+/// reported): the path the diagnostics draw. The observer cannot change the result.
+pub fn psm_observed<C: Cost + ?Sized>(
+    reference: &PolarScan,
+    current: &PolarScan,
+    initial: Pose2,
+    params: &PsmParams,
+    score: &mut C,
+    observe: &mut dyn FnMut(Pose2),
+) -> Result<MatchResult, PsmError> {
     if !reference.same_geometry(current) {
         return Err(PsmError::GeometryMismatch {
             reference_beams: reference.len(),
@@ -224,8 +237,8 @@ pub fn psm<C: Cost + ?Sized>(
     let f_initial = score.f(initial);
     let run = if reference.is_consistent() && current.is_consistent() && initial.is_finite() && !reference.is_empty() {
         match params.precision {
-            Precision::Single => iterate::<f32>(reference, current, initial, params),
-            Precision::Double => iterate::<f64>(reference, current, initial, params),
+            Precision::Single => iterate::<f32>(reference, current, initial, params, observe),
+            Precision::Double => iterate::<f64>(reference, current, initial, params, observe),
         }
     } else {
         Run { outcome: Err(Stop::TooFewPairs), passes: 0 }
@@ -301,7 +314,7 @@ impl<T: Real> Projected<T> {
 }
 
 /// `pm_psm`'s loop, in PSM's frame and units (see the module doc).
-fn iterate<T: Real>(reference: &PolarScan, current: &PolarScan, initial: Pose2, params: &PsmParams) -> Run {
+fn iterate<T: Real>(reference: &PolarScan, current: &PolarScan, initial: Pose2, params: &PsmParams, observe: &mut dyn FnMut(Pose2)) -> Run {
     let frame = Frame::<T>::new(reference);
     let (reference, current) = (Ranges::<T>::new(reference), Ranges::<T>::new(current));
     let mut projected = Projected::new(frame.fi.len());
@@ -336,11 +349,61 @@ fn iterate<T: Real>(reference: &PolarScan, current: &PolarScan, initial: Pose2, 
             ax += dx;
             ay += dy;
         }
+        observe(to_pose((ax, ay, ath)));
         pass += 1;
     }
-    let pose = Pose2::new(ay.to_f64() / M_TO_CM, -ax.to_f64() / M_TO_CM, wrap_angle(ath.to_f64()));
+    let pose = to_pose((ax, ay, ath));
     let stop = if small >= params.small_corrections_to_stop { Stop::Converged } else { Stop::Budget };
     Run { outcome: Ok((pose, stop)), passes: pass }
+}
+
+/// PSM's (X, Y) [cm] and heading → our pose [m].
+fn to_pose<T: Real>((ax, ay, ath): (T, T, T)) -> Pose2 {
+    Pose2::new(ay.to_f64() / M_TO_CM, -ax.to_f64() / M_TO_CM, wrap_angle(ath.to_f64()))
+}
+
+/// PSM's orientation criterion at one pose, as a pass computes it (the diagnostics' view of
+/// [`orientation_search`]): the mean absolute residual e(di) [cm] of every shift di of the range
+/// array, the shift with the smallest, and the heading change the pass would make.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OrientationProfile {
+    /// Heading change of each shift [rad]: di·Δφ, di = −W..=W.
+    pub shifts_rad: Vec<f64>,
+    /// e(di) [cm]; `None` where the shift leaves no pair.
+    pub errors_cm: Vec<Option<f64>>,
+    /// The heading change the pass makes [rad] (the best shift refined by Diosi's parabola when
+    /// its conditions hold); `None` when no shift has a pair (the pass fails).
+    pub dtheta_rad: Option<f64>,
+    /// Whether the parabola refined the best shift.
+    pub refined: bool,
+}
+
+/// [`OrientationProfile`] of PSM's orientation pass at `at` (current laser pose in the reference
+/// frame), in the precision `params` names. Pure; used by the diagnostics, tested to return the
+/// heading change [`psm`]'s first pass makes.
+pub fn orientation_profile(reference: &PolarScan, current: &PolarScan, at: Pose2, params: &PsmParams) -> OrientationProfile {
+    fn profile<T: Real>(reference: &PolarScan, current: &PolarScan, at: Pose2, params: &PsmParams) -> OrientationProfile {
+        let frame = Frame::<T>::new(reference);
+        let (reference, current) = (Ranges::<T>::new(reference), Ranges::<T>::new(current));
+        let mut projected = Projected::new(frame.fi.len());
+        project(&frame, &current, (T::from_f64(-M_TO_CM * at.y), T::from_f64(M_TO_CM * at.x), T::from_f64(at.theta)), &mut projected);
+        let errors = orientation_errors(&reference, &projected, params);
+        let w = params.search_window_beams as isize;
+        let pick = orientation_pick(&frame, &errors, params);
+        OrientationProfile {
+            shifts_rad: (-w..=w).map(|di| di as f64 * frame.dfi.to_f64()).collect(),
+            errors_cm: errors.iter().map(|e| (e.to_f64() < NO_OVERLAP_ERROR_CM).then(|| e.to_f64())).collect(),
+            dtheta_rad: pick.map(|(d, _)| d.to_f64()),
+            refined: pick.is_some_and(|(_, refined)| refined),
+        }
+    }
+    if !reference.same_geometry(current) || !reference.is_consistent() || !current.is_consistent() || reference.is_empty() {
+        return OrientationProfile { shifts_rad: Vec::new(), errors_cm: Vec::new(), dtheta_rad: None, refined: false };
+    }
+    match params.precision {
+        Precision::Single => profile::<f32>(reference, current, at, params),
+        Precision::Double => profile::<f64>(reference, current, at, params),
+    }
 }
 
 /// `pm_scan_project`: every current point into the reference frame at (X, Y, θ), in polar
@@ -392,10 +455,15 @@ fn project<T: Real>(frame: &Frame<T>, current: &Ranges<T>, (ax, ay, ath): (T, T,
 /// returns dθ = (di + d)·Δφ [rad], or `None` when no shift has a pair. Assumes that a rotation is a
 /// pure shift of the range array (the invariance [EP] L151 drops).
 fn orientation_search<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projected: &Projected<T>, params: &PsmParams) -> Option<T> {
+    orientation_pick(frame, &orientation_errors(reference, projected, params), params).map(|(d, _)| d)
+}
+
+/// e(di) for di = −W..=W (see [`orientation_search`]); [`NO_OVERLAP_ERROR_CM`] where no pair.
+fn orientation_errors<T: Real>(reference: &Ranges<T>, projected: &Projected<T>, params: &PsmParams) -> Vec<T> {
     let n = reference.r.len() as isize;
     let w = params.search_window_beams as isize;
     let (one, zero) = (T::from_f64(1.0), T::ZERO);
-    let errors: Vec<T> = (-w..=w)
+    (-w..=w)
         .map(|di| {
             // pairs (i, i + di) with both indices inside the scan, summed in v0.3's order; the
             // branch-free select adds an exact zero for an unusable pair
@@ -413,7 +481,13 @@ fn orientation_search<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projecte
             }
             if count > zero { e / count } else { T::from_f64(NO_OVERLAP_ERROR_CM) }
         })
-        .collect();
+        .collect()
+}
+
+/// The first smallest e(di) refined by the parabola: (dθ [rad], whether refined); `None` when no
+/// shift has a pair.
+fn orientation_pick<T: Real>(frame: &Frame<T>, errors: &[T], params: &PsmParams) -> Option<(T, bool)> {
+    let w = params.search_window_beams as isize;
     // the first smallest error (v0.3 scans with a strict <)
     let mut imin = 0;
     for (k, e) in errors.iter().enumerate() {
@@ -425,13 +499,15 @@ fn orientation_search<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projecte
         return None;
     }
     let mut dth = T::from_f64((imin as isize - w) as f64) * frame.dfi;
+    let mut refined = false;
     if imin >= 1 && imin + 1 < errors.len() {
         let d = parabolic_refinement(errors[imin - 1], errors[imin], errors[imin + 1], params.parabola_min_curvature_m * M_TO_CM);
         if let Some(d) = d {
             dth += d * frame.dfi;
+            refined = true;
         }
     }
-    Some(dth)
+    Some((dth, refined))
 }
 
 /// Diosi's parabola through (−1, e₋), (0, e₀), (1, e₊): the vertex offset d = (e₋ − e₊)/(2D),

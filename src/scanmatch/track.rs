@@ -166,8 +166,27 @@ pub struct Tracked {
     pub steps: usize,
 }
 
+/// How a matcher's scans are prepared: the study's segmentation and the laser's geometry, except
+/// `psm_original`, which preprocesses as v0.3 does (its own heuristics, in its own precision, with
+/// readings beyond its range gate, PM_MAX_RANGE, marked bad).
+pub fn preparation(matcher: Matcher<'_>, params: &ScanMatchingParams, geometry: LaserGeometry) -> (SegmentationParams, LaserGeometry) {
+    match matcher {
+        Matcher::Psm { own_heuristics: true, params: psm } => {
+            let mut segmentation = SegmentationParams { method: Segmentation::PsmHeuristics, ..params.segmentation.clone() };
+            segmentation.psm_heuristics.precision = psm.precision;
+            (segmentation, LaserGeometry { max_range_m: geometry.max_range_m.min(psm.max_range_m), ..geometry })
+        }
+        _ => (params.segmentation.clone(), geometry),
+    }
+}
+
+/// The seed of a run's `k`-th match (0-based) for the stochastic optimisers.
+pub fn match_seed(seed: u64, k: usize) -> u64 {
+    seed ^ (k as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+}
+
 /// Prepares one scan for matching.
-fn prepared(scan: &Scan, geometry: &LaserGeometry, segmentation: &SegmentationParams) -> super::scan::PolarScan {
+pub fn prepared(scan: &Scan, geometry: &LaserGeometry, segmentation: &SegmentationParams) -> super::scan::PolarScan {
     prepare(&scan.ranges_m, geometry.angle_min_rad, geometry.angle_increment_rad, geometry.max_range_m, segmentation)
 }
 
@@ -175,16 +194,7 @@ fn prepared(scan: &Scan, geometry: &LaserGeometry, segmentation: &SegmentationPa
 /// optimisers (one derived seed per match); `clock` returns seconds.
 pub fn track(world: &World, matcher: Matcher<'_>, params: &ScanMatchingParams, seed: u64, clock: &mut dyn FnMut() -> f64) -> Result<Tracked, SlamError> {
     let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
-    // `psm_original` preprocesses as v0.3 does: its own heuristics, in its own precision, with
-    // readings beyond its range gate (PM_MAX_RANGE) marked bad
-    let (segmentation, geometry) = match matcher {
-        Matcher::Psm { own_heuristics: true, params: psm } => {
-            let mut segmentation = SegmentationParams { method: Segmentation::PsmHeuristics, ..params.segmentation.clone() };
-            segmentation.psm_heuristics.precision = psm.precision;
-            (segmentation, LaserGeometry { max_range_m: geometry.max_range_m.min(psm.max_range_m), ..geometry })
-        }
-        _ => (params.segmentation.clone(), geometry),
-    };
+    let (segmentation, geometry) = preparation(matcher, params, geometry);
     let mut estimate = vec![world.truth[0]];
     let mut matches = Vec::new();
     let Some(first) = world.scans.first() else {
@@ -211,7 +221,7 @@ pub fn track(world: &World, matcher: Matcher<'_>, params: &ScanMatchingParams, s
             InitialGuess::Identity => Pose2::IDENTITY,
         };
         let current = prepared(scan, &geometry, &segmentation);
-        let match_seed = seed ^ (matches.len() as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let match_seed = match_seed(seed, matches.len());
         let start = clock();
         let result = run_matcher(matcher, &reference.1, &current, initial, &params.objective, match_seed);
         let time_s = clock() - start;
@@ -248,7 +258,7 @@ pub fn track(world: &World, matcher: Matcher<'_>, params: &ScanMatchingParams, s
     Ok(Tracked { trace: Trace { estimate, matches, ..Trace::default() }, steps })
 }
 
-fn run_matcher(matcher: Matcher<'_>, reference: &super::scan::PolarScan, current: &super::scan::PolarScan, initial: Pose2, objective: &ObjectiveParams, seed: u64) -> MatchResult {
+pub fn run_matcher(matcher: Matcher<'_>, reference: &super::scan::PolarScan, current: &super::scan::PolarScan, initial: Pose2, objective: &ObjectiveParams, seed: u64) -> MatchResult {
     let mut cost = Objective::new(reference, current, objective);
     match matcher {
         // Both scans come from one laser, so the geometries always agree.

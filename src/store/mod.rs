@@ -11,6 +11,7 @@
 mod parquet;
 pub mod reference;
 pub mod scans;
+pub mod select;
 pub mod tum;
 
 use crate::geom::Pose2;
@@ -273,6 +274,9 @@ pub struct StudyOutput<'a> {
     pub maps: &'a [(String, String)],
     /// The reference rows shown beside the results (`reference.csv`), if the study has any.
     pub reference: Option<&'a str>,
+    /// Scan-matching studies (`Some`): the diagnosed matches and incremental maps, or `None`
+    /// when none could be made (`diagnostics.json` then holds `null`).
+    pub diagnostics: Option<Option<&'a crate::scanmatch::diagnose::Diagnostics>>,
 }
 
 /// Writes a study directory atomically (rows must already be sorted by run id).
@@ -295,6 +299,10 @@ pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> 
         if let Some(text) = out.reference {
             write_file(&tmp.join("reference.csv"), text.as_bytes())?;
         }
+        if let Some(d) = out.diagnostics {
+            let text = serde_json::to_string(&d).map_err(|e| StoreError::format(dir, e))? + "\n";
+            write_file(&tmp.join(DIAGNOSTICS), text.as_bytes())?;
+        }
         let maps = tmp.join("maps");
         std::fs::create_dir(&maps).map_err(|e| StoreError::io(&maps, e))?;
         for (name, text) in out.maps {
@@ -304,10 +312,24 @@ pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> 
     })
 }
 
+/// A scan-matching study's diagnostics file.
+const DIAGNOSTICS: &str = "diagnostics.json";
+
+/// A scan-matching study's diagnostics, verified; `None` when the study has none.
+pub fn read_diagnostics(dir: &Path) -> Result<Option<crate::scanmatch::diagnose::Diagnostics>, StoreError> {
+    let path = dir.join(DIAGNOSTICS);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    verified(dir, Some(DIAGNOSTICS))?;
+    let text = std::fs::read_to_string(&path).map_err(|e| StoreError::io(&path, e))?;
+    serde_json::from_str(&text).map(Some).map_err(|e| StoreError::format(&path, e))
+}
+
 /// Whether `dir` already holds exactly this study: the same runs (by id and content hash), and
-/// byte-identical resolved spec, manifest, maps and reference rows. Then rewriting it would
-/// change nothing.
-pub fn is_up_to_date(dir: &Path, runs: &[(String, String)], resolved: &ResolvedStudy, manifest: &Manifest, maps: &[(String, String)], reference: Option<&str>) -> bool {
+/// byte-identical resolved spec, manifest, maps and reference rows, and diagnostics when
+/// `diagnostics` (a scan-matching study). Then rewriting it would change nothing.
+pub fn is_up_to_date(dir: &Path, runs: &[(String, String)], resolved: &ResolvedStudy, manifest: &Manifest, maps: &[(String, String)], reference: Option<&str>, diagnostics: bool) -> bool {
     let same_text = |name: &str, text: &str| std::fs::read_to_string(dir.join(name)).is_ok_and(|t| t == text);
     let resolved_ok = toml::to_string(resolved).is_ok_and(|t| same_text("resolved.toml", &t));
     let manifest_ok = serde_json::to_string_pretty(manifest).is_ok_and(|t| same_text("manifest.json", &(t + "\n")));
@@ -317,7 +339,8 @@ pub fn is_up_to_date(dir: &Path, runs: &[(String, String)], resolved: &ResolvedS
         Some(text) => same_text("reference.csv", text),
         None => !dir.join("reference.csv").exists(),
     };
-    if !(resolved_ok && manifest_ok && maps_ok && reference_ok && dir.join("traces.parquet").is_file() && dir.join("landmarks.parquet").is_file()) {
+    let diagnostics_ok = !diagnostics || dir.join(DIAGNOSTICS).is_file();
+    if !(resolved_ok && manifest_ok && maps_ok && reference_ok && diagnostics_ok && dir.join("traces.parquet").is_file() && dir.join("landmarks.parquet").is_file()) {
         return false;
     }
     // a directory whose files changed (or that predates checksums) is rewritten
