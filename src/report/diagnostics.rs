@@ -130,24 +130,24 @@ fn match_sentence(m: &MatchDiagnostic) -> String {
     let t = m.truth;
     let g = m.initial;
     let mut parts = vec![format!(
-        "Match {} ({}): true motion x = {} m, y = {} m, θ = {}°; the initial guess is off by ({} mm, {} mm, {}°).",
+        "Match {} ({}): true motion x = {} m, y = {} m, θ = {}°; the initial guess is off by ({} mm, {} mm, {}°)",
         m.number,
         m.why,
-        sig(t.x, 3),
-        sig(t.y, 3),
-        sig(deg(t.theta), 3),
-        sig((g.x - t.x) * 1e3, 3),
-        sig((g.y - t.y) * 1e3, 3),
-        sig(deg(crate::geom::wrap_angle(g.theta - t.theta)), 3)
+        small(t.x, 1e-6),
+        small(t.y, 1e-6),
+        small(deg(t.theta), 1e-5),
+        small((g.x - t.x) * 1e3, 1e-3),
+        small((g.y - t.y) * 1e3, 1e-3),
+        small(deg(crate::geom::wrap_angle(g.theta - t.theta)), 1e-5)
     )];
     for p in &m.paths {
         let e = p.estimate;
         parts.push(format!(
             "{} ends at ({} mm, {} mm, {}°) from the truth with f = {} cm² after {} {}",
             title(&p.algorithm),
-            sig((e.x - t.x) * 1e3, 3),
-            sig((e.y - t.y) * 1e3, 3),
-            sig(deg(crate::geom::wrap_angle(e.theta - t.theta)), 3),
+            small((e.x - t.x) * 1e3, 1e-3),
+            small((e.y - t.y) * 1e3, 1e-3),
+            small(deg(crate::geom::wrap_angle(e.theta - t.theta)), 1e-5),
             p.f_estimate.map_or("—".into(), |f| sig(f, 3)),
             if p.kind == "per half-iteration" { p.poses.len().saturating_sub(1) } else { p.evaluations.last().copied().unwrap_or(0) as usize },
             if p.kind == "per half-iteration" { "half-iterations" } else { "evaluations (at its best f)" }
@@ -156,10 +156,10 @@ fn match_sentence(m: &MatchDiagnostic) -> String {
     for p in m.psm.iter().filter(|p| p.at_label == "estimate") {
         if let Some(pick) = p.pick {
             parts.push(format!(
-                "at its estimate, {}'s orientation pass would turn by {}° (its fixed point), while the true heading is {}° away",
+                "at its estimate, {}'s next orientation pass would turn by {}°, while the true heading is {}° away",
                 title(&p.algorithm),
-                sig(deg(pick - p.at.theta), 2),
-                sig(deg(crate::geom::wrap_angle(t.theta - p.at.theta)), 2)
+                small(deg(pick - p.at.theta), 1e-5),
+                small(deg(crate::geom::wrap_angle(t.theta - p.at.theta)), 1e-5)
             ));
         }
     }
@@ -167,11 +167,16 @@ fn match_sentence(m: &MatchDiagnostic) -> String {
         let v = o.parabola.and_then(vertex);
         parts.push(format!(
             "E-PSM's first orientation search (at the initial guess's position) picks θ − true θ = {}°{}",
-            sig(deg(o.pick - t.theta), 2),
-            v.map_or(String::new(), |v| format!("; Diosi's parabola through its 1° grid would pick {}°", sig(deg(v - t.theta), 2)))
+            small(deg(o.pick - t.theta), 1e-5),
+            v.map_or(String::new(), |v| format!("; Diosi's parabola through its 1° grid would pick {}°", small(deg(v - t.theta), 1e-5)))
         ));
     }
     parts.join("; ") + "."
+}
+
+/// Three significant figures, and 0 below `floor` (rounding noise of a difference of equal poses).
+fn small(v: f64, floor: f64) -> String {
+    if v.abs() < floor { "0".into() } else { sig(v, 3) }
 }
 
 fn point(x: f64, y: f64) -> SeriesPoint {
@@ -278,7 +283,7 @@ fn psm_view(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, head: &str
     Some(FigureView {
         file: format!("{prefix}-psm-criterion"),
         caption: format!(
-            "{head}: PSM's orientation criterion, the mean absolute range residual of each shift of the range array (one beam per point), at its initial guess (its first pass, solid) and at its estimate (the pass it ended on, dashed), with the heading each pass picks (Diosi's parabola through the best shift and its neighbours). At a fixed point the pick at the estimate is the estimate's own heading; its distance from the true heading is PSM's bias."
+            "{head}: PSM's orientation criterion, the mean absolute range residual of each shift of the range array (one beam per point), at its initial guess (its first pass, solid) and at its estimate (dashed), with the heading each pass picks (Diosi's parabola through the best shift and its neighbours). Where PSM converged, the pick at its estimate is the estimate's own heading, and its distance from the true heading is PSM's error on this match."
         ),
         svg: figure::line_svg(&fig),
         pgf: super::pgf::line_pgf(&fig),
@@ -341,7 +346,7 @@ fn iteration_views(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, hea
         .collect();
     if !best.is_empty() {
         let max = best.iter().flat_map(|s| &s.points).map(|p| p.x).fold(1.0, f64::max);
-        let ticks: Vec<(f64, String)> = (0..=max.log10().ceil() as i32).map(|e| (10f64.powi(e), sig(10f64.powi(e), 1))).collect();
+        let ticks: Vec<(f64, String)> = (0..=max.log10().floor() as i32).map(|e| (10f64.powi(e), sig(10f64.powi(e), 1))).collect();
         let fig = LineFigure { x_label: "objective evaluations".into(), y_label: "best f so far [cm²]".into(), x_axis: XAxis::Log, x_ticks: ticks, series: best };
         out.push(FigureView {
             file: format!("{prefix}-evaluations"),

@@ -85,6 +85,8 @@ pub struct StudyView {
     /// Scan matching: the match diagnostics' sentences and figures ([EP] Figs 25–27, 52–59).
     pub diagnostics_intro: Vec<String>,
     pub diagnostics: Vec<FigureView>,
+    /// Scan matching: how the heading error is distributed over the matches of each cell.
+    pub match_tables: Vec<NamedTable>,
     /// Per-landmark error tables beside published ones (`[report] landmark_reference`).
     pub landmark_tables: Vec<NamedTable>,
     /// Paired differences between chosen cells (`[[report.contrasts]]`).
@@ -239,6 +241,7 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
         trajectories,
         diagnostics_intro: diagnostics.as_ref().map_or(Vec::new(), |d| d.intro.clone()),
         diagnostics: diagnostics.map_or(Vec::new(), |d| d.figures),
+        match_tables: match_distribution(&study, traces),
         landmark_tables,
         contrasts,
         failures: failures_table(data),
@@ -932,6 +935,61 @@ fn match_error_views(study: &Study<'_>, map_name: &str, map_title: &str, ids: &[
             }
         })
         .collect()
+}
+
+/// The spread of |aθ| over the matches of each (map, scan matcher, cell), all replicates pooled:
+/// a mean can hide that most matches are exact and a few are far off.
+fn match_distribution(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
+    let spec = study.spec();
+    if !spec.algorithms.iter().any(|a| a.is_scan_matcher()) {
+        return Vec::new();
+    }
+    let ids: Vec<String> = study.data.runs.iter().filter(|r| r.status == RunStatus::Ok).map(|r| r.run_id.clone()).collect();
+    let (_, _, matches) = traces(&ids);
+    let by_run: BTreeMap<&str, &MatchRows> = matches.iter().map(|m| (m.run_id.as_str(), m)).collect();
+    let mut out = Vec::new();
+    for (map, _) in &study.maps {
+        let mut rows = Vec::new();
+        for algorithm in spec.algorithms.iter().filter(|a| a.is_scan_matcher()) {
+            for point in &study.data.resolved.points {
+                let mut errors: Vec<f64> = study
+                    .runs_of(map, algorithm.name(), &point.label)
+                    .filter_map(|r| by_run.get(r.run_id.as_str()))
+                    .flat_map(|m| m.matches.iter().map(|k| k.error().2.abs().to_degrees()))
+                    .collect();
+                if errors.is_empty() {
+                    continue;
+                }
+                errors.sort_by(f64::total_cmp);
+                let q = |p: f64| errors[((errors.len() - 1) as f64 * p).round() as usize];
+                let total: f64 = errors.iter().filter(|e| e.is_finite()).sum();
+                let far: Vec<f64> = errors.iter().copied().filter(|e| *e > 1.0).collect();
+                rows.push(vec![
+                    algorithm.title().to_string(),
+                    point.label.clone(),
+                    errors.len().to_string(),
+                    sig(q(0.5), 2),
+                    sig(q(0.9), 2),
+                    sig(errors[errors.len() - 1], 2),
+                    format!("{} %", sig(100.0 * far.len() as f64 / errors.len() as f64, 2)),
+                    if total > 0.0 { format!("{} %", sig(100.0 * far.iter().filter(|e| e.is_finite()).sum::<f64>() / total, 2)) } else { "—".into() },
+                ]);
+            }
+        }
+        if rows.is_empty() {
+            continue;
+        }
+        out.push(NamedTable {
+            title: format!("Heading error per match: {map}"),
+            caption: "The distribution of |aθ| [deg] over every match of a cell (all replicates pooled): its median, 90th percentile and maximum, the share of matches more than 1° off, and the share of the cell's summed |aθ| — of its mean — that those matches carry. A mean far above the median is carried by a few matches.".into(),
+            table: TableView {
+                columns: ["Algorithm", "Cell", "Matches", "Median", "90th pct", "Max", "> 1°", "Share of the mean"].map(String::from).to_vec(),
+                rows,
+                align: "llrrrrrr".into(),
+            },
+        });
+    }
+    out
 }
 
 /// [EV]-style per-landmark tables: for each published table, our mean estimate of every true
