@@ -90,7 +90,16 @@ pub const METRICS: &[MetricDef] = &[
     MetricDef { name: "match_failure_rate", title: "Failed matches", unit: "fraction", description: "share of matches without a finite estimate or f (too few pairs, singular systems)", lower_is_better: true },
     MetricDef { name: "fallback_rate", title: "f-check fallbacks", unit: "fraction", description: "share of matches where the f-check kept the odometry guess ([EP] §6.4)", lower_is_better: false },
     MetricDef { name: "matches", title: "Matches", unit: "count", description: "scan matches in the run", lower_is_better: false },
+    MetricDef {
+        name: MAP_WALL_RMS,
+        title: "Incremental-map RMS",
+        unit: "mm",
+        description: "the incremental map's sharpness ([EP] Figs 52–59): every return of every matched scan placed at the run's estimate of the scan's pose, RMS of its distance to the nearest wall of the map file (simulated maps only; noise-free scans at the true poses give 0)",
+        lower_is_better: true,
+    },
 ];
+
+pub const MAP_WALL_RMS: &str = "map_wall_rms_mm";
 
 pub const LANDMARK_ERROR: &str = "landmark_error_m";
 pub const MAP_RMSE: &str = "map_rmse_m";
@@ -186,6 +195,28 @@ pub fn match_metrics(matches: &[crate::scanmatch::track::MatchRecord]) -> RunMet
         ("fallback_rate", matches.iter().filter(|m| m.fallback).count() as f64 / n),
         ("matches", n),
     ]
+}
+
+/// [`MAP_WALL_RMS`]: the returns of the scans taken at `steps`, placed at the estimated poses of
+/// those steps (the laser sits at the robot's pose), against the walls; NaN when no return is
+/// placed (no estimate, or no wall).
+pub fn map_wall_rms(world: &World, estimate: &[crate::geom::Pose2], steps: &[usize], walls: &[crate::geom::Segment]) -> f64 {
+    let Some(geometry) = world.laser else { return f64::NAN };
+    let (mut sum, mut n) = (0.0, 0usize);
+    for scan in world.scans.iter().filter(|s| steps.binary_search(&s.step).is_ok()) {
+        let Some(pose) = estimate.get(scan.step).filter(|p| p.is_finite()) else { continue };
+        for (beam, r) in scan.ranges_m.iter().enumerate() {
+            let Some(r) = r.filter(|r| r.is_finite()) else { continue };
+            let b = geometry.bearing(beam);
+            let p = pose.transform_point(Point2::new(r * b.cos(), r * b.sin()));
+            let d = walls.iter().map(|w| w.distance_to_point(p)).fold(f64::INFINITY, f64::min);
+            if d.is_finite() {
+                sum += d * d;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 { f64::NAN } else { (sum / n as f64).sqrt() * 1e3 }
 }
 
 /// The [FT] §5 landmark metrics and their extensions, for a final map against the truth.

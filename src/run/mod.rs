@@ -335,7 +335,15 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
         } else {
             run_algorithm(run.algorithm, &world, params, kind, &mut filter_rng)?
         };
-        let metrics = metrics::compute(&world, &trace);
+        let mut metrics = metrics::compute(&world, &trace);
+        // a scan matcher's incremental map against the walls of a simulated map
+        let map = &plan.maps[run.map].map;
+        if !trace.matches.is_empty() && map.dataset.is_none() && !map.walls.is_empty() {
+            let mut steps: Vec<usize> = trace.matches.first().map(|m| m.reference_step).into_iter().chain(trace.matches.iter().map(|m| m.current_step)).collect();
+            steps.sort_unstable();
+            steps.dedup();
+            metrics.push((metrics::MAP_WALL_RMS, metrics::map_wall_rms(&world, &trace.estimate, &steps, &map.walls)));
+        }
         let diverged = trace.estimate.iter().any(|p| !p.is_finite());
         let landmarks = RunLandmarks {
             run_id: run.run_id.clone(),

@@ -28,7 +28,7 @@ use crate::world::World;
 use serde::{Deserialize, Serialize};
 
 /// Part of every scan-matching run's content hash: bump when a matcher's output changes.
-pub const CODE_VERSION: &str = "scanmatch-2";
+pub const CODE_VERSION: &str = "scanmatch-3";
 
 /// Where a match starts from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
