@@ -272,6 +272,9 @@ fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, 
     if provenance.git_dirty && !quiet {
         eprintln!("note: inputs have uncommitted changes; results are marked dirty (commit first for clean provenance)");
     }
+    // A results folder that cannot be written is found now, not after hours of runs.
+    let ids: Vec<&str> = plans.iter().map(|p| p.id()).collect();
+    store::check_writable(&opts.results_dir, &ids).map_err(|e| anyhow::anyhow!("cannot write results: {e}; nothing was run"))?;
     let mut problems = 0;
     let mut skipped = Vec::new();
     for plan in &plans {

@@ -25,7 +25,7 @@ struct DiffView {
 /// Mean and CI of `metric` over a cell's successful runs.
 fn cell(s: &StudyData, map: &str, algorithm: &str, point: &str, metric: &str) -> stats::Summary {
     let v: Vec<f64> = s.runs.iter().filter(|r| r.map == map && r.algorithm == algorithm && r.point == point && r.status == RunStatus::Ok).filter_map(|r| r.metric(metric)).filter(|v| v.is_finite()).collect();
-    stats::summarize(&v)
+    stats::summarize_nonnegative(&v)
 }
 
 /// BASE-vs-NEW figures of one study: per plot group with a swept parameter and per metric with a

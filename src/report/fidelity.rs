@@ -61,7 +61,7 @@ fn claims_table(claims: &[&ClaimResult]) -> TableView {
                 vec![c.study.clone(), c.id.clone(), c.kind.clone(), c.source.clone(), c.verdict.as_str().to_string(), format!("{} {}.", c.test, c.summary), if c.cause.is_empty() { "—".into() } else { c.cause.clone() }]
             })
             .collect(),
-        align: "lllp{0.12\\linewidth}lp{0.3\\linewidth}p{0.22\\linewidth}".into(),
+        align: "p{0.07\\linewidth}p{0.12\\linewidth}lp{0.09\\linewidth}lp{0.28\\linewidth}p{0.2\\linewidth}".into(),
     }
 }
 
@@ -110,7 +110,7 @@ pub fn build(items: &[ItemResult], claims: &[ClaimResult], studies: Vec<String>)
                     .filter(|i| i.seed == *tag)
                     .map(|i| vec![i.id.clone(), i.source.clone(), i.result.clone(), if i.study.is_empty() { "—".into() } else { i.study.clone() }, i.class.as_str().to_string(), i.basis.clone()])
                     .collect(),
-                align: "lp{0.14\\linewidth}p{0.3\\linewidth}llp{0.3\\linewidth}".into(),
+                align: "lp{0.14\\linewidth}p{0.26\\linewidth}p{0.1\\linewidth}lp{0.26\\linewidth}".into(),
             },
             claims: claims_table(&claims.iter().filter(|c| c.seed == *tag).collect::<Vec<_>>()),
         })

@@ -8,6 +8,12 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 /// tab10: distinguishable, colour-blind-tolerant series colours (hex RGB).
 pub const PALETTE: [&str; 10] = ["1f77b4", "ff7f0e", "2ca02c", "d62728", "9467bd", "8c564b", "e377c2", "7f7f7f", "bcbd22", "17becf"];
 
+/// Series past the palette's 10 colours reuse them dotted, with square markers, so that no two
+/// series of one figure look alike (up to 20).
+pub fn dotted(index: usize) -> bool {
+    index % (2 * PALETTE.len()) >= PALETTE.len()
+}
+
 fn rgb(index: usize) -> RGBColor {
     let hex = PALETTE[index % PALETTE.len()];
     let c = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16).expect("palette is hex");
@@ -30,6 +36,8 @@ struct LegendEntry<'s> {
     color: RGBColor,
     dot: bool,
     dashed: bool,
+    /// A dotted line with a square marker (series past the tenth).
+    dotted: bool,
 }
 
 /// Legend layout in rows above the plot: (entry index, x, row) and the strip's height [px].
@@ -61,6 +69,11 @@ fn draw_legend(area: &DrawingArea<SVGBackend<'_>, Shift>, entries: &[LegendEntry
         let (x, y) = (x as i32, 12 + 18 * row as i32);
         if e.dot {
             area.draw(&Circle::new((x + 9, y), 4, e.color.filled())).map_err(|e| e.to_string())?;
+        } else if e.dotted {
+            for a in [0, 5, 10, 15] {
+                area.draw(&PathElement::new(vec![(x + a, y), (x + a + 2, y)], e.color.stroke_width(2))).map_err(|e| e.to_string())?;
+            }
+            area.draw(&Rectangle::new([(x + 6, y - 3), (x + 12, y + 3)], e.color.filled())).map_err(|e| e.to_string())?;
         } else if e.dashed {
             for (a, b) in [(0, 5), (8, 13), (16, 18)] {
                 area.draw(&PathElement::new(vec![(x + a, y), (x + b, y)], e.color.stroke_width(2))).map_err(|e| e.to_string())?;
@@ -158,7 +171,7 @@ fn padded(v: &[f64], frac: f64, from_zero: bool) -> (f64, f64) {
 
 /// Renders a line figure to an SVG document string.
 pub fn line_svg(fig: &LineFigure) -> String {
-    let entries: Vec<LegendEntry<'_>> = fig.series.iter().map(|s| LegendEntry { label: &s.label, color: rgb(s.color), dot: s.scatter, dashed: s.dashed }).collect();
+    let entries: Vec<LegendEntry<'_>> = fig.series.iter().map(|s| LegendEntry { label: &s.label, color: rgb(s.color), dot: s.scatter, dashed: s.dashed, dotted: dotted(s.color) && !s.scatter && !s.dashed }).collect();
     let (_, legend_px) = legend_layout(&entries, WIDTH, LEFT_PX);
     let mut svg = String::new();
     {
@@ -207,8 +220,13 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
             chart.draw_series(std::iter::once(Polygon::new(poly, color.mix(0.18).filled()))).map_err(|e| e.to_string())?;
         }
         let line: Vec<(f64, f64)> = pts.iter().map(|p| (fig.position(p.x), p.mean)).collect();
-        chart.draw_series(plotters::series::LineSeries::new(line.clone(), color.stroke_width(2))).map_err(|e| e.to_string())?;
-        chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(|e| e.to_string())?;
+        if dotted(s.color) {
+            chart.draw_series(plotters::series::DashedLineSeries::new(line.clone(), 2, 4, color.stroke_width(2))).map_err(|e| e.to_string())?;
+            chart.draw_series(line.into_iter().map(|p| EmptyElement::at(p) + Rectangle::new([(-3, -3), (3, 3)], color.filled()))).map_err(|e| e.to_string())?;
+        } else {
+            chart.draw_series(plotters::series::LineSeries::new(line.clone(), color.stroke_width(2))).map_err(|e| e.to_string())?;
+            chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(|e| e.to_string())?;
+        }
     }
     if manual_ticks {
         let style = TextStyle::from((FONT, 12).into_font()).pos(Pos::new(HPos::Center, VPos::Top));
@@ -310,13 +328,13 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
     let plot_h = (plot_w * (y1 - y0) / (x1 - x0)).clamp(160.0, 640.0);
     let (plot_w, height) = (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
     let width = (plot_w as u32 + label_y + 2 * margin).min(WIDTH);
-    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false, dashed: false }).collect();
+    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false, dashed: false, dotted: p.color.is_some_and(dotted) }).collect();
     if !fig.corners.is_empty() {
-        entries.push(LegendEntry { label: if fig.point_landmarks { "true landmarks" } else { "true corners" }, color: CORNER, dot: true, dashed: false });
+        entries.push(LegendEntry { label: if fig.point_landmarks { "true landmarks" } else { "true corners" }, color: CORNER, dot: true, dashed: false, dotted: false });
     }
     if !fig.est_lines.is_empty() || !fig.est_corners.is_empty() {
         let label = if fig.point_landmarks { "mapped landmarks (×)" } else { "mapped lines (dashed) and corners (×)" };
-        entries.push(LegendEntry { label, color: RGBColor(100, 100, 100), dot: false, dashed: !fig.point_landmarks });
+        entries.push(LegendEntry { label, color: RGBColor(100, 100, 100), dot: false, dashed: !fig.point_landmarks, dotted: false });
     }
     let (_, legend_px) = legend_layout(&entries, width, label_y + margin);
     let mut svg = String::new();
@@ -343,7 +361,12 @@ fn draw_trajectory(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &TrajectoryFi
             Some(c) => (rgb(c), 2),
             None => (TRUTH, 1),
         };
-        chart.draw_series(std::iter::once(PathElement::new(decimate(&p.points, SVG_PATH_POINTS), color.stroke_width(width)))).map_err(e)?;
+        let points = decimate(&p.points, SVG_PATH_POINTS);
+        if p.color.is_some_and(dotted) {
+            chart.draw_series(plotters::series::DashedLineSeries::new(points, 2, 4, color.stroke_width(width))).map_err(e)?;
+        } else {
+            chart.draw_series(std::iter::once(PathElement::new(points, color.stroke_width(width)))).map_err(e)?;
+        }
     }
     for &(color, rho, theta) in &fig.est_lines {
         if let Some((a, b)) = clip_line(rho, theta, ((x0, x1), (y0, y1))) {
@@ -460,9 +483,9 @@ pub fn contour_svg(fig: &ContourFigure) -> String {
     let (label_x, label_y, margin) = (40u32, 60u32, 14u32);
     let width = side + label_y + 2 * margin;
     let height = side + label_x + 2 * margin;
-    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false, dashed: false }).collect();
-    entries.push(LegendEntry { label: "true position", color: CORNER, dot: true, dashed: false });
-    entries.push(LegendEntry { label: "initial guess", color: BLACK, dot: true, dashed: false });
+    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false, dashed: false, dotted: p.color.is_some_and(dotted) }).collect();
+    entries.push(LegendEntry { label: "true position", color: CORNER, dot: true, dashed: false, dotted: false });
+    entries.push(LegendEntry { label: "initial guess", color: BLACK, dot: true, dashed: false, dotted: false });
     let (_, legend_px) = legend_layout(&entries, width.max(WIDTH), label_y + margin);
     let mut svg = String::new();
     {
@@ -497,7 +520,11 @@ fn draw_contour(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &ContourFigure, 
     for p in &fig.paths {
         let color = p.color.map(rgb).unwrap_or(TRUTH);
         let pts: Vec<(f64, f64)> = p.points.iter().copied().filter(inside).collect();
-        chart.draw_series(std::iter::once(PathElement::new(pts.clone(), color.stroke_width(2)))).map_err(e)?;
+        if p.color.is_some_and(dotted) {
+            chart.draw_series(plotters::series::DashedLineSeries::new(pts.clone(), 2, 4, color.stroke_width(2))).map_err(e)?;
+        } else {
+            chart.draw_series(std::iter::once(PathElement::new(pts.clone(), color.stroke_width(2)))).map_err(e)?;
+        }
         chart.draw_series(pts.iter().map(|q| Circle::new(*q, 3, color.filled()))).map_err(e)?;
         // the estimate: a ring around the last point
         if let Some(last) = pts.last() {
@@ -539,9 +566,9 @@ pub fn scan_map_svg(fig: &ScanMapFigure) -> String {
     let (plot_w, height) = (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
     let width = (plot_w as u32 + label_y + 2 * margin).min(WIDTH);
     let entries = [
-        LegendEntry { label: &fig.label, color: rgb(fig.color), dot: true, dashed: false },
-        LegendEntry { label: "estimated scan poses", color: rgb(fig.color), dot: false, dashed: false },
-        LegendEntry { label: "walls", color: BLACK, dot: false, dashed: false },
+        LegendEntry { label: &fig.label, color: rgb(fig.color), dot: true, dashed: false, dotted: false },
+        LegendEntry { label: "estimated scan poses", color: rgb(fig.color), dot: false, dashed: false, dotted: false },
+        LegendEntry { label: "walls", color: BLACK, dot: false, dashed: false, dotted: false },
     ];
     let (_, legend_px) = legend_layout(&entries, width, label_y + margin);
     let mut svg = String::new();

@@ -65,6 +65,7 @@ fn environment() -> Environment<'static> {
             _ => minijinja::escape_formatter(out, state, value),
         }
     });
+    env.add_function("latex_parts", latex_parts);
     for (name, source) in [
         ("index.html", include_str!("../../templates/index.html.j2")),
         ("study.html", include_str!("../../templates/study.html.j2")),
@@ -78,6 +79,25 @@ fn environment() -> Environment<'static> {
         env.add_template(name, source).expect("bundled templates parse");
     }
     env
+}
+
+/// Template function `latex_parts(table, labels, size)`: the table split by columns to fit the
+/// text width at the LaTeX font size `size` (`scriptsize`, `footnotesize`, `small`, `normalsize`),
+/// repeating its first `labels` columns ([`latex::parts`]).
+fn latex_parts(table: minijinja::Value, labels: usize, size: &str) -> Result<Vec<minijinja::Value>, minijinja::Error> {
+    let bad = |what: &str| minijinja::Error::new(minijinja::ErrorKind::InvalidOperation, format!("latex_parts: {what}"));
+    let strings = |v: minijinja::Value| -> Result<Vec<String>, minijinja::Error> { v.try_iter()?.map(|x| x.as_str().map(str::to_string).ok_or_else(|| bad("a cell is not text"))).collect() };
+    let columns = strings(table.get_attr("columns")?)?;
+    let rows = table.get_attr("rows")?.try_iter()?.map(strings).collect::<Result<Vec<_>, _>>()?;
+    let align = table.get_attr("align")?.as_str().ok_or_else(|| bad("no align"))?.to_string();
+    let font_pt = match size {
+        "scriptsize" => 7.0,
+        "footnotesize" => 8.0,
+        "small" => 9.0,
+        "normalsize" => 10.0,
+        other => return Err(bad(&format!("unknown size {other}"))),
+    };
+    Ok(latex::parts(&view::TableView { columns, rows, align }, labels, font_pt).iter().map(minijinja::Value::from_serialize).collect())
 }
 
 fn html_escape(text: &str) -> String {

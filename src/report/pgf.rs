@@ -5,6 +5,8 @@ use super::figure::{decimate, ContourFigure, LineFigure, ScanMapFigure, Trajecto
 use super::latex::escape;
 use std::fmt::Write;
 
+/// Most cells an incremental map keeps in a pgfplots figure.
+const PGF_MAP_POINTS: usize = 1000;
 /// Most points a path keeps in a pgfplots figure (TeX memory is limited).
 const PGF_PATH_POINTS: usize = 400;
 
@@ -17,8 +19,44 @@ pub fn palette_definitions() -> String {
 /// floating-point noise then cannot change the file (committed reports diff cleanly).
 const PGF_DIGITS: usize = 6;
 
+/// Legend columns that fit the text width above a plot: as many as entries of the longest label
+/// fit (a \footnotesize character ≈ 4.4 pt, a swatch and gap ≈ 30 pt), 1 to 3.
+fn legend_columns<'a>(labels: impl Iterator<Item = &'a str>) -> usize {
+    let longest = labels.map(|l| l.chars().count()).max().unwrap_or(0) as f64;
+    ((440.0 / (longest * 4.4 + 30.0)).floor() as usize).clamp(1, 3)
+}
+
 fn num(v: f64) -> String {
     crate::stats::sig_ascii(v, PGF_DIGITS)
+}
+
+/// Series longer than this are drawn without marks (TeX's memory is shared by a document's
+/// figures)…
+const PGF_MARKED_POINTS: usize = 60;
+/// …and thinned to about this many points: per bucket of consecutive points, the first and the
+/// largest, so that a trace keeps its spikes.
+const PGF_SERIES_POINTS: usize = 400;
+
+fn thin(points: Vec<&super::figure::SeriesPoint>) -> Vec<&super::figure::SeriesPoint> {
+    if points.len() <= PGF_SERIES_POINTS {
+        return points;
+    }
+    let bucket = points.len().div_ceil(PGF_SERIES_POINTS / 2);
+    let mut out = Vec::new();
+    for chunk in points.chunks(bucket) {
+        let first = chunk[0];
+        let top = chunk.iter().copied().max_by(|a, b| a.mean.total_cmp(&b.mean)).expect("a chunk is not empty");
+        out.push(first);
+        if !std::ptr::eq(top, first) {
+            out.push(top);
+        }
+    }
+    if let (Some(last), Some(end)) = (points.last(), out.last()) {
+        if !std::ptr::eq(*last, *end) {
+            out.push(last);
+        }
+    }
+    out
 }
 
 pub fn line_pgf(fig: &LineFigure) -> String {
@@ -28,10 +66,13 @@ pub fn line_pgf(fig: &LineFigure) -> String {
         "width=0.95\\linewidth".to_string(),
         "height=0.55\\linewidth".to_string(),
         format!("xlabel={{{}}}", escape(&fig.x_label)),
+        // a long swept-parameter list wraps instead of running into the margin
+        "xlabel style={align=center, text width=0.8\\linewidth}".to_string(),
         format!("ylabel={{{}}}", escape(&fig.y_label)),
-        "legend pos=north west".to_string(),
+        // the legend above the plot, never over its data
+        format!("legend columns={}", legend_columns(fig.series.iter().map(|s| s.label.as_str()))),
         "legend cell align=left".to_string(),
-        "legend style={font=\\footnotesize}".to_string(),
+        "legend style={font=\\footnotesize, at={(0.5,1.03)}, anchor=south, draw=none}".to_string(),
         "tick label style={font=\\footnotesize}".to_string(),
         "scaled ticks=false".to_string(),
     ];
@@ -60,6 +101,8 @@ pub fn line_pgf(fig: &LineFigure) -> String {
     for (i, series) in fig.series.iter().enumerate() {
         let color = format!("slamlab{}", series.color % PALETTE.len());
         let pts: Vec<_> = series.points.iter().filter(|p| p.mean.is_finite() && p.x.is_finite()).collect();
+        let many = pts.len() > PGF_MARKED_POINTS;
+        let pts = thin(pts);
         let band: Vec<_> = pts.iter().filter(|p| p.lo.is_finite() && p.hi.is_finite() && !series.dashed && !series.scatter).collect();
         if band.len() >= 2 {
             let coords = |f: &dyn Fn(&&&super::figure::SeriesPoint) -> f64| band.iter().map(|p| format!("({},{})", num(p.x), num(f(p)))).collect::<Vec<_>>().join(" ");
@@ -80,12 +123,17 @@ pub fn line_pgf(fig: &LineFigure) -> String {
                 }
             })
             .collect();
-        let style = if series.scatter {
+        let style = if many && !series.scatter && !series.dashed {
+            // a long trace (every match of a run): a line without marks
+            if super::figure::dotted(series.color) { "thick, densely dotted" } else { "thick" }
+        } else if series.scatter {
             "only marks, mark=*, mark size=2pt"
         } else if bars {
             "dashed, thick, mark=o, mark size=1.5pt, error bars/.cd, y dir=both, y explicit, error bar style={solid, thin}"
         } else if series.dashed {
             "dashed, thick, mark=o, mark size=1.5pt"
+        } else if super::figure::dotted(series.color) {
+            "thick, densely dotted, mark=square*, mark size=1.5pt, mark options={solid}"
         } else {
             "thick, mark=*, mark size=1.5pt"
         };
@@ -102,17 +150,19 @@ pub fn trajectory_pgf(fig: &TrajectoryFigure) -> String {
     let _ = writeln!(s, "\\begin{{tikzpicture}}");
     let _ = writeln!(
         s,
-        "\\begin{{axis}}[\n  axis equal image,\n  width=0.95\\linewidth,\n  xmin={}, xmax={}, ymin={}, ymax={},\n  xlabel={{$x$ [m]}}, ylabel={{$y$ [m]}},\n  legend pos=outer north east,\n  legend cell align=left,\n  legend style={{font=\\footnotesize}},\n  tick label style={{font=\\footnotesize}}\n]",
+        "\\begin{{axis}}[\n  axis equal image,\n  width=0.95\\linewidth,\n  xmin={}, xmax={}, ymin={}, ymax={},\n  xlabel={{$x$ [m]}}, ylabel={{$y$ [m]}},\n  legend columns={},\n  legend cell align=left,\n  legend style={{font=\\footnotesize, at={{(0.5,1.03)}}, anchor=south, draw=none}},\n  tick label style={{font=\\footnotesize}}\n]",
         num(x0),
         num(x1),
         num(y0),
-        num(y1)
+        num(y1),
+        legend_columns(fig.paths.iter().map(|p| p.label.as_str()).chain(["true corners"]))
     );
     for (a, b) in &fig.walls {
         let _ = writeln!(s, "\\addplot[black, line width=1.5pt, forget plot] coordinates {{({},{}) ({},{})}};", num(a.0), num(a.1), num(b.0), num(b.1));
     }
     for p in &fig.paths {
         let style = match p.color {
+            Some(c) if super::figure::dotted(c) => format!("color=slamlab{}, thick, densely dotted", c % PALETTE.len()),
             Some(c) => format!("color=slamlab{}, thick", c % PALETTE.len()),
             None => "black!55, thin".to_string(),
         };
@@ -152,11 +202,12 @@ pub fn contour_pgf(fig: &ContourFigure) -> String {
     let _ = writeln!(s, "\\begin{{tikzpicture}}");
     let _ = writeln!(
         s,
-        "\\begin{{axis}}[\n  axis equal image,\n  width=0.7\\linewidth,\n  xmin={}, xmax={}, ymin={}, ymax={},\n  xlabel={{$x$ [m]}}, ylabel={{$y$ [m]}},\n  legend pos=outer north east,\n  legend cell align=left,\n  legend style={{font=\\footnotesize}},\n  tick label style={{font=\\footnotesize}},\n  scaled ticks=false\n]",
+        "\\begin{{axis}}[\n  axis equal image,\n  width=0.7\\linewidth,\n  xmin={}, xmax={}, ymin={}, ymax={},\n  xlabel={{$x$ [m]}}, ylabel={{$y$ [m]}},\n  legend columns={},\n  legend cell align=left,\n  legend style={{font=\\footnotesize, at={{(0.5,1.03)}}, anchor=south, draw=none}},\n  tick label style={{font=\\footnotesize}},\n  scaled ticks=false\n]",
         num(x0),
         num(x1),
         num(y0),
-        num(y1)
+        num(y1),
+        legend_columns(fig.paths.iter().map(|p| p.label.as_str()).chain(["true position", "initial guess"]))
     );
     let n = fig.levels.len().max(1);
     for (k, (_, lines)) in fig.levels.iter().enumerate() {
@@ -186,17 +237,20 @@ pub fn scan_map_pgf(fig: &ScanMapFigure) -> String {
     let _ = writeln!(s, "\\begin{{tikzpicture}}");
     let _ = writeln!(
         s,
-        "\\begin{{axis}}[\n  axis equal image,\n  width=0.8\\linewidth,\n  xmin={}, xmax={}, ymin={}, ymax={},\n  xlabel={{$x$ [m]}}, ylabel={{$y$ [m]}},\n  legend pos=outer north east,\n  legend cell align=left,\n  legend style={{font=\\footnotesize}},\n  tick label style={{font=\\footnotesize}}\n]",
+        "\\begin{{axis}}[\n  axis equal image,\n  width=0.8\\linewidth,\n  xmin={}, xmax={}, ymin={}, ymax={},\n  xlabel={{$x$ [m]}}, ylabel={{$y$ [m]}},\n  legend columns={},\n  legend cell align=left,\n  legend style={{font=\\footnotesize, at={{(0.5,1.03)}}, anchor=south, draw=none}},\n  tick label style={{font=\\footnotesize}}\n]",
         num(x0),
         num(x1),
         num(y0),
-        num(y1)
+        num(y1),
+        legend_columns([fig.label.as_str(), "estimated scan poses"].into_iter())
     );
     for (a, b) in &fig.walls {
         let _ = writeln!(s, "\\addplot[black!50, thin, forget plot] coordinates {{({},{}) ({},{})}};", num(a.0), num(a.1), num(b.0), num(b.1));
     }
     let color = format!("slamlab{}", fig.color % PALETTE.len());
-    let points: Vec<String> = fig.points.iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
+    // at most PGF_MAP_POINTS cells, evenly thinned (TeX's memory)
+    let step = fig.points.len().div_ceil(PGF_MAP_POINTS).max(1);
+    let points: Vec<String> = fig.points.iter().step_by(step).map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
     let _ = writeln!(s, "\\addplot[only marks, mark=*, mark size=0.25pt, color={color}] coordinates {{{}}};", points.join(" "));
     let _ = writeln!(s, "\\addlegendentry{{{}}}", escape(&fig.label));
     let path: Vec<String> = decimate(&fig.path, PGF_PATH_POINTS).iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();

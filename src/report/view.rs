@@ -27,7 +27,7 @@ fn kv(key: &str, value: impl ToString) -> Kv {
     Kv { key: key.to_string(), value: value.to_string() }
 }
 
-#[derive(Debug, Clone, Serialize, Default)]
+#[derive(Debug, Clone, Serialize, Default, PartialEq)]
 pub struct TableView {
     pub columns: Vec<String>,
     pub rows: Vec<Vec<String>>,
@@ -137,7 +137,7 @@ impl Study<'_> {
         let runs: Vec<&RunRow> = self.runs_of(map, algorithm, point).collect();
         let values: Vec<f64> = runs.iter().filter(|r| r.status == RunStatus::Ok).filter_map(|r| r.metric(metric)).collect();
         let failed = runs.iter().filter(|r| r.status != RunStatus::Ok).count();
-        (stats::summarize(&values), failed, runs.len())
+        (stats::summarize_nonnegative(&values), failed, runs.len())
     }
     /// The successful replicates' values of a cell.
     fn values(&self, map: &str, algorithm: &str, point: &str, metric: &str) -> Vec<f64> {
@@ -599,6 +599,8 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
             let others: Vec<&String> = if group.kind == SweepKind::Grid { group.params[1..].iter().collect() } else { Vec::new() };
             for m in &study.metrics {
                 let mut series: Vec<LineSeries> = Vec::new();
+                // our series take consecutive colours; a published series shares its own's
+                let mut ours = 0usize;
                 for (map, _) in &study.maps {
                     for algorithm in &spec.algorithms {
                         let mut by_key: BTreeMap<usize, (String, Vec<SeriesPoint>)> = BTreeMap::new();
@@ -613,17 +615,23 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                             let entry = by_key.entry(ki).or_insert_with(|| (other.clone(), Vec::new()));
                             let (lo, hi) = match spec.report.bands {
                                 Bands::Ci => (s.ci_low, s.ci_high),
-                                Bands::TwoSigma => (s.mean - 2.0 * s.std, s.mean + 2.0 * s.std),
+                                // no metric can be negative: the band stops at 0
+                                Bands::TwoSigma => ((s.mean - 2.0 * s.std).max(0.0), s.mean + 2.0 * s.std),
                             };
                             entry.1.push(SeriesPoint { x, mean: s.mean, lo, hi });
                         }
                         for (_, (other, mut pts)) in by_key {
                             pts.sort_by(|a, b| a.x.total_cmp(&b.x));
-                            let mut label = if spec.algorithms.len() > 1 { format!("{map} / {}", algorithm.name()) } else { map.clone() };
+                            let mut label = match (study.maps.len() > 1, spec.algorithms.len() > 1) {
+                                (true, true) => format!("{map} / {}", algorithm.title()),
+                                (false, true) => algorithm.title().to_string(),
+                                _ => map.clone(),
+                            };
                             if !other.is_empty() {
                                 label = format!("{label} ({other})");
                             }
-                            series.push(LineSeries { label, color: series.len(), points: pts, dashed: false, scatter: false });
+                            series.push(LineSeries { label, color: ours, points: pts, dashed: false, scatter: false });
+                            ours += 1;
                         }
                         // Named cells: the published values of this (map, algorithm), dashed, in its colour.
                         if group.named {
@@ -633,8 +641,12 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                                 .filter_map(|(p, &x)| study.published_cell(map, algorithm.name(), &p.label, m.name).map(|(v, _)| SeriesPoint { x, mean: v, lo: f64::NAN, hi: f64::NAN }))
                                 .collect();
                             if !pts.is_empty() {
-                                let color = series.len() - 1;
-                                let label = if spec.algorithms.len() > 1 { format!("{map} / {} ({})", algorithm.name(), study.reference_label()) } else { format!("{map} ({})", study.reference_label()) };
+                                let color = ours.saturating_sub(1);
+                                let label = match (study.maps.len() > 1, spec.algorithms.len() > 1) {
+                                    (true, true) => format!("{map} / {} ({})", algorithm.title(), study.reference_label()),
+                                    (false, true) => format!("{} ({})", algorithm.title(), study.reference_label()),
+                                    _ => format!("{map} ({})", study.reference_label()),
+                                };
                                 series.push(LineSeries { label, color, points: pts, dashed: true, scatter: false });
                             }
                         }
@@ -673,7 +685,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 let fig = LineFigure { x_label, y_label: format!("{} [{}]", m.title, m.unit), x_axis: axis.clone(), x_ticks: ticks.clone(), series };
                 let file = slug(&format!("{}--{}", group.params.join("-"), m.name));
                 let band = match spec.report.bands {
-                    Bands::Ci => format!("band = {:.0} % confidence interval of the mean (Student t)", stats::CONFIDENCE * 100.0),
+                    Bands::Ci => format!("band = {:.0} % confidence interval of the mean (Student t, cut at 0: no metric can be negative)", stats::CONFIDENCE * 100.0),
                     Bands::TwoSigma => "band = mean ± 2 sample standard deviations over the replicates (the spread of single runs, as the reference work's figures draw it; not a confidence interval)".to_string(),
                 };
                 let bars = if published_bars {
@@ -784,7 +796,7 @@ fn cost_figure(study: &Study<'_>, points: &[&crate::store::PointRecord], group_s
             }
             pts.sort_by(|a, b| a.x.total_cmp(&b.x));
             all_x.extend(pts.iter().map(|p| p.x));
-            let label = if study.maps.len() > 1 { format!("{map} / {}", algorithm.name()) } else { algorithm.name().to_string() };
+            let label = if study.maps.len() > 1 { format!("{map} / {}", algorithm.title()) } else { algorithm.title().to_string() };
             series.push(LineSeries { label, color: series.len(), points: pts, dashed: false, scatter: true });
         }
     }

@@ -56,6 +56,17 @@ pub fn summarize(values: &[f64]) -> Summary {
     }
 }
 
+/// [`summarize`] for a quantity that cannot be negative (every metric: `metrics::out_of_range`):
+/// the t interval cut at 0. A confidence interval intersected with the values the quantity can
+/// take keeps its coverage, and no longer shows a negative lower bound.
+pub fn summarize_nonnegative(values: &[f64]) -> Summary {
+    let mut s = summarize(values);
+    if s.ci_low < 0.0 {
+        s.ci_low = 0.0;
+    }
+    s
+}
+
 /// `v` with `digits` significant figures: plain notation for 1e-4 ≤ |v| < 1e6, scientific
 /// otherwise; ∞ and NaN spelled out ("∞", "−∞", "—").
 pub fn sig(v: f64, digits: usize) -> String {
@@ -98,6 +109,18 @@ mod tests {
     /// Student t CI of x = [1, 2, 3, 4, 5] at 95 %: mean 3, s² = 2.5, t_{0.975,4} = 2.776445
     /// (any t table; scipy `t.ppf(0.975, 4)` = 2.7764451051977934) ⇒ half-width
     /// 2.776445·√2.5/√5 = 1.963243161337696. n < 2 gives NaN bounds.
+    #[test]
+    fn a_nonnegative_summary_never_shows_a_negative_lower_bound() {
+        // a skewed small sample whose t interval crosses 0
+        let v = [0.0, 0.0, 0.1, 5.0];
+        assert!(summarize(&v).ci_low < 0.0);
+        let s = summarize_nonnegative(&v);
+        assert_eq!(s.ci_low, 0.0);
+        assert_eq!((s.mean, s.ci_high), (summarize(&v).mean, summarize(&v).ci_high));
+        // an interval already above 0 is unchanged
+        assert_eq!(summarize_nonnegative(&[4.0, 5.0, 6.0]), summarize(&[4.0, 5.0, 6.0]));
+    }
+
     #[test]
     fn mean_ci_textbook() {
         let s = summarize(&[1.0, 2.0, 3.0, 4.0, 5.0]);

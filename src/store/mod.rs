@@ -312,6 +312,20 @@ pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> 
     })
 }
 
+/// Checks, before anything is computed, that studies can be written under `results_dir` (and into
+/// the existing `studies` folders there): creates the folder if needed and writes and removes a
+/// probe file in each. A folder that cannot be written is an error naming it.
+pub fn check_writable(results_dir: &Path, studies: &[&str]) -> Result<(), StoreError> {
+    std::fs::create_dir_all(results_dir).map_err(|e| StoreError::io(results_dir, e))?;
+    let dirs = std::iter::once(results_dir.to_path_buf()).chain(studies.iter().map(|s| results_dir.join(s)).filter(|d| d.is_dir()));
+    for dir in dirs {
+        let probe = dir.join(format!(".slamlab-write-check-{}", std::process::id()));
+        std::fs::OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| StoreError::io(&dir, e))?;
+        std::fs::remove_file(&probe).map_err(|e| StoreError::io(&probe, e))?;
+    }
+    Ok(())
+}
+
 /// A scan-matching study's diagnostics file.
 const DIAGNOSTICS: &str = "diagnostics.json";
 

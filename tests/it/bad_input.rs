@@ -1,6 +1,6 @@
 //! Contract: bad input is rejected with file, line and key, a non-zero exit, and nothing written.
 
-use crate::util::{s, slamlab};
+use crate::util::{repo, s, slamlab};
 
 const GOOD: &str = r#"id = "bad"
 title = "Bad input"
@@ -110,4 +110,44 @@ fn absurd_thread_counts_are_refused() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("--threads 100000 is more than 1024"), "{err}");
     assert!(!work.path().join("r").exists() && !work.path().join("c").exists());
+}
+
+/// A results folder that cannot be written is found before any run, not after them: nothing is
+/// computed or cached. (A path under a regular file fails for root too, unlike a chmod.)
+#[test]
+fn an_unwritable_results_folder_is_refused_before_any_run() {
+    let work = tempfile::tempdir().unwrap();
+    let file = work.path().join("not-a-dir");
+    std::fs::write(&file, "x").unwrap();
+    let results = file.join("results");
+    let out = slamlab(&["run", "experiments/smoke.toml", "--results", s(&results), "--cache", s(&work.path().join("c"))]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("cannot write results") && err.contains("not-a-dir") && err.contains("nothing was run"), "{err}");
+    assert!(!work.path().join("c").exists(), "nothing was computed or cached");
+}
+
+/// `make pdf`'s overfull-box check (tests/tools/pdf.sh) fails on a table wider than the text and
+/// passes the same document with a table that fits. Skipped where pdflatex is not installed.
+#[test]
+fn the_pdf_check_catches_a_table_wider_than_the_text() {
+    if std::process::Command::new("pdflatex").arg("--version").output().is_err() {
+        eprintln!("skipped: pdflatex is not installed (make install-checkers)");
+        return;
+    }
+    let work = tempfile::tempdir().unwrap();
+    let doc = |columns: usize| {
+        let cells = vec!["1234567890"; columns].join(" & ");
+        format!("\\documentclass[10pt,a4paper]{{article}}\n\\usepackage[margin=2cm]{{geometry}}\n\\begin{{document}}\n\\begin{{tabular}}{{{}}}\n{cells} \\\\\n\\end{{tabular}}\n\\end{{document}}\n", "r".repeat(columns))
+    };
+    for (columns, fits) in [(4, true), (14, false)] {
+        let reports = work.path().join(format!("reports-{columns}"));
+        std::fs::create_dir_all(reports.join("wide")).unwrap();
+        std::fs::write(reports.join("wide/wide.tex"), doc(columns)).unwrap();
+        let out = std::process::Command::new("bash").arg(repo().join("tests/tools/pdf.sh")).arg(&reports).arg(work.path().join(format!("pdf-{columns}"))).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.success(), fits, "{columns} columns: {err}");
+        if !fits {
+            assert!(err.contains("overfull box") && err.contains("pt too wide"), "{err}");
+        }
+    }
 }

@@ -69,3 +69,33 @@ fn every_optimizer_is_reproducible_on_a_fresh_thread() {
     let there: Vec<MatchResult> = std::thread::scope(|scope| scope.spawn(|| Optimizer::ALL.iter().map(|&o| run(o)).collect()).join().unwrap());
     assert_eq!(here, there);
 }
+
+/// Every optimiser, the deterministic ones included, gives its lone result while the others run
+/// on other threads (a non-reentrant NLopt routine would let concurrent runs disturb each other,
+/// and the pipeline runs matches on rayon threads).
+#[test]
+fn every_optimizer_is_identical_on_concurrent_threads() {
+    let scans = room_pair(TRUTH);
+    let params = SearchParams { maxeval: 300, ..SearchParams::default() };
+    let run = |o: Optimizer| {
+        let mut cost = Objective::new(&scans.0, &scans.1, &ObjectiveParams::default());
+        simultaneous(&mut cost, GUESS, o, &params, 5)
+    };
+    let alone: Vec<MatchResult> = Optimizer::ALL.iter().map(|&o| run(o)).collect();
+    let barrier = Barrier::new(THREADS);
+    std::thread::scope(|scope| {
+        for t in 0..THREADS {
+            let (alone, barrier, run) = (&alone, &barrier, &run);
+            scope.spawn(move || {
+                barrier.wait();
+                for k in 0..3 {
+                    for a in 0..Optimizer::ALL.len() {
+                        // each thread runs a different optimiser at the same time
+                        let i = (a + t * 3 + k) % Optimizer::ALL.len();
+                        assert_eq!(run(Optimizer::ALL[i]), alone[i], "thread {t}, round {k}, {:?}", Optimizer::ALL[i]);
+                    }
+                }
+            });
+        }
+    });
+}
