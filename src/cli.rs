@@ -332,8 +332,18 @@ fn cmd_plan(spec_path: &Path, dirs: &Dirs, force: bool) -> Result<()> {
     let opts = options(dirs, Some(1), force, true)?;
     let reasons = run::reasons(plan, &opts);
     println!("study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs", plan.id(), plan.points.len(), plan.maps.len(), plan.spec.spec.algorithms.len(), plan.spec.spec.replicates, plan.runs.len());
+    let previous = store::read_runs(&opts.results_dir.join(plan.id())).unwrap_or_default();
     for (r, reason) in plan.runs.iter().zip(&reasons) {
-        println!("{:<36} {}", reason.as_str(), r.run_id);
+        let changed = match reason {
+            Reason::ParametersChanged | Reason::ParametersAndCodeVersionChanged => previous
+                .iter()
+                .find(|p| p.run_id == r.run_id)
+                .map(|p| run::changed_parameters(plan, r, p))
+                .filter(|c| !c.is_empty())
+                .map_or(String::new(), |c| format!(" ({})", c.join("; "))),
+            _ => String::new(),
+        };
+        println!("{:<36} {}{changed}", reason.as_str(), r.run_id);
     }
     let count = |x: Reason| reasons.iter().filter(|r| **r == x).count();
     println!(

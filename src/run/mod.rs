@@ -401,6 +401,17 @@ fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, params: &crate:
     }
 }
 
+/// The parameters of `run` that differ from those `previous` (its earlier result) ran with, as
+/// "path: old → new" ("—" where one side lacks the parameter), in path order.
+pub fn changed_parameters(plan: &ExperimentPlan, run: &RunSpec, previous: &RunRow) -> Vec<String> {
+    let params = base_row(plan, run).params;
+    let now: BTreeMap<&str, &ParamValue> = params.iter().map(|(k, v)| (k.as_str(), v)).collect();
+    let before: BTreeMap<&str, &ParamValue> = previous.params.iter().map(|(k, v)| (k.as_str(), v)).collect();
+    let keys: std::collections::BTreeSet<&str> = now.keys().chain(before.keys()).copied().collect();
+    let show = |v: Option<&&ParamValue>| v.map_or("—".to_string(), |v| v.to_string());
+    keys.into_iter().filter(|k| now.get(k) != before.get(k)).map(|k| format!("{k}: {} → {}", show(before.get(k)), show(now.get(k)))).collect()
+}
+
 /// The study-specific fields of a run's row (status and metrics are filled by the caller).
 fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
     let mut leaves = Vec::new();

@@ -85,6 +85,9 @@ impl Sensors {
     }
 }
 
+/// Code version of TNEWTON runs: the scan matchers' plus the deterministic heap fill.
+pub const TNEWTON_CODE_VERSION: &str = "scanmatch-3+heap-fill-1";
+
 impl AlgorithmKind {
     pub const ALL: &'static [AlgorithmKind] = &[
         AlgorithmKind::Odometry,
@@ -157,6 +160,8 @@ impl AlgorithmKind {
             AlgorithmKind::Fastslam1 => fastslam::CODE_VERSION,
             AlgorithmKind::Fastslam2 => fastslam2::CODE_VERSION,
             AlgorithmKind::EkfSlam => ekf::CODE_VERSION,
+            // TNEWTON's results depended on heap garbage before the fixed malloc fill (src/main.rs)
+            AlgorithmKind::PoseSearch(crate::scanmatch::search::Optimizer::Tnewton) => TNEWTON_CODE_VERSION,
             _ => crate::scanmatch::track::CODE_VERSION,
         }
     }

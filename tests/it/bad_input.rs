@@ -151,3 +151,19 @@ fn the_pdf_check_catches_a_table_wider_than_the_text() {
         }
     }
 }
+
+/// `plan` names the parameters that changed for a "parameters changed" run, with both values.
+#[test]
+fn plan_names_the_parameters_that_changed() {
+    let work = tempfile::tempdir().unwrap();
+    let spec = std::fs::read_to_string(repo().join("experiments/smoke.toml")).unwrap();
+    let path = work.path().join("smoke.toml");
+    std::fs::write(&path, &spec).unwrap();
+    let (results, cache) = (work.path().join("r"), work.path().join("c"));
+    crate::util::ok(&["run", "-q", s(&path), "--results", s(&results), "--cache", s(&cache)]);
+    std::fs::write(&path, spec.replace("[base.odometry]", "[base.sim]\ndt_s = 0.2\n\n[base.odometry]")).unwrap();
+    let out = crate::util::ok(&["plan", s(&path), "--results", s(&results), "--cache", s(&cache)]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let line = text.lines().find(|l| l.starts_with("parameters changed")).unwrap_or_else(|| panic!("{text}"));
+    assert!(line.contains("(sim.dt_s: 0.1 → 0.2)"), "{line}");
+}
