@@ -61,6 +61,7 @@ enum Command {
     /// Check specs (and the maps they name) without running anything.
     Validate {
         #[arg(required = true)]
+        /// Experiment specs (TOML files named after their study id, e.g. experiments/ft-dmax.toml).
         specs: Vec<PathBuf>,
         #[arg(long, default_value = "data/maps")]
         maps: PathBuf,
@@ -71,6 +72,7 @@ enum Command {
     /// List the runs a spec expands to and whether each will run (new / parameters changed /
     /// code version changed / cached). Never runs anything.
     Plan {
+        /// The experiment spec to expand (a TOML file named after its study id).
         spec: PathBuf,
         /// Only list (always the case; accepted for clarity in scripts).
         #[arg(long)]
@@ -110,10 +112,12 @@ enum Command {
     /// implementation can match (e.g. Diosi's PSM program). Recomputes the run; writes nothing
     /// into the results or the cache.
     ExportScans {
+        /// The scan-matching study's spec.
         spec: PathBuf,
         /// The run id (`slamlab plan SPEC` lists them).
         #[arg(long = "run")]
         run_id: String,
+        /// Folder to write scans.txt, pairs.txt and matches.txt into (created if absent).
         out_dir: PathBuf,
         /// Directory of map files (<name>.toml).
         #[arg(long, default_value = "data/maps")]
@@ -124,6 +128,7 @@ enum Command {
     ExportTum {
         /// A study's results directory (data/results/<study>) or the results root.
         results_dir: PathBuf,
+        /// Folder to write the .tum files into (created if absent).
         out_dir: PathBuf,
         /// Only these run ids (repeatable).
         #[arg(long = "run")]

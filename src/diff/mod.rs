@@ -203,8 +203,9 @@ fn cells(runs: &[RunRow]) -> BTreeMap<CellKey, Vec<&RunRow>> {
     m
 }
 
+/// A cell's mean and CI; metrics are non-negative, so the CI is cut at 0 (as in the reports).
 fn side(values: &[f64]) -> Side {
-    let s = crate::stats::summarize(values);
+    let s = crate::stats::summarize_nonnegative(values);
     Side { mean: s.mean, ci: (s.ci_low, s.ci_high), n: s.n }
 }
 
