@@ -151,7 +151,12 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
             unique.push(i);
         }
     }
-    let progress = Progress::new(plan.id(), unique.len(), opts.progress);
+    // runs sharing a content hash are computed once and counted each, as `plan` counts them
+    let mut multiplicity: BTreeMap<&str, usize> = BTreeMap::new();
+    for run in &plan.runs {
+        *multiplicity.entry(run.hash.as_str()).or_default() += 1;
+    }
+    let mut progress = Progress::new(plan.id(), plan.runs.len(), to_compute, opts.progress);
     // Cache IO (Parquet, through polars' own thread pool) stays on this thread: a worker of ours
     // waiting on polars would run further jobs of ours meanwhile, nesting without bound. So cached
     // runs are read first, and computed runs are cached here as the workers send them.
@@ -163,7 +168,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         let lookup = if reasons[i] == Reason::Cached { cache.lookup(&run.hash) } else { store::Lookup::Absent };
         match lookup {
             store::Lookup::Hit(c) => {
-                progress.finished(c.row.status, true);
+                progress.finished(c.row.status, true, multiplicity[run.hash.as_str()]);
                 computed.insert(run.hash.as_str(), (c, true));
             }
             store::Lookup::Unsealed(c) => {
@@ -171,7 +176,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
                 if let Err(e) = cache.put(&run.hash, &c, true) {
                     progress.warn(&format!("cannot re-cache {}: {e}", run.run_id));
                 }
-                progress.finished(c.row.status, true);
+                progress.finished(c.row.status, true, multiplicity[run.hash.as_str()]);
                 computed.insert(run.hash.as_str(), (c, true));
             }
             store::Lookup::Corrupt(why) => {
@@ -193,7 +198,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
             if let Err(e) = cache.put(&run.hash, &c, true) {
                 progress.warn(&format!("cannot cache {}: {e}", run.run_id));
             }
-            progress.finished(c.row.status, false);
+            progress.finished(c.row.status, false, multiplicity[run.hash.as_str()]);
             computed.insert(run.hash.as_str(), (c, false));
         }
     });

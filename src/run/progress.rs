@@ -1,54 +1,141 @@
-//! Progress on stderr: a bar on a terminal, a plain line every few seconds otherwise (CI logs).
+//! Progress on stderr: a bar on a terminal; otherwise (CI logs) a timestamped line every few
+//! seconds while runs finish, and at least one a minute while a long run computes.
+//!
+//! Counts are of the plan's runs, as `plan` and the run summary count them (runs that share a
+//! content hash are computed once and counted each). The remaining time is estimated from the
+//! runs computed so far only: cached runs finish at once and would make it far too low.
 
 use crate::store::RunStatus;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-/// How often a plain progress line is printed when stderr is not a terminal.
+/// How often a plain progress line is printed while runs finish when stderr is not a terminal…
 const PLAIN_INTERVAL: Duration = Duration::from_secs(5);
+/// …and the longest silence, while a run computes.
+const HEARTBEAT: Duration = Duration::from_secs(60);
 
-pub struct Progress {
+struct Counts {
     study: String,
     total: usize,
-    bar: Option<ProgressBar>,
-    plain: Option<Mutex<Instant>>,
+    to_compute: usize,
     done: AtomicUsize,
+    computed: AtomicUsize,
     cached: AtomicUsize,
     failed: AtomicUsize,
+    /// When the first run began computing.
+    start: Instant,
+    last_line: Mutex<Instant>,
+}
+
+impl Counts {
+    fn line(&self) -> String {
+        let (done, computed) = (self.done.load(Ordering::Relaxed), self.computed.load(Ordering::Relaxed));
+        format!(
+            "{}: {done}/{} runs ({} computed of {}, {} cached, {} failed{})",
+            self.study,
+            self.total,
+            computed,
+            self.to_compute,
+            self.cached.load(Ordering::Relaxed),
+            self.failed.load(Ordering::Relaxed),
+            eta(self.start.elapsed(), computed, self.to_compute).map_or(String::new(), |e| format!(", about {e} left"))
+        )
+    }
+}
+
+/// Remaining time from the computed runs' pace: `elapsed / computed × (to_compute − computed)`.
+pub fn eta(elapsed: Duration, computed: usize, to_compute: usize) -> Option<String> {
+    if computed == 0 || computed >= to_compute {
+        return None;
+    }
+    let left = elapsed.as_secs_f64() / computed as f64 * (to_compute - computed) as f64;
+    let s = left.round() as u64;
+    Some(if s >= 3600 { format!("{}h{:02}m", s / 3600, s / 60 % 60) } else if s >= 60 { format!("{}m{:02}s", s / 60, s % 60) } else { format!("{s}s") })
+}
+
+/// UTC wall-clock time of day, HH:MM:SS, for plain progress lines.
+fn clock() -> String {
+    let s = SystemTime::now().duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs()) % 86_400;
+    format!("{:02}:{:02}:{:02}Z", s / 3600, s / 60 % 60, s % 60)
+}
+
+pub struct Progress {
+    counts: Arc<Counts>,
+    bar: Option<ProgressBar>,
+    plain: bool,
+    stop: Arc<AtomicBool>,
+    heartbeat: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Progress {
-    pub fn new(study: &str, total: usize, enabled: bool) -> Self {
+    /// `total`: the plan's runs; `to_compute`: those that will be computed (not cached).
+    pub fn new(study: &str, total: usize, to_compute: usize, enabled: bool) -> Self {
         let tty = std::io::stderr().is_terminal();
+        let counts = Arc::new(Counts {
+            study: study.to_string(),
+            total,
+            to_compute,
+            done: AtomicUsize::new(0),
+            computed: AtomicUsize::new(0),
+            cached: AtomicUsize::new(0),
+            failed: AtomicUsize::new(0),
+            start: Instant::now(),
+            last_line: Mutex::new(Instant::now()),
+        });
         let bar = (enabled && tty).then(|| {
             let bar = ProgressBar::new(total as u64);
-            bar.set_style(ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} runs {msg} ({eta})").expect("valid template").progress_chars("=> "));
+            bar.set_style(ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} runs {msg}").expect("valid template").progress_chars("=> "));
             bar.set_prefix(study.to_string());
             bar
         });
-        let plain = (enabled && !tty).then(|| Mutex::new(Instant::now()));
-        Self { study: study.to_string(), total, bar, plain, done: AtomicUsize::new(0), cached: AtomicUsize::new(0), failed: AtomicUsize::new(0) }
+        let plain = enabled && !tty;
+        let stop = Arc::new(AtomicBool::new(false));
+        // a line at least once a minute in a log, even while one long run computes
+        let heartbeat = (plain && to_compute > 0).then(|| {
+            let (counts, stop) = (Arc::clone(&counts), Arc::clone(&stop));
+            std::thread::spawn(move || {
+                while !stop.load(Ordering::Relaxed) {
+                    std::thread::sleep(Duration::from_millis(250));
+                    let mut last = counts.last_line.lock().expect("progress lock");
+                    if last.elapsed() >= HEARTBEAT && !stop.load(Ordering::Relaxed) {
+                        eprintln!("{} {}", clock(), counts.line());
+                        *last = Instant::now();
+                    }
+                }
+            })
+        });
+        Self { counts, bar, plain, stop, heartbeat }
     }
 
-    pub fn finished(&self, status: RunStatus, cached: bool) {
-        let done = self.done.fetch_add(1, Ordering::Relaxed) + 1;
+    /// `runs` runs finished (a content hash shared by several runs of the plan counts for each).
+    pub fn finished(&self, status: RunStatus, cached: bool, runs: usize) {
+        let c = &self.counts;
+        let done = c.done.fetch_add(runs, Ordering::Relaxed) + runs;
         if cached {
-            self.cached.fetch_add(1, Ordering::Relaxed);
+            c.cached.fetch_add(runs, Ordering::Relaxed);
+        } else {
+            c.computed.fetch_add(runs, Ordering::Relaxed);
         }
         if status != RunStatus::Ok {
-            self.failed.fetch_add(1, Ordering::Relaxed);
+            c.failed.fetch_add(runs, Ordering::Relaxed);
         }
         if let Some(bar) = &self.bar {
-            bar.set_message(self.counts());
-            bar.inc(1);
+            let computed = c.computed.load(Ordering::Relaxed);
+            bar.set_message(format!(
+                "({} cached, {} failed{})",
+                c.cached.load(Ordering::Relaxed),
+                c.failed.load(Ordering::Relaxed),
+                eta(c.start.elapsed(), computed, c.to_compute).map_or(String::new(), |e| format!("; about {e} left"))
+            ));
+            bar.inc(runs as u64);
         }
-        if let Some(last) = &self.plain {
-            let mut last = last.lock().expect("progress lock");
-            if last.elapsed() >= PLAIN_INTERVAL && done < self.total {
-                eprintln!("{}: {done}/{} runs ({})", self.study, self.total, self.counts());
+        if self.plain {
+            let mut last = c.last_line.lock().expect("progress lock");
+            if last.elapsed() >= PLAIN_INTERVAL && done < c.total {
+                eprintln!("{} {}", clock(), c.line());
                 *last = Instant::now();
             }
         }
@@ -61,13 +148,36 @@ impl Progress {
         }
     }
 
-    fn counts(&self) -> String {
-        format!("{} cached, {} failed", self.cached.load(Ordering::Relaxed), self.failed.load(Ordering::Relaxed))
-    }
-
-    pub fn done(&self) {
+    pub fn done(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(h) = self.heartbeat.take() {
+            let _ = h.join();
+        }
         if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_remaining_time_comes_from_the_computed_runs_only() {
+        // 10 computed in 20 s, 30 to compute: 40 s left, whatever number of cached runs went by
+        assert_eq!(eta(Duration::from_secs(20), 10, 30).as_deref(), Some("40s"));
+        assert_eq!(eta(Duration::from_secs(60), 1, 100).as_deref(), Some("1h39m"));
+        assert_eq!(eta(Duration::from_secs(90), 3, 5).as_deref(), Some("1m00s"));
+        // nothing computed yet, or nothing left: no estimate
+        assert_eq!(eta(Duration::from_secs(5), 0, 10), None);
+        assert_eq!(eta(Duration::from_secs(5), 10, 10), None);
+        assert!(clock().ends_with('Z') && clock().len() == 9);
     }
 }
