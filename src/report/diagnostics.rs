@@ -74,6 +74,7 @@ pub fn build(d: &Diagnostics, spec: &ExperimentSpec, map: Option<&Map>) -> Diagn
                 label: format!("{} map", title(&im.algorithm)),
             };
             figures.push(FigureView {
+                panel: false,
                 file: format!("incremental-map-{}", im.algorithm.replace('_', "-")),
                 caption: format!(
                     "Incremental map of {} ([EP] Figs 52–59): every return of the {} matched scans of the run shown, placed at {}'s estimate of the scan's pose (chained matches; dead reckoning between them), drawn on a {} cm grid (stored at {} cm); gray: the true walls.",
@@ -241,6 +242,7 @@ fn orientation_views(spec: &ExperimentSpec, o: &OrientationSlices, m: &MatchDiag
         }
         let fig = LineFigure { x_label: "θ − true θ [deg]".into(), y_label: "f [cm²]".into(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series };
         out.push(FigureView {
+            panel: false,
             file: format!("{prefix}-orientation-{suffix}"),
             caption: format!(
                 "{head}: E-PSM's first orientation search ([EP] Fig 25{}), f against the heading at the initial guess's position ({} m, {} m), {}. The cyan curve is Diosi's parabola through the coarse grid's minimum and its neighbours, the refinement PSM would make.",
@@ -281,6 +283,7 @@ fn psm_view(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, head: &str
     series.push(v);
     let fig = LineFigure { x_label: "θ − true θ [deg]".into(), y_label: "e(θ): mean |range residual| [cm]".into(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series };
     Some(FigureView {
+        panel: false,
         file: format!("{prefix}-psm-criterion"),
         caption: format!(
             "{head}: PSM's orientation criterion, the mean absolute range residual of each shift of the range array (one beam per point), at its initial guess (its first pass, solid) and at its estimate (dashed), with the heading each pass picks (Diosi's parabola through the best shift and its neighbours). Where PSM converged, the pick at its estimate is the estimate's own heading, and its distance from the true heading is PSM's error on this match."
@@ -306,6 +309,7 @@ fn contour_view(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, head: 
     let bounds = ((c.xs[0], c.xs[c.xs.len() - 1]), (c.ys[0], c.ys[c.ys.len() - 1]));
     let fig = ContourFigure { levels: contours, bounds, paths, truth: (m.truth.x, m.truth.y), initial: (m.initial.x, m.initial.y) };
     FigureView {
+        panel: false,
         file: format!("{prefix}-contour"),
         caption: format!(
             "{head}: contours of f in x–y at the true heading ([EP] Fig 26), levels {} cm² (the {} quantiles of f on the {}×{} grid, darker = lower), with each matcher's path (PSM and E-PSM: the pose after every half-iteration; the others: their best pose so far), ringed at its end. Red square: the true position; triangle: the initial guess. The paths also move in θ, which this slice does not show.",
@@ -331,6 +335,7 @@ fn iteration_views(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, hea
     if !per.is_empty() {
         let fig = LineFigure { x_label: "half-iteration (0 = initial guess)".into(), y_label: "f [cm²]".into(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series: per };
         out.push(FigureView {
+            panel: false,
             file: format!("{prefix}-iterations"),
             caption: format!("{head}: f after each half-iteration ([EP] Fig 27; PSM: each pass, scored by the common f, which PSM itself does not minimise)."),
             svg: figure::line_svg(&fig),
@@ -349,6 +354,7 @@ fn iteration_views(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, hea
         let ticks: Vec<(f64, String)> = (0..=max.log10().floor() as i32).map(|e| (10f64.powi(e), sig(10f64.powi(e), 1))).collect();
         let fig = LineFigure { x_label: "objective evaluations".into(), y_label: "best f so far [cm²]".into(), x_axis: XAxis::Log, x_ticks: ticks, series: best };
         out.push(FigureView {
+            panel: false,
             file: format!("{prefix}-evaluations"),
             caption: format!("{head}: the best f found against the evaluations spent, for the matchers that search (x, y, θ) at once or by brute force."),
             svg: figure::line_svg(&fig),

@@ -75,6 +75,7 @@ fn study_figures(id: &str, a: &StudyData, b: &StudyData, changed: &[&str]) -> Ve
             let unit = crate::metrics::metric_def(metric).map_or("", |m| m.unit);
             let fig = LineFigure { x_label: if group.named { "cell".into() } else { x_param.clone() }, y_label: format!("{metric} [{unit}]"), x_axis: axis.clone(), x_ticks: ticks.clone(), series };
             out.push(FigureView {
+                panel: false,
                 file: format!("{id}--g{gi}--{metric}").replace(['_', '.'], "-"),
                 caption: format!("{id}: {metric} against {}, BASE dashed, NEW solid with its 95 % CI band.", if group.named { "the named cell" } else { x_param.as_str() }),
                 svg: figure::line_svg(&fig),

@@ -13,6 +13,8 @@ use crate::world::map::Map;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
+/// From this many maps, a figure with published series is drawn as one panel per map.
+const SMALL_MULTIPLES_MAPS: usize = 3;
 /// Significant figures in report tables and in `summary.csv`.
 const TABLE_DIGITS: usize = 3;
 const CSV_DIGITS: usize = 6;
@@ -52,6 +54,8 @@ pub struct FigureView {
     /// pgfplots code for the LaTeX document.
     #[serde(skip)]
     pub pgf: String,
+    /// One panel of small multiples (one per map): drawn half-width, side by side.
+    pub panel: bool,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -159,7 +163,8 @@ impl Study<'_> {
         match var {
             Some(v) if m >= 2 && mean.is_finite() => {
                 let half = stats::t_quantile(m as usize - 1) * (v / m as f64).sqrt();
-                (mean - half, mean + half)
+                // cut at 0 like ours: no published metric can be negative either
+                ((mean - half).max(0.0), mean + half)
             }
             _ => (f64::NAN, f64::NAN),
         }
@@ -601,6 +606,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 let mut series: Vec<LineSeries> = Vec::new();
                 // our series take consecutive colours; a published series shares its own's
                 let mut ours = 0usize;
+                let mut series_map: Vec<String> = Vec::new();
                 for (map, _) in &study.maps {
                     for algorithm in &spec.algorithms {
                         let mut by_key: BTreeMap<usize, (String, Vec<SeriesPoint>)> = BTreeMap::new();
@@ -631,6 +637,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                                 label = format!("{label} ({other})");
                             }
                             series.push(LineSeries { label, color: ours, points: pts, dashed: false, scatter: false });
+                            series_map.push(map.clone());
                             ours += 1;
                         }
                         // Named cells: the published values of this (map, algorithm), dashed, in its colour.
@@ -648,6 +655,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                                     _ => format!("{map} ({})", study.reference_label()),
                                 };
                                 series.push(LineSeries { label, color, points: pts, dashed: true, scatter: false });
+                                series_map.push(map.clone());
                             }
                         }
                     }
@@ -671,6 +679,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                             let mut pts = pts;
                             pts.sort_by(|a, b| a.x.total_cmp(&b.x));
                             series.push(LineSeries { label: format!("{map} ({})", study.reference_label()), color, points: pts, dashed: true, scatter: false });
+                            series_map.push(map.clone());
                         }
                     }
                 }
@@ -695,12 +704,33 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 } else {
                     String::new()
                 };
+                let caption = format!(
+                    "{} against {}: mean over the n successful replicates of each cell, {band}{bars}.",
+                    m.title,
+                    if group.named { "the named cell" } else { x_param.as_str() },
+                );
+                // Three or more maps with published series: one panel per map (small multiples),
+                // each with its own published series, instead of every curve in one.
+                if study.maps.len() >= SMALL_MULTIPLES_MAPS && fig.series.iter().any(|s| s.dashed) {
+                    for (k, (map, _)) in study.maps.iter().enumerate() {
+                        let series: Vec<LineSeries> = fig.series.iter().zip(&series_map).filter(|(_, m)| *m == map).map(|(s, _)| s.clone()).collect();
+                        if series.is_empty() {
+                            continue;
+                        }
+                        let panel = LineFigure { series, ..fig.clone() };
+                        figures.push(FigureView {
+                            panel: true,
+                            caption: if k == 0 { format!("{map} — {caption} One panel per map, each with its own published series and its own y scale.") } else { format!("{map} — as the first panel.") },
+                            svg: figure::line_svg(&panel),
+                            pgf: super::pgf::line_pgf(&panel),
+                            file: slug(&format!("{file}--{map}")),
+                        });
+                    }
+                    continue;
+                }
                 figures.push(FigureView {
-                    caption: format!(
-                        "{} against {}: mean over the n successful replicates of each cell, {band}{bars}.",
-                        m.title,
-                        if group.named { "the named cell" } else { x_param.as_str() },
-                    ),
+                    panel: false,
+                    caption,
                     svg: figure::line_svg(&fig),
                     pgf: super::pgf::line_pgf(&fig),
                     file,
@@ -734,7 +764,8 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
                 let mut tables: Vec<&str> = Vec::new();
                 for p in points {
                     let (s, ..) = study.cell(map, algorithm.name(), &p.label, m.name);
-                    let hw = (s.ci_high - s.ci_low) / 2.0;
+                    // the t interval's half-width (its lower end may be cut at 0)
+                    let hw = s.ci_high - s.mean;
                     ours.push(if hw.is_finite() { format!("{} ± {}", sig(s.mean, TABLE_DIGITS), sig(hw, 2)) } else { sig(s.mean, TABLE_DIGITS) });
                     match study.published_cell(map, algorithm.name(), &p.label, m.name) {
                         Some((v, table)) => {
@@ -807,6 +838,7 @@ fn cost_figure(study: &Study<'_>, points: &[&crate::store::PointRecord], group_s
     let ticks: Vec<(f64, String)> = (lo.log10().floor() as i32..=hi.log10().ceil() as i32).map(|e| (10f64.powi(e), sig(10f64.powi(e), 1))).collect();
     let fig = LineFigure { x_label: "objective evaluations per match".into(), y_label: "Mean f [cm²]".into(), x_axis: XAxis::Log, x_ticks: ticks, series };
     Some(FigureView {
+        panel: false,
         file: format!("{group_slug}--cost"),
         caption: "Accuracy against cost: mean final f against mean objective evaluations per match, one point per cell of each algorithm. Evaluations stand in for time, which is not deterministic (per-match times are measured by make bench and listed in the README).".into(),
         svg: figure::line_svg(&fig),
@@ -866,6 +898,7 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
         };
         let value = chosen.metric(headline).map_or("—".into(), |v| sig(v, TABLE_DIGITS));
         out.push(FigureView {
+            panel: false,
             file: slug(&format!("trajectory--{map_name}")),
             caption: format!(
                 "{} ({map_name}): ground truth and estimates of replicate {} at {} — the median replicate by {headline} ({value}) of {}. Triangle: start; red dots: {}; ×{}: the final maps of the algorithms that build one.",
@@ -938,6 +971,7 @@ fn match_error_views(study: &Study<'_>, map_name: &str, map_title: &str, ids: &[
                 .collect();
             let fig = LineFigure { x_label: "match".into(), y_label: label.to_string(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series };
             FigureView {
+                panel: false,
                 file: slug(&format!("match-errors-{key}--{map_name}")),
                 caption: format!(
                     "{map_title} ({map_name}): {label} of every match of replicate {replicate} at {cell}, in match order, for each scan matcher ([EP] Figs 16–19 plot E-PSM's on the rectangular map at 10 % odometry). A failed match keeps the pose it returned (PSM: its initial guess)."
