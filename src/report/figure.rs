@@ -144,6 +144,14 @@ impl LineFigure {
     fn ranges(&self) -> ((f64, f64), (f64, f64)) {
         let xs: Vec<f64> = match &self.x_axis {
             XAxis::Categorical(names) => vec![-0.5, names.len() as f64 - 0.5],
+            // a log axis reaches its outermost ticks (decades), which are otherwise cut off
+            XAxis::Log => self
+                .series
+                .iter()
+                .flat_map(|s| Self::drawable(&s.points))
+                .map(|p| self.position(p.x))
+                .chain(self.x_ticks.iter().map(|(x, _)| self.position(*x)).filter(|v| v.is_finite()))
+                .collect(),
             _ => self.series.iter().flat_map(|s| Self::drawable(&s.points)).map(|p| self.position(p.x)).collect(),
         };
         let ys: Vec<f64> = self
@@ -328,7 +336,7 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
     let plot_h = (plot_w * (y1 - y0) / (x1 - x0)).clamp(160.0, 640.0);
     let (plot_w, height) = (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
     let width = (plot_w as u32 + label_y + 2 * margin).min(WIDTH);
-    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false, dashed: false, dotted: p.color.is_some_and(dotted) }).collect();
+    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(BLACK), dot: false, dashed: false, dotted: p.color.is_some_and(dotted) }).collect();
     if !fig.corners.is_empty() {
         entries.push(LegendEntry { label: if fig.point_landmarks { "true landmarks" } else { "true corners" }, color: CORNER, dot: true, dashed: false, dotted: false });
     }
@@ -356,10 +364,12 @@ fn draw_trajectory(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &TrajectoryFi
     let mut chart = ChartBuilder::on(root).margin(margin).x_label_area_size(label_x).y_label_area_size(label_y).build_cartesian_2d(x0..x1, y0..y1).map_err(e)?;
     chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FONT, 12)).light_line_style(WHITE.mix(0.0)).bold_line_style(BLACK.mix(0.08)).draw().map_err(e)?;
     chart.draw_series(fig.walls.iter().map(|(a, b)| PathElement::new(vec![*a, *b], BLACK.stroke_width(3)))).map_err(e)?;
-    for p in &fig.paths {
+    // the ground truth last, thin and dark, so that no estimate hides it (sparse GPS truth was
+    // invisible under the estimates)
+    for p in fig.paths.iter().filter(|p| p.color.is_some()).chain(fig.paths.iter().filter(|p| p.color.is_none())) {
         let (color, width) = match p.color {
             Some(c) => (rgb(c), 2),
-            None => (TRUTH, 1),
+            None => (BLACK, 1),
         };
         let points = decimate(&p.points, SVG_PATH_POINTS);
         if p.color.is_some_and(dotted) {

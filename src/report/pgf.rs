@@ -85,6 +85,14 @@ pub fn line_pgf(fig: &LineFigure) -> String {
         XAxis::Log => {
             opts.push("xmode=log".into());
             opts.push("log basis x=10".into());
+            // reach the outermost ticks (decades), as the SVG does
+            let ticks: Vec<f64> = fig.x_ticks.iter().map(|(x, _)| *x).filter(|x| x.is_finite() && *x > 0.0).collect();
+            let data: Vec<f64> = fig.series.iter().flat_map(|s| &s.points).map(|p| p.x).filter(|x| x.is_finite() && *x > 0.0).collect();
+            let all = || ticks.iter().chain(&data).copied();
+            if !ticks.is_empty() {
+                opts.push(format!("xmin={}", num(all().fold(f64::INFINITY, f64::min))));
+                opts.push(format!("xmax={}", num(all().fold(f64::NEG_INFINITY, f64::max))));
+            }
         }
         XAxis::Categorical(_) => {}
     }
@@ -160,11 +168,11 @@ pub fn trajectory_pgf(fig: &TrajectoryFigure) -> String {
     for (a, b) in &fig.walls {
         let _ = writeln!(s, "\\addplot[black, line width=1.5pt, forget plot] coordinates {{({},{}) ({},{})}};", num(a.0), num(a.1), num(b.0), num(b.1));
     }
-    for p in &fig.paths {
+    for p in fig.paths.iter().filter(|p| p.color.is_some()).chain(fig.paths.iter().filter(|p| p.color.is_none())) {
         let style = match p.color {
             Some(c) if super::figure::dotted(c) => format!("color=slamlab{}, thick, densely dotted", c % PALETTE.len()),
             Some(c) => format!("color=slamlab{}, thick", c % PALETTE.len()),
-            None => "black!55, thin".to_string(),
+            None => "black, thin".to_string(),
         };
         let coords: Vec<String> = decimate(&p.points, PGF_PATH_POINTS).iter().map(|(x, y)| format!("({},{})", num(*x), num(*y))).collect();
         let _ = writeln!(s, "\\addplot[{style}] coordinates {{{}}};", coords.join(" "));

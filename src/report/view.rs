@@ -728,13 +728,24 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                     }
                     continue;
                 }
+                let zoom = zoomed(&fig);
                 figures.push(FigureView {
                     panel: false,
                     caption,
                     svg: figure::line_svg(&fig),
                     pgf: super::pgf::line_pgf(&fig),
-                    file,
+                    file: file.clone(),
                 });
+                // a baseline far above the rest squashes them: the same figure again without it
+                if let Some((zoomed, label, top)) = zoom {
+                    figures.push(FigureView {
+                        panel: false,
+                        caption: format!("{} against {}, without {label} (up to {}), whose values squash the others in the figure above.", m.title, if group.named { "the named cell" } else { x_param.as_str() }, sig(top, 3)),
+                        svg: figure::line_svg(&zoomed),
+                        pgf: super::pgf::line_pgf(&zoomed),
+                        file: format!("{file}--zoom"),
+                    });
+                }
             }
         }
     }
@@ -743,6 +754,32 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
         figures.extend(cost_figure(study, &points, &slug(&group.params.join("-"))));
     }
     GroupView { title, label_columns: if show_algorithm { 2 } else { 1 }, figures, table, agreement, matrices }
+}
+
+/// How far above every other series a baseline must reach before it gets a figure without it.
+const SQUASH_RATIO: f64 = 5.0;
+
+/// `fig` without its dominant series (ours and its published one share a colour) when that
+/// series' largest value is more than [`SQUASH_RATIO`] times every other series' and at least
+/// two other series remain: (the figure, the removed series' label, its largest value).
+fn zoomed(fig: &LineFigure) -> Option<(LineFigure, String, f64)> {
+    let top = |s: &LineSeries| s.points.iter().map(|p| p.mean).filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
+    let mut by_color: BTreeMap<usize, f64> = BTreeMap::new();
+    for s in &fig.series {
+        let e = by_color.entry(s.color).or_insert(f64::NEG_INFINITY);
+        *e = e.max(top(s));
+    }
+    if by_color.len() < 3 {
+        return None;
+    }
+    let (&color, &max) = by_color.iter().max_by(|a, b| a.1.total_cmp(b.1))?;
+    let rest = by_color.iter().filter(|(c, _)| **c != color).map(|(_, v)| *v).fold(f64::NEG_INFINITY, f64::max);
+    if !(rest > 0.0 && max > SQUASH_RATIO * rest) {
+        return None;
+    }
+    let label = fig.series.iter().find(|s| s.color == color && !s.dashed).map_or_else(String::new, |s| s.label.clone());
+    let series = fig.series.iter().filter(|s| s.color != color).cloned().collect();
+    Some((LineFigure { series, ..fig.clone() }, label, max))
 }
 
 /// Named cells: per metric, a table with one row per (map, algorithm) and one column per cell —
@@ -1252,6 +1289,20 @@ mod tests {
         assert_eq!(axis, XAxis::Categorical(vec!["std".into(), "variance".into()]));
         assert_eq!(xs, vec![0.0, 0.0, 1.0, 1.0]);
         assert_eq!(ticks.len(), 2);
+    }
+
+    #[test]
+    fn a_squashing_baseline_gets_a_figure_without_it() {
+        let series = |label: &str, color: usize, v: f64, dashed: bool| LineSeries { label: label.into(), color, points: vec![SeriesPoint { x: 1.0, mean: v, lo: v, hi: v }], dashed, scatter: false };
+        let fig = |s: Vec<LineSeries>| LineFigure { x_label: "x".into(), y_label: "y".into(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series: s };
+        // PSM (and its published series) at 95, the others at most 20: a zoom without PSM
+        let f = fig(vec![series("PSM", 0, 95.0, false), series("PSM (pub)", 0, 40.0, true), series("E-PSM", 1, 2.0, false), series("CRS2", 2, 20.0, false)]);
+        let (z, label, top) = zoomed(&f).expect("PSM squashes the others");
+        assert_eq!((label.as_str(), top), ("PSM", 95.0));
+        assert_eq!(z.series.iter().map(|s| s.label.as_str()).collect::<Vec<_>>(), ["E-PSM", "CRS2"]);
+        // within the ratio, or fewer than three groups: no zoom
+        assert!(zoomed(&fig(vec![series("A", 0, 90.0, false), series("B", 1, 20.0, false), series("C", 2, 5.0, false)])).is_none());
+        assert!(zoomed(&fig(vec![series("A", 0, 900.0, false), series("B", 1, 2.0, false)])).is_none());
     }
 
     #[test]
