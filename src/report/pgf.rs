@@ -23,7 +23,7 @@ const PGF_DIGITS: usize = 6;
 /// fit (a \footnotesize character ≈ 4.4 pt, a swatch and gap ≈ 30 pt), 1 to 3.
 fn legend_columns<'a>(labels: impl Iterator<Item = &'a str>) -> usize {
     let longest = labels.map(|l| l.chars().count()).max().unwrap_or(0) as f64;
-    ((440.0 / (longest * 4.4 + 30.0)).floor() as usize).clamp(1, 3)
+    ((440.0 / (longest * 5.2 + 36.0)).floor() as usize).clamp(1, 3)
 }
 
 fn num(v: f64) -> String {
