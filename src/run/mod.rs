@@ -156,7 +156,20 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     for run in &plan.runs {
         *multiplicity.entry(run.hash.as_str()).or_default() += 1;
     }
-    let mut progress = Progress::new(plan.id(), plan.runs.len(), to_compute, opts.progress);
+    // planned cost of each unique hash to compute: its compute time last time, else its
+    // algorithm's mean then, else 1 ms (then the estimate counts runs)
+    let previous_ms: BTreeMap<String, f64> = store::read_timings(&dir).unwrap_or_default().into_iter().filter(|t| t.wall_ms.is_finite()).map(|t| (t.run_id, t.wall_ms)).collect();
+    let mut by_algorithm: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
+    for r in &plan.runs {
+        if let Some(ms) = previous_ms.get(&r.run_id) {
+            let e = by_algorithm.entry(r.algorithm.name()).or_default();
+            *e = (e.0 + ms, e.1 + 1);
+        }
+    }
+    let planned = |r: &RunSpec| previous_ms.get(&r.run_id).copied().or_else(|| by_algorithm.get(r.algorithm.name()).map(|(s, n)| s / *n as f64)).unwrap_or(1.0);
+    let planned_cost: BTreeMap<&str, f64> = unique.iter().map(|&i| (plan.runs[i].hash.as_str(), planned(&plan.runs[i]))).collect();
+    let to_compute_cost: f64 = unique.iter().filter(|&&i| reasons[i] != Reason::Cached).map(|&i| planned_cost[plan.runs[i].hash.as_str()]).sum();
+    let mut progress = Progress::new(plan.id(), plan.runs.len(), to_compute, to_compute_cost, opts.progress);
     // Cache IO (Parquet, through polars' own thread pool) stays on this thread: a worker of ours
     // waiting on polars would run further jobs of ours meanwhile, nesting without bound. So cached
     // runs are read first, and computed runs are cached here as the workers send them.
@@ -168,7 +181,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         let lookup = if reasons[i] == Reason::Cached { cache.lookup(&run.hash) } else { store::Lookup::Absent };
         match lookup {
             store::Lookup::Hit(c) => {
-                progress.finished(c.row.status, true, multiplicity[run.hash.as_str()]);
+                progress.finished(c.row.status, true, multiplicity[run.hash.as_str()], 0.0);
                 computed.insert(run.hash.as_str(), (c, true));
             }
             store::Lookup::Unsealed(c) => {
@@ -176,7 +189,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
                 if let Err(e) = cache.put(&run.hash, &c, true) {
                     progress.warn(&format!("cannot re-cache {}: {e}", run.run_id));
                 }
-                progress.finished(c.row.status, true, multiplicity[run.hash.as_str()]);
+                progress.finished(c.row.status, true, multiplicity[run.hash.as_str()], 0.0);
                 computed.insert(run.hash.as_str(), (c, true));
             }
             store::Lookup::Corrupt(why) => {
@@ -198,7 +211,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
             if let Err(e) = cache.put(&run.hash, &c, true) {
                 progress.warn(&format!("cannot cache {}: {e}", run.run_id));
             }
-            progress.finished(c.row.status, false, multiplicity[run.hash.as_str()]);
+            progress.finished(c.row.status, false, multiplicity[run.hash.as_str()], planned_cost[run.hash.as_str()]);
             computed.insert(run.hash.as_str(), (c, false));
         }
     });

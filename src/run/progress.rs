@@ -3,7 +3,9 @@
 //!
 //! Counts are of the plan's runs, as `plan` and the run summary count them (runs that share a
 //! content hash are computed once and counted each). The remaining time is estimated from the
-//! runs computed so far only: cached runs finish at once and would make it far too low.
+//! planned cost of the runs still to compute (each run's compute time the last time it ran, else
+//! its algorithm's mean then, else one unit) at the pace of the cost computed so far; cached runs
+//! finish at once and do not count.
 
 use crate::store::RunStatus;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -23,6 +25,9 @@ struct Counts {
     to_compute: usize,
     done: AtomicUsize,
     computed: AtomicUsize,
+    /// Planned cost to compute, and computed so far (µs-scaled integers, for atomics).
+    cost_total: u64,
+    cost_done: AtomicUsize,
     cached: AtomicUsize,
     failed: AtomicUsize,
     /// When the first run began computing.
@@ -41,12 +46,13 @@ impl Counts {
             self.to_compute,
             self.cached.load(Ordering::Relaxed),
             self.failed.load(Ordering::Relaxed),
-            eta(self.start.elapsed(), computed, self.to_compute).map_or(String::new(), |e| format!(", about {e} left"))
+            eta(self.start.elapsed(), self.cost_done.load(Ordering::Relaxed), self.cost_total as usize).map_or(String::new(), |e| format!(", about {e} left"))
         )
     }
 }
 
-/// Remaining time from the computed runs' pace: `elapsed / computed × (to_compute − computed)`.
+/// Remaining time at the pace so far: `elapsed / done × (total − done)`, in any unit of work
+/// (planned cost, or runs).
 pub fn eta(elapsed: Duration, computed: usize, to_compute: usize) -> Option<String> {
     if computed == 0 || computed >= to_compute {
         return None;
@@ -54,6 +60,11 @@ pub fn eta(elapsed: Duration, computed: usize, to_compute: usize) -> Option<Stri
     let left = elapsed.as_secs_f64() / computed as f64 * (to_compute - computed) as f64;
     let s = left.round() as u64;
     Some(if s >= 3600 { format!("{}h{:02}m", s / 3600, s / 60 % 60) } else if s >= 60 { format!("{}m{:02}s", s / 60, s % 60) } else { format!("{s}s") })
+}
+
+/// A planned cost [ms] as an integer count of 10 µs (atomics hold integers).
+fn cost_units(ms: f64) -> u64 {
+    (ms.max(0.0) * 100.0).round() as u64
 }
 
 /// UTC wall-clock time of day, HH:MM:SS, for plain progress lines.
@@ -71,8 +82,9 @@ pub struct Progress {
 }
 
 impl Progress {
-    /// `total`: the plan's runs; `to_compute`: those that will be computed (not cached).
-    pub fn new(study: &str, total: usize, to_compute: usize, enabled: bool) -> Self {
+    /// `total`: the plan's runs; `to_compute`: those that will be computed (not cached);
+    /// `cost`: their planned cost [ms].
+    pub fn new(study: &str, total: usize, to_compute: usize, cost: f64, enabled: bool) -> Self {
         let tty = std::io::stderr().is_terminal();
         let counts = Arc::new(Counts {
             study: study.to_string(),
@@ -80,6 +92,8 @@ impl Progress {
             to_compute,
             done: AtomicUsize::new(0),
             computed: AtomicUsize::new(0),
+            cost_total: cost_units(cost),
+            cost_done: AtomicUsize::new(0),
             cached: AtomicUsize::new(0),
             failed: AtomicUsize::new(0),
             start: Instant::now(),
@@ -110,25 +124,27 @@ impl Progress {
         Self { counts, bar, plain, stop, heartbeat }
     }
 
-    /// `runs` runs finished (a content hash shared by several runs of the plan counts for each).
-    pub fn finished(&self, status: RunStatus, cached: bool, runs: usize) {
+    /// `runs` runs finished (a content hash shared by several runs of the plan counts for each);
+    /// `cost`: the planned cost [ms] of what was computed (0 when cached).
+    pub fn finished(&self, status: RunStatus, cached: bool, runs: usize, cost: f64) {
         let c = &self.counts;
         let done = c.done.fetch_add(runs, Ordering::Relaxed) + runs;
         if cached {
             c.cached.fetch_add(runs, Ordering::Relaxed);
         } else {
             c.computed.fetch_add(runs, Ordering::Relaxed);
+            c.cost_done.fetch_add(cost_units(cost) as usize, Ordering::Relaxed);
         }
         if status != RunStatus::Ok {
             c.failed.fetch_add(runs, Ordering::Relaxed);
         }
         if let Some(bar) = &self.bar {
-            let computed = c.computed.load(Ordering::Relaxed);
+            let computed = c.cost_done.load(Ordering::Relaxed);
             bar.set_message(format!(
                 "({} cached, {} failed{})",
                 c.cached.load(Ordering::Relaxed),
                 c.failed.load(Ordering::Relaxed),
-                eta(c.start.elapsed(), computed, c.to_compute).map_or(String::new(), |e| format!("; about {e} left"))
+                eta(c.start.elapsed(), computed, c.cost_total as usize).map_or(String::new(), |e| format!("; about {e} left"))
             ));
             bar.inc(runs as u64);
         }
