@@ -228,12 +228,19 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
             chart.draw_series(std::iter::once(Polygon::new(poly, color.mix(0.18).filled()))).map_err(|e| e.to_string())?;
         }
         let line: Vec<(f64, f64)> = pts.iter().map(|p| (fig.position(p.x), p.mean)).collect();
+        // a long trace (every match of a run) is a line without marks: marks would hide it and
+        // make the file several times larger
+        let marked = line.len() <= MARKED_POINTS;
         if dotted(s.color) {
             chart.draw_series(plotters::series::DashedLineSeries::new(line.clone(), 2, 4, color.stroke_width(2))).map_err(|e| e.to_string())?;
-            chart.draw_series(line.into_iter().map(|p| EmptyElement::at(p) + Rectangle::new([(-3, -3), (3, 3)], color.filled()))).map_err(|e| e.to_string())?;
+            if marked {
+                chart.draw_series(line.into_iter().map(|p| EmptyElement::at(p) + Rectangle::new([(-3, -3), (3, 3)], color.filled()))).map_err(|e| e.to_string())?;
+            }
         } else {
             chart.draw_series(plotters::series::LineSeries::new(line.clone(), color.stroke_width(2))).map_err(|e| e.to_string())?;
-            chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(|e| e.to_string())?;
+            if marked {
+                chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(|e| e.to_string())?;
+            }
         }
     }
     if manual_ticks {
@@ -324,6 +331,9 @@ pub fn decimate(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
     }
     out
 }
+
+/// Series longer than this are drawn without marks.
+const MARKED_POINTS: usize = 60;
 
 /// Most points a path keeps in an SVG figure.
 const SVG_PATH_POINTS: usize = 1500;
