@@ -71,7 +71,7 @@ pub fn build(plan: &ExperimentPlan, resolved: &crate::store::ResolvedStudy, rows
     }
 
     // The incremental maps: the scans the chooser matched, at each algorithm's estimates.
-    let steps: Vec<usize> = records.first().map(|m| m.reference_step).into_iter().chain(records.iter().map(|m| m.current_step)).collect();
+    let steps = track::matched_steps(records);
     let scans: Vec<&Scan> = steps.iter().filter_map(|&s| scan_at(s)).collect();
     let maps: Vec<IncrementalMap> = cell
         .iter()

@@ -357,7 +357,7 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
         // a scan matcher's incremental map against the walls of a simulated map
         let map = &plan.maps[run.map].map;
         if !trace.matches.is_empty() && map.dataset.is_none() && !map.walls.is_empty() {
-            let mut steps: Vec<usize> = trace.matches.first().map(|m| m.reference_step).into_iter().chain(trace.matches.iter().map(|m| m.current_step)).collect();
+            let mut steps = crate::scanmatch::track::matched_steps(&trace.matches);
             steps.sort_unstable();
             steps.dedup();
             metrics.push((metrics::MAP_WALL_RMS, metrics::map_wall_rms(&world, &trace.estimate, &steps, &map.walls)));

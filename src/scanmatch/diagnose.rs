@@ -195,17 +195,26 @@ fn same_pose(a: Pose2, b: Pose2) -> bool {
     a.x.to_bits() == b.x.to_bits() && a.y.to_bits() == b.y.to_bits() && a.theta.to_bits() == b.theta.to_bits()
 }
 
-/// A cost that remembers every improvement of the best f (pose, f, evaluations so far).
-struct Recording<'c, C: Cost> {
+/// A cost that logs its f evaluations (pose, f, evaluations so far): every one, or only those
+/// that improve the best f.
+struct Logged<'c, C: Cost> {
     inner: &'c mut C,
-    best: Vec<(Pose2, f64, u64)>,
+    improvements_only: bool,
+    seen: Vec<(Pose2, f64, u64)>,
 }
 
-impl<C: Cost> Cost for Recording<'_, C> {
+impl<'c, C: Cost> Logged<'c, C> {
+    fn new(inner: &'c mut C, improvements_only: bool) -> Self {
+        Self { inner, improvements_only, seen: Vec::new() }
+    }
+}
+
+impl<C: Cost> Cost for Logged<'_, C> {
     fn f(&mut self, pose: Pose2) -> f64 {
         let f = self.inner.f(pose);
-        if f.is_finite() && self.best.last().is_none_or(|b| f < b.1) {
-            self.best.push((pose, f, self.inner.evaluations()));
+        let keep = !self.improvements_only || (f.is_finite() && self.seen.last().is_none_or(|b| f < b.1));
+        if keep {
+            self.seen.push((pose, f, self.inner.evaluations()));
         }
         f
     }
@@ -234,14 +243,14 @@ fn observe(s: &Subject<'_>, initial: Pose2, objective: &ObjectiveParams) -> (Mat
         }
         Matcher::Epsm(params) => (epsm::epsm_observed(&mut cost, initial, params, &mut record), None),
         Matcher::BruteForce(params) => {
-            let mut rec = Recording { inner: &mut cost, best: Vec::new() };
+            let mut rec = Logged::new(&mut cost, true);
             let r = super::brute::brute_force(&mut rec, initial, params);
-            (r, Some(rec.best))
+            (r, Some(rec.seen))
         }
         Matcher::PoseSearch { optimizer, params } => {
-            let mut rec = Recording { inner: &mut cost, best: Vec::new() };
+            let mut rec = Logged::new(&mut cost, true);
             let r = super::search::simultaneous(&mut rec, initial, optimizer, params, s.seed);
-            (r, Some(rec.best))
+            (r, Some(rec.seen))
         }
     };
     let path = match best {
@@ -275,32 +284,12 @@ fn psm_criterion(algorithm: &str, reference: &PolarScan, current: &PolarScan, in
 
 /// E-PSM's first orientation search at `at` with every evaluation kept.
 pub fn orientation_slices(cost: &mut impl Cost, at: Pose2, params: &epsm::OrientationParams) -> OrientationSlices {
-    struct Log<'c, C: Cost> {
-        inner: &'c mut C,
-        seen: Vec<(f64, f64)>,
-    }
-    impl<C: Cost> Cost for Log<'_, C> {
-        fn f(&mut self, pose: Pose2) -> f64 {
-            let f = self.inner.f(pose);
-            self.seen.push((pose.theta, f));
-            f
-        }
-        fn residuals(&mut self, pose: Pose2, out: &mut [f64]) -> usize {
-            self.inner.residuals(pose, out)
-        }
-        fn beams(&self) -> usize {
-            self.inner.beams()
-        }
-        fn evaluations(&self) -> u64 {
-            self.inner.evaluations()
-        }
-    }
-    let mut log = Log { inner: cost, seen: Vec::new() };
+    let mut log = Logged::new(cost, false);
     let result = epsm::orientation_search(&mut log, at, params);
     let coarse_count = (2.0 * (params.coarse_half_window_deg / params.coarse_step_deg).round()) as usize + 1 + result.expansions as usize;
     let unwrap = |theta: f64| at.theta + crate::geom::wrap_angle(theta - at.theta);
-    let sorted = |v: &[(f64, f64)]| {
-        let mut v: Vec<(f64, Option<f64>)> = v.iter().map(|&(t, f)| (unwrap(t), finite(f))).collect();
+    let sorted = |v: &[(Pose2, f64, u64)]| {
+        let mut v: Vec<(f64, Option<f64>)> = v.iter().map(|&(p, f, _)| (unwrap(p.theta), finite(f))).collect();
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
         v
     };

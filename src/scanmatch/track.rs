@@ -185,6 +185,11 @@ pub fn match_seed(seed: u64, k: usize) -> u64 {
     seed ^ (k as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15)
 }
 
+/// The steps of the scans a run matched: the first reference and every current scan, in order.
+pub fn matched_steps(matches: &[MatchRecord]) -> Vec<usize> {
+    matches.first().map(|m| m.reference_step).into_iter().chain(matches.iter().map(|m| m.current_step)).collect()
+}
+
 /// Prepares one scan for matching.
 pub fn prepared(scan: &Scan, geometry: &LaserGeometry, segmentation: &SegmentationParams) -> super::scan::PolarScan {
     prepare(&scan.ranges_m, geometry.angle_min_rad, geometry.angle_increment_rad, geometry.max_range_m, segmentation)
