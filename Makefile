@@ -5,11 +5,13 @@ CARGO ?= cargo
 BIN   := $(or $(CARGO_TARGET_DIR),target)/release/slamlab
 SPECS := $(sort $(wildcard experiments/*.toml))
 
-.PHONY: all build report run test bench validate clean-results check-reports check-html pdf install-checkers
+.PHONY: all build report run test test-slurm bench validate clean-results check-reports check-html pdf install-checkers
 
 all: report
 
+## Checks (and, as root or with sudo, installs) the C/C++ compilers, make and cmake first.
 build:
+	tests/tools/build_tools.sh
 	$(CARGO) build --release --locked
 
 ## Run every study in experiments/ (cached, parallel, deterministic) and render reports/; the
@@ -26,10 +28,20 @@ run: build
 validate: build
 	$(BIN) validate $(SPECS)
 
-## Unit and integration tests (and the benchmarks must compile).
+## Unit and integration tests (and the benchmarks must compile). The dependency features of the
+## test build equal the release build's (checked first), so after `make report` no dependency is
+## compiled again.
 test:
+	tests/tools/build_tools.sh
+	tests/tools/features_unified.sh
 	$(CARGO) test --release --locked
 	$(CARGO) build --release --locked --benches
+
+## `slamlab slurm` on a real one-node Slurm cluster started here (installs slurm-wlm and munge
+## when missing; needs root or sudo): a job array of 4 shards with one task killed and resumed,
+## byte-identical to a single-process run.
+test-slurm: build
+	tests/tools/test_slurm.sh
 
 ## Benchmarks: criterion micro-benchmarks, then the whole pipeline from scratch.
 bench: build

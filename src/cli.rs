@@ -36,6 +36,47 @@ enum Command {
         /// No progress output.
         #[arg(long, short)]
         quiet: bool,
+        /// Compute only shard I of N of the runs (1 ≤ I ≤ N) into the cache, and write no study
+        /// results: one task of a cluster job array (`slamlab slurm`). The shards split the
+        /// distinct runs of all SPECS by expected cost; once all are done, `run` without
+        /// `--shard` finds every run cached and writes the results.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<crate::plan::shard::Shard>,
+    },
+    /// Write (and with --submit, submit) the sbatch scripts that run studies on a Slurm cluster: a
+    /// job array whose task I runs `run --shard I/N`, and a job that waits for all of them
+    /// (afterok), then writes the results and renders the reports. The repository, the binary
+    /// and the cache must be on a filesystem every node sees.
+    Slurm {
+        /// Study spec files (e.g. experiments/*.toml).
+        #[arg(required = true)]
+        specs: Vec<PathBuf>,
+        #[command(flatten)]
+        dirs: Dirs,
+        /// Tasks of the job array (shards).
+        #[arg(long, default_value_t = 8)]
+        tasks: usize,
+        /// CPUs per task (each runs that many runs at a time).
+        #[arg(long, default_value_t = 1)]
+        cpus: usize,
+        /// Memory per task, as sbatch reads it.
+        #[arg(long, default_value = "4G")]
+        mem: String,
+        /// Time limit per task (and for the assembling job), as sbatch reads it.
+        #[arg(long, default_value = "04:00:00")]
+        time: String,
+        /// Partition to submit to (default: the cluster's default partition).
+        #[arg(long)]
+        partition: Option<String>,
+        /// Folder for the scripts and the jobs' logs.
+        #[arg(long, default_value = "data/slurm")]
+        out: PathBuf,
+        /// Reports folder the assembling job renders into.
+        #[arg(long, default_value = "reports")]
+        reports: PathBuf,
+        /// Submit the two jobs with sbatch (else only write the scripts and print how to submit).
+        #[arg(long)]
+        submit: bool,
     },
     /// Render every study found in the results directory into reports/.
     Report {
@@ -72,8 +113,9 @@ enum Command {
     /// List the runs a spec expands to and whether each will run (new / parameters changed /
     /// code version changed / cached). Never runs anything.
     Plan {
-        /// The experiment spec to expand (a TOML file named after its study id).
-        spec: PathBuf,
+        /// The experiment specs to expand (TOML files named after their study ids).
+        #[arg(required = true)]
+        specs: Vec<PathBuf>,
         /// Only list (always the case; accepted for clarity in scripts).
         #[arg(long)]
         dry_run: bool,
@@ -82,6 +124,10 @@ enum Command {
         /// Show what `run --force` would do.
         #[arg(long)]
         force: bool,
+        /// Also split the runs of all SPECS into N shards as `run --shard I/N` does: each run's
+        /// shard, and per shard the runs, those still to compute and their expected cost.
+        #[arg(long, value_name = "N")]
+        shards: Option<usize>,
     },
     /// Compare two result sets (e.g. from two branches): parameter differences, then one row per
     /// (study, cell, metric) with paired statistics and a verdict. Exit status 0 whatever the
@@ -184,7 +230,12 @@ pub fn main() -> ExitCode {
 
 fn dispatch(command: Command) -> Result<()> {
     match command {
-        Command::Run { specs, dirs, threads, force, quiet } => cmd_run(&specs, &dirs, threads, force, quiet),
+        Command::Run { specs, dirs, threads, force, quiet, shard: None } => cmd_run(&specs, &dirs, threads, force, quiet),
+        Command::Run { specs, dirs, threads, force, quiet, shard: Some(shard) } => cmd_run_shard(&specs, &dirs, threads, force, quiet, shard),
+        Command::Slurm { specs, dirs, tasks, cpus, mem, time, partition, out, reports, submit } => {
+            let resources = crate::slurm::Resources { tasks, cpus, mem, time, partition };
+            cmd_slurm(&specs, &dirs, &resources, &out, &reports, submit)
+        }
         Command::Report { results, out, specs, published, prune } => {
             let keep: Vec<String> = specs.as_deref().map(spec_ids).unwrap_or_default();
             let default = PathBuf::from(DEFAULT_PUBLISHED);
@@ -230,7 +281,7 @@ fn dispatch(command: Command) -> Result<()> {
             }
             Ok(())
         }
-        Command::Plan { spec, dry_run: _, dirs, force } => cmd_plan(&spec, &dirs, force),
+        Command::Plan { specs, dry_run: _, dirs, force, shards } => cmd_plan(&specs, &dirs, force, shards),
         Command::ExportTum { results_dir, out_dir, runs } => cmd_export_tum(&results_dir, &out_dir, &runs),
         Command::ExportScans { spec, run_id, out_dir, maps } => cmd_export_scans(&spec, &run_id, &out_dir, &maps),
     }
@@ -331,37 +382,189 @@ fn spec_ids(dir: &Path) -> Vec<String> {
     ids
 }
 
-fn cmd_plan(spec_path: &Path, dirs: &Dirs, force: bool) -> Result<()> {
-    let plans = load_plans(std::slice::from_ref(&spec_path.to_path_buf()), &dirs.maps, dirs.max_runs)?;
-    let plan = &plans[0];
-    let opts = options(dirs, Some(1), force, true)?;
-    let reasons = run::reasons(plan, &opts);
-    println!("study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs", plan.id(), plan.points.len(), plan.maps.len(), plan.spec.spec.algorithms.len(), plan.spec.spec.replicates, plan.runs.len());
-    let previous = store::read_runs(&opts.results_dir.join(plan.id())).unwrap_or_default();
-    for (r, reason) in plan.runs.iter().zip(&reasons) {
-        let changed = match reason {
-            Reason::ParametersChanged | Reason::ParametersAndCodeVersionChanged => previous
-                .iter()
-                .find(|p| p.run_id == r.run_id)
-                .map(|p| run::changed_parameters(plan, r, p))
-                .filter(|c| !c.is_empty())
-                .map_or(String::new(), |c| format!(" ({})", c.join("; "))),
-            _ => String::new(),
-        };
-        println!("{:<36} {}{changed}", reason.as_str(), r.run_id);
+fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usize>) -> Result<()> {
+    if let Some(n) = shards {
+        if n == 0 || n > crate::plan::shard::MAX_SHARDS {
+            bail!("--shards must be between 1 and {}", crate::plan::shard::MAX_SHARDS);
+        }
     }
-    let count = |x: Reason| reasons.iter().filter(|r| **r == x).count();
-    println!(
-        "to run: {} (new {}, parameters changed {}, code version changed {}, both changed {}, cache entry missing {}, forced {}); cached: {}",
-        reasons.iter().filter(|r| **r != Reason::Cached).count(),
-        count(Reason::New),
-        count(Reason::ParametersChanged),
-        count(Reason::CodeVersionChanged),
-        count(Reason::ParametersAndCodeVersionChanged),
-        count(Reason::CacheMissing),
-        count(Reason::Forced),
-        count(Reason::Cached)
+    let plans = load_plans(spec_paths, &dirs.maps, dirs.max_runs)?;
+    let opts = options(dirs, Some(1), force, true)?;
+    let owner = shards.map(|n| run::shards(&plans, n));
+    // per shard: distinct runs, to compute, expected cost of each
+    let mut table = vec![(0usize, 0usize, 0.0f64, 0.0f64); shards.unwrap_or(0)];
+    let mut seen = std::collections::BTreeSet::new();
+    for plan in &plans {
+        let reasons = run::reasons(plan, &opts);
+        println!("study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs", plan.id(), plan.points.len(), plan.maps.len(), plan.spec.spec.algorithms.len(), plan.spec.spec.replicates, plan.runs.len());
+        if run::skipped(plan) {
+            println!("(its data is absent on this machine: `run` skips it{})", if owner.is_some() { ", and no shard gets its runs" } else { "" });
+        }
+        let previous = store::read_runs(&opts.results_dir.join(plan.id())).unwrap_or_default();
+        for (r, reason) in plan.runs.iter().zip(&reasons) {
+            let changed = match reason {
+                Reason::ParametersChanged | Reason::ParametersAndCodeVersionChanged => previous
+                    .iter()
+                    .find(|p| p.run_id == r.run_id)
+                    .map(|p| run::changed_parameters(plan, r, p))
+                    .filter(|c| !c.is_empty())
+                    .map_or(String::new(), |c| format!(" ({})", c.join("; "))),
+                _ => String::new(),
+            };
+            match owner.as_ref().and_then(|o| o.get(r.hash.as_str())) {
+                Some(&k) => {
+                    let n = shards.unwrap_or(1);
+                    if seen.insert(r.hash.as_str()) {
+                        let cost = crate::plan::cost::expected_s(plan, r);
+                        let t = &mut table[k - 1];
+                        t.0 += 1;
+                        t.2 += cost;
+                        if *reason != Reason::Cached {
+                            t.1 += 1;
+                            t.3 += cost;
+                        }
+                    }
+                    println!("{:<36} {:<width$} {}{changed}", reason.as_str(), format!("{k}/{n}"), r.run_id, width = 2 * n.to_string().len() + 1);
+                }
+                None => println!("{:<36} {}{changed}", reason.as_str(), r.run_id),
+            }
+        }
+        let count = |x: Reason| reasons.iter().filter(|r| **r == x).count();
+        println!(
+            "to run: {} (new {}, parameters changed {}, code version changed {}, both changed {}, cache entry missing {}, forced {}); cached: {}",
+            reasons.iter().filter(|r| **r != Reason::Cached).count(),
+            count(Reason::New),
+            count(Reason::ParametersChanged),
+            count(Reason::CodeVersionChanged),
+            count(Reason::ParametersAndCodeVersionChanged),
+            count(Reason::CacheMissing),
+            count(Reason::Forced),
+            count(Reason::Cached)
+        );
+    }
+    if let Some(n) = shards {
+        let studies = plans.iter().filter(|p| !run::skipped(p)).count();
+        println!("\nshards of the runs of {studies} {} (`run --shard I/{n}`; runs that share a content hash are one run; expected cost in seconds of one core of the reference machine, README \"Running on a cluster\"):", if studies == 1 { "study" } else { "studies" });
+        println!("{:<12} {:>8} {:>12} {:>14} {:>22}", "shard", "runs", "to compute", "expected [s]", "to compute, exp. [s]");
+        for (k, (runs, todo, cost, todo_cost)) in table.iter().enumerate() {
+            println!("{:<12} {runs:>8} {todo:>12} {cost:>14.1} {todo_cost:>22.1}", format!("{}/{n}", k + 1));
+        }
+        let total = |f: fn(&(usize, usize, f64, f64)) -> f64| table.iter().map(f).sum::<f64>();
+        println!("{:<12} {:>8} {:>12} {:>14.1} {:>22.1}", "all", total(|t| t.0 as f64), total(|t| t.1 as f64), total(|t| t.2), total(|t| t.3));
+    }
+    Ok(())
+}
+
+fn cmd_run_shard(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool, shard: crate::plan::shard::Shard) -> Result<()> {
+    let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
+    let opts = options(dirs, threads, force, quiet)?;
+    for plan in plans.iter().filter(|p| run::skipped(p)) {
+        let why = plan.maps.iter().find_map(|m| m.missing_data.as_ref()).map_or("", String::as_str);
+        eprintln!("{}: skipped: {why}", plan.id());
+    }
+    if plans.iter().all(run::skipped) {
+        bail!("every study was skipped (its data is absent); nothing was run");
+    }
+    let s = run::run_shard(&plans, shard, &opts).context("running the shard")?;
+    eprintln!(
+        "shard {shard}: {} runs (expected {:.0} s): {} computed, {} cached, {} failed or diverged → {} (no study results: `slamlab run` without --shard writes them once every shard is done)",
+        s.runs,
+        s.expected_s,
+        s.computed,
+        s.cached,
+        s.failed,
+        opts.cache_dir.display()
     );
+    Ok(())
+}
+
+fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::slurm::Resources, out: &Path, reports: &Path, submit: bool) -> Result<()> {
+    crate::slurm::validate(resources).map_err(anyhow::Error::msg)?;
+    let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
+    let opts = options(dirs, Some(1), false, true)?;
+    let owner = run::shards(&plans, resources.tasks);
+    let cache = store::Cache::new(&opts.cache_dir);
+    let mut load = vec![0.0f64; resources.tasks];
+    let mut seen = std::collections::BTreeSet::new();
+    let (mut runs, mut to_compute) = (0, 0);
+    for plan in plans.iter().filter(|p| !run::skipped(p)) {
+        runs += plan.runs.len();
+        for r in &plan.runs {
+            if seen.insert(r.hash.as_str()) {
+                load[owner[r.hash.as_str()] - 1] += crate::plan::cost::expected_s(plan, r);
+                to_compute += usize::from(!cache.contains(&r.hash));
+            }
+        }
+    }
+    let repo = std::env::current_dir().context("reading the working directory")?;
+    let absolute = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { repo.join(p) };
+    let text = |p: &Path| p.to_string_lossy().into_owned();
+    let out = absolute(out);
+    let logs = out.join("logs");
+    let runs_path = out.join("runs.sbatch");
+    let bin = std::env::current_exe().context("finding slamlab's own path")?;
+    // `report --specs`: the specs' folder when they share one (studies without results keep their report)
+    let folders: std::collections::BTreeSet<PathBuf> = specs.iter().map(|s| s.parent().unwrap_or(Path::new("")).to_path_buf()).collect();
+    let keep_specs = (folders.len() == 1).then(|| folders.into_iter().next().unwrap_or_default()).filter(|f| !f.as_os_str().is_empty()).map(|f| text(&f));
+    let job = crate::slurm::Job {
+        repo: text(&repo),
+        bin: text(&bin),
+        specs: specs.iter().map(|s| text(s)).collect(),
+        maps: text(&dirs.maps),
+        cache: text(&dirs.cache),
+        results: text(&dirs.results),
+        reports: Some(text(reports)),
+        keep_specs,
+        logs: text(&logs),
+        runs_script: text(&runs_path),
+    };
+    let summary = crate::slurm::Summary {
+        studies: plans.iter().filter(|p| !run::skipped(p)).map(|p| p.id().to_string()).collect(),
+        runs,
+        unique: seen.len(),
+        to_compute,
+        cost_total_s: load.iter().sum(),
+        cost_max_s: load.iter().copied().fold(0.0, f64::max),
+    };
+    let (runs_script, assemble_script) = crate::slurm::scripts(&job, resources, &summary).context("rendering the sbatch scripts")?;
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let assemble_path = out.join("assemble.sbatch");
+    for (path, body) in [(&runs_path, &runs_script), (&assemble_path, &assemble_script)] {
+        let tmp = path.with_extension("sbatch.tmp");
+        std::fs::write(&tmp, body).with_context(|| format!("writing {}", tmp.display()))?;
+        std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))?;
+    }
+    eprintln!(
+        "wrote {} ({} tasks; {} runs, {} distinct, {} to compute; expected {:.0} s in all, {:.0} s in the largest shard) and {}",
+        runs_path.display(),
+        resources.tasks,
+        summary.runs,
+        summary.unique,
+        summary.to_compute,
+        summary.cost_total_s,
+        summary.cost_max_s,
+        assemble_path.display()
+    );
+    if !submit {
+        eprintln!("submit with:\n  jobid=$(sbatch --parsable {}) && sbatch --dependency=afterok:${{jobid%%;*}} {}", crate::slurm::shell_quote(&text(&runs_path)), crate::slurm::shell_quote(&text(&assemble_path)));
+        return Ok(());
+    }
+    let sbatch = |args: &[&str]| -> Result<String> {
+        let output = std::process::Command::new("sbatch").arg("--parsable").args(args).output().context("starting sbatch (is Slurm installed here?)")?;
+        if !output.status.success() {
+            bail!("sbatch {} failed: {}", args.join(" "), String::from_utf8_lossy(&output.stderr).trim());
+        }
+        // --parsable prints `jobid` or `jobid;cluster`
+        let id = String::from_utf8_lossy(&output.stdout).trim().split(';').next().unwrap_or_default().to_string();
+        if id.is_empty() || !id.chars().all(|c| c.is_ascii_digit()) {
+            bail!("sbatch printed no job id: {:?}", String::from_utf8_lossy(&output.stdout));
+        }
+        Ok(id)
+    };
+    let runs_id = sbatch(&[&text(&runs_path)])?;
+    let assemble_id = sbatch(&[&format!("--dependency=afterok:{runs_id}"), &text(&assemble_path)])?;
+    println!("{runs_id} {assemble_id}");
+    eprintln!("submitted the runs as array job {runs_id} (tasks 1-{}) and the assembling job {assemble_id} (after all of them succeed); logs in {}", resources.tasks, logs.display());
     Ok(())
 }
 

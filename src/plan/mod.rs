@@ -14,6 +14,9 @@ use crate::world::WORLD_CODE_VERSION;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
+pub mod cost;
+pub mod shard;
+
 /// Version of the results schema (`runs.parquet`, `traces.parquet`): part of every content hash.
 pub const SCHEMA_VERSION: &str = "results-2";
 

@@ -157,7 +157,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         *multiplicity.entry(run.hash.as_str()).or_default() += 1;
     }
     // planned cost of each unique hash to compute: its compute time last time, else its
-    // algorithm's mean then, else 1 ms (then the estimate counts runs)
+    // algorithm's mean then, else the cost model's expectation
     let previous_ms: BTreeMap<String, f64> = store::read_timings(&dir).unwrap_or_default().into_iter().filter(|t| t.wall_ms.is_finite()).map(|t| (t.run_id, t.wall_ms)).collect();
     let mut by_algorithm: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
     for r in &plan.runs {
@@ -166,7 +166,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
             *e = (e.0 + ms, e.1 + 1);
         }
     }
-    let planned = |r: &RunSpec| previous_ms.get(&r.run_id).copied().or_else(|| by_algorithm.get(r.algorithm.name()).map(|(s, n)| s / *n as f64)).unwrap_or(1.0);
+    let planned = |r: &RunSpec| previous_ms.get(&r.run_id).copied().or_else(|| by_algorithm.get(r.algorithm.name()).map(|(s, n)| s / *n as f64)).unwrap_or_else(|| crate::plan::cost::expected_s(plan, r) * 1e3);
     let planned_cost: BTreeMap<&str, f64> = unique.iter().map(|&i| (plan.runs[i].hash.as_str(), planned(&plan.runs[i]))).collect();
     let to_compute_cost: f64 = unique.iter().filter(|&&i| reasons[i] != Reason::Cached).map(|&i| planned_cost[plan.runs[i].hash.as_str()]).sum();
     let mut progress = Progress::new(plan.id(), plan.runs.len(), to_compute, to_compute_cost, opts.progress);
@@ -200,20 +200,15 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
             store::Lookup::Absent => missing.push(i),
         }
     }
-    let (sender, results) = std::sync::mpsc::channel();
-    std::thread::scope(|scope| {
-        let (pool, missing) = (&pool, &missing);
-        scope.spawn(move || pool.install(|| missing.par_iter().for_each_with(sender, |sender, &i| sender.send((i, execute(plan, &plan.runs[i]))).expect("the receiver outlives the workers"))));
-        for (i, c) in results {
-            let run = &plan.runs[i];
-            // Replace whatever is there: forced, or an entry that could not be read. A cache that
-            // cannot be written only costs a recomputation next time.
-            if let Err(e) = cache.put(&run.hash, &c, true) {
-                progress.warn(&format!("cannot cache {}: {e}", run.run_id));
-            }
-            progress.finished(c.row.status, false, multiplicity[run.hash.as_str()], planned_cost[run.hash.as_str()]);
-            computed.insert(run.hash.as_str(), (c, false));
+    compute(plan, &missing, &pool, |i, c| {
+        let run = &plan.runs[i];
+        // Replace whatever is there: forced, or an entry that could not be read. A cache that
+        // cannot be written only costs a recomputation next time.
+        if let Err(e) = cache.put(&run.hash, &c, true) {
+            progress.warn(&format!("cannot cache {}: {e}", run.run_id));
         }
+        progress.finished(c.row.status, false, multiplicity[run.hash.as_str()], planned_cost[run.hash.as_str()]);
+        computed.insert(run.hash.as_str(), (c, false));
     });
     let outcomes: Vec<(CachedRun, bool)> = plan
         .runs
@@ -257,6 +252,81 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         &StudyOutput { runs: &rows, traces: &traces, landmarks: &landmarks, matches: &matches, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps, reference: plan.reference.as_deref(), diagnostics: diagnosed.then_some(diagnostics.as_ref()) },
     )?;
     Ok(StudySummary { study: plan.id().to_string(), dir, runs: rows.len(), computed: to_compute + corrupt, recomputed_corrupt: corrupt, failed, diverged })
+}
+
+/// Computes the runs `todo` (indices into `plan.runs`) on `pool`, calling `done` on this thread
+/// with each result as it arrives. Cache IO (Parquet, through polars' own thread pool) belongs in
+/// `done`, on this thread: a worker of ours waiting on polars would run further jobs of ours
+/// meanwhile, nesting without bound.
+fn compute(plan: &ExperimentPlan, todo: &[usize], pool: &rayon::ThreadPool, mut done: impl FnMut(usize, CachedRun)) {
+    let (sender, results) = std::sync::mpsc::channel();
+    std::thread::scope(|scope| {
+        scope.spawn(move || pool.install(|| todo.par_iter().for_each_with(sender, |sender, &i| sender.send((i, execute(plan, &plan.runs[i]))).expect("the receiver outlives the workers"))));
+        for (i, c) in results {
+            done(i, c);
+        }
+    });
+}
+
+/// What computing one shard did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShardSummary {
+    /// Distinct runs (content hashes) of the shard, and of those: computed now, found cached.
+    pub runs: usize,
+    pub computed: usize,
+    pub cached: usize,
+    pub failed: usize,
+    /// Expected cost [s] of the shard's runs (the partition's measure).
+    pub expected_s: f64,
+}
+
+/// The shard (1-based) of every distinct run of `plans`: the partition every task of an array
+/// computes alike (see [`crate::plan::shard`]).
+pub fn shards(plans: &[ExperimentPlan], count: usize) -> BTreeMap<&str, usize> {
+    let items = plans.iter().filter(|p| !skipped(p)).flat_map(|p| p.runs.iter().map(move |r| (r.hash.as_str(), crate::plan::cost::expected_s(p, r))));
+    crate::plan::shard::partition(items, count)
+}
+
+/// A study whose real data is absent on this machine (`run` skips it).
+pub fn skipped(plan: &ExperimentPlan) -> bool {
+    plan.maps.iter().any(|m| m.missing_data.is_some())
+}
+
+/// Computes shard `shard` of the runs of `plans` into the cache: the runs of that shard that are
+/// not cached yet (all of them with `force`). Writes no study results: once every shard is done,
+/// `run` without `--shard` finds every run cached and writes them.
+pub fn run_shard(plans: &[ExperimentPlan], shard: crate::plan::shard::Shard, opts: &RunOptions) -> Result<ShardSummary, RunError> {
+    let cache = Cache::new(&opts.cache_dir);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(opts.threads)
+        .build()
+        .map_err(|e| RunError::Threads { threads: opts.threads, message: e.to_string() })?;
+    let owner = shards(plans, shard.count);
+    let mut summary = ShardSummary { runs: 0, computed: 0, cached: 0, failed: 0, expected_s: 0.0 };
+    let mut seen = std::collections::BTreeSet::new();
+    for plan in plans.iter().filter(|p| !skipped(p)) {
+        let mine: Vec<usize> = (0..plan.runs.len()).filter(|&i| owner.get(plan.runs[i].hash.as_str()) == Some(&shard.index) && seen.insert(plan.runs[i].hash.as_str())).collect();
+        summary.runs += mine.len();
+        summary.expected_s += mine.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i])).sum::<f64>();
+        let todo: Vec<usize> = mine.iter().copied().filter(|&i| opts.force || !cache.contains(&plan.runs[i].hash)).collect();
+        summary.cached += mine.len() - todo.len();
+        if todo.is_empty() {
+            continue;
+        }
+        let cost: f64 = todo.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i]) * 1e3).sum();
+        let mut progress = Progress::new(&format!("{} (shard {shard})", plan.id()), todo.len(), todo.len(), cost, opts.progress);
+        compute(plan, &todo, &pool, |i, c| {
+            let run = &plan.runs[i];
+            if let Err(e) = cache.put(&run.hash, &c, true) {
+                progress.warn(&format!("cannot cache {}: {e}", run.run_id));
+            }
+            summary.computed += 1;
+            summary.failed += usize::from(c.row.status != RunStatus::Ok);
+            progress.finished(c.row.status, false, 1, crate::plan::cost::expected_s(plan, run) * 1e3);
+        });
+        progress.done();
+    }
+    Ok(summary)
 }
 
 /// Simulates one run; never panics outward: errors and panics become a failed row.

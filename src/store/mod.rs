@@ -730,7 +730,8 @@ pub fn write_dir_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<(), S
     let name = dir.file_name().ok_or_else(|| StoreError::format(dir, "not a directory name"))?.to_string_lossy().into_owned();
     std::fs::create_dir_all(parent).map_err(|e| StoreError::io(parent, e))?;
     remove_stale(parent, &name);
-    let unique = format!("{}-{}", std::process::id(), WRITE_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed));
+    // unique among the processes of every node writing to a shared filesystem (pids repeat across nodes)
+    let unique = format!("{}-{}-{}", host_tag(), std::process::id(), WRITE_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed));
     let tmp = parent.join(format!(".{name}.tmp-{unique}"));
     std::fs::create_dir(&tmp).map_err(|e| StoreError::io(&tmp, e))?;
     if let Err(e) = fill(&tmp) {
@@ -753,6 +754,16 @@ pub fn write_dir_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<(), S
     }
     let _ = std::fs::remove_dir_all(&tmp);
     Err(StoreError::io(dir, last_error.expect("at least one attempt")))
+}
+
+/// This machine's host name, reduced to `[A-Za-z0-9-]` (for temporary file names).
+fn host_tag() -> &'static str {
+    static TAG: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TAG.get_or_init(|| {
+        let name = std::fs::read_to_string("/proc/sys/kernel/hostname").ok().or_else(|| std::env::var("HOSTNAME").ok()).unwrap_or_default();
+        let tag: String = name.trim().chars().filter(|c| c.is_ascii_alphanumeric() || *c == '-').take(40).collect();
+        if tag.is_empty() { "host".to_string() } else { tag }
+    })
 }
 
 /// How often a directory swap is retried when concurrent writers race for it.

@@ -15,5 +15,6 @@ mod point_worlds;
 mod psm_reference;
 mod psm_samples;
 mod scan_matching;
+mod sharding;
 mod specs;
 mod util;

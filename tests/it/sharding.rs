@@ -1,0 +1,106 @@
+//! Contract: results assembled from shards (`run --shard I/N` for every I, then `run`) are
+//! byte-identical to a single-process run, whatever N; every run is computed by exactly one
+//! shard; and `plan --shards` shows the same partition.
+
+use crate::util::{ok, s, slamlab, tree};
+use std::path::Path;
+
+const SPECS: [&str; 2] = ["experiments/smoke.toml", "experiments/odometry-rate.toml"];
+
+/// Every file of the results except the machine-dependent timings, and every report file.
+fn outputs(work: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<(String, Vec<u8>)> = tree(&work.join("results")).into_iter().filter(|(name, _)| !name.contains("timings.")).map(|(n, b)| (format!("results/{n}"), b)).collect();
+    files.extend(tree(&work.join("reports")).into_iter().map(|(n, b)| (format!("reports/{n}"), b)));
+    files
+}
+
+fn finish(work: &Path) {
+    let (results, cache, reports) = (work.join("results"), work.join("cache"), work.join("reports"));
+    let mut args = vec!["run", "--quiet", "--results", s(&results), "--cache", s(&cache)];
+    args.extend(SPECS);
+    let out = ok(&args);
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(said.lines().filter(|l| l.contains(" runs (")).all(|l| l.contains("(0 computed")), "the shards left runs to compute:\n{said}");
+    ok(&["report", "--results", s(&results), "--out", s(&reports)]);
+}
+
+#[test]
+fn shards_assemble_to_the_single_process_results_whatever_n() {
+    let single = tempfile::tempdir().unwrap();
+    let (results, cache) = (single.path().join("results"), single.path().join("cache"));
+    let mut args = vec!["run", "--quiet", "--results", s(&results), "--cache", s(&cache)];
+    args.extend(SPECS);
+    ok(&args);
+    ok(&["report", "--results", s(&results), "--out", s(&single.path().join("reports"))]);
+    let expected = outputs(single.path());
+    assert!(expected.iter().any(|(n, _)| n.ends_with("runs.parquet")));
+
+    for n in [1usize, 3, 7] {
+        let work = tempfile::tempdir().unwrap();
+        let cache = work.path().join("cache");
+        let mut computed = 0;
+        for i in 1..=n {
+            let shard = format!("{i}/{n}");
+            let mut args = vec!["run", "--quiet", "--shard", &shard, "--cache", s(&cache), "--results", s(&work.path().join("results"))];
+            args.extend(SPECS);
+            let out = ok(&args);
+            let said = String::from_utf8_lossy(&out.stderr);
+            let line = said.lines().find(|l| l.starts_with(&format!("shard {shard}:"))).unwrap_or_else(|| panic!("no summary from shard {shard}:\n{said}"));
+            computed += line.split(" computed").next().and_then(|x| x.rsplit(' ').next()).and_then(|x| x.parse::<usize>().ok()).expect("a computed count");
+            assert!(!work.path().join("results").exists(), "shard {shard} wrote study results");
+        }
+        let distinct = std::fs::read_dir(&cache).unwrap().flatten().filter(|e| !e.file_name().to_string_lossy().starts_with('.')).count();
+        assert_eq!(computed, distinct, "N = {n}: the shards computed {computed} runs for {distinct} cache entries (a run computed twice, or none)");
+        finish(work.path());
+        let got = outputs(work.path());
+        assert_eq!(got.iter().map(|(n, _)| n).collect::<Vec<_>>(), expected.iter().map(|(n, _)| n).collect::<Vec<_>>(), "N = {n}: other files");
+        for ((name, a), (_, b)) in got.iter().zip(&expected) {
+            assert!(a == b, "N = {n}: {name} differs from the single-process run");
+        }
+    }
+}
+
+#[test]
+fn a_shard_resumes_where_a_killed_one_stopped() {
+    let work = tempfile::tempdir().unwrap();
+    let cache = work.path().join("cache");
+    let shard = |k: &str| {
+        let out = ok(&["run", "--quiet", "--shard", k, "--cache", s(&cache), SPECS[1]]);
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let first = shard("1/2");
+    assert!(!first.contains(" 0 computed"), "{first}");
+    // as if the task had been killed after writing some entries: remove half of them
+    let entries: Vec<_> = std::fs::read_dir(&cache).unwrap().flatten().map(|e| e.path()).collect();
+    for e in entries.iter().step_by(2) {
+        std::fs::remove_dir_all(e).unwrap();
+    }
+    let again = shard("1/2");
+    let expect = format!("{} computed, {} cached", entries.len().div_ceil(2), entries.len() / 2);
+    assert!(again.contains(&expect), "expected `{expect}`:\n{again}");
+    assert!(shard("1/2").contains(&format!("0 computed, {} cached", entries.len())));
+}
+
+#[test]
+fn plan_shows_each_runs_shard_and_the_cost_per_shard() {
+    let work = tempfile::tempdir().unwrap();
+    let out = ok(&["plan", "--dry-run", "--shards", "3", SPECS[0], SPECS[1], "--cache", s(&work.path().join("cache")), "--results", s(&work.path().join("results"))]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    let table: Vec<&str> = text.lines().skip_while(|l| !l.starts_with("shard ")).collect();
+    assert!(table.len() >= 5, "{text}");
+    let rows: Vec<Vec<&str>> = table[1..].iter().map(|l| l.split_whitespace().collect()).collect();
+    assert_eq!(rows.iter().map(|r| r[0]).collect::<Vec<_>>(), ["1/3", "2/3", "3/3", "all"]);
+    let runs: Vec<usize> = rows.iter().map(|r| r[1].parse().unwrap()).collect();
+    assert_eq!(runs[0] + runs[1] + runs[2], runs[3]);
+    let per_run = text.lines().filter(|l| l.starts_with("new ")).count();
+    assert!(per_run >= runs[3], "every run is listed with its shard:\n{text}");
+    // each shard's expected cost is within the LPT bound of the mean
+    let cost: Vec<f64> = rows.iter().map(|r| r[3].parse().unwrap()).collect();
+    assert!(cost[..3].iter().all(|&c| c > 0.0), "{text}");
+    // a bad N is refused
+    let bad = slamlab(&["plan", "--shards", "0", SPECS[0]]);
+    assert!(!bad.status.success());
+    let bad = slamlab(&["run", "--shard", "4/3", SPECS[0]]);
+    assert_eq!(bad.status.code(), Some(2), "clap refuses a bad --shard: {}", String::from_utf8_lossy(&bad.stderr));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("I must be between 1 and N = 3"));
+}
