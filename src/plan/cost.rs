@@ -3,7 +3,7 @@
 //!
 //! It never reads the cache, timings or the clock, so every task of a Slurm array computes the
 //! same partition. It does not need to be exact, only proportional enough to balance: a run's
-//! work is counted in a few terms — ray casting the world, extracting features, the filter's
+//! work is counted in a few terms — extracting features, the filter's
 //! updates, the scan matches — each from the spec's sizes (path length, laser rate and beams,
 //! particles, landmarks, matches, evaluations), and weighted by seconds per unit of work fitted
 //! to the compute times of every run of `make report` on the reference machine (one core of
@@ -16,39 +16,43 @@ use crate::world::WorldKind;
 /// Sizes of a run's work, in counts (not seconds).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Work {
-    /// Odometry steps.
+    /// Odometry steps (the other terms derive from them; no weight of its own).
     pub steps: f64,
-    /// Beams cast × walls (laser worlds) or steps × landmarks (point worlds).
-    pub world: f64,
     /// Beams of the scans whose features are extracted.
     pub extraction: f64,
-    /// Filter updates: scans × particles × landmarks (FastSLAM), scans × landmarks² (EKF).
+    /// Filter updates on laser features: scans × particles × landmarks (FastSLAM), scans ×
+    /// landmarks² (EKF).
     pub filter: f64,
+    /// The same on point-landmark readings (readings per step × particles × landmarks).
+    pub filter_points: f64,
     /// Matches × beams × (iterations or evaluations) of a scan matcher.
     pub matching: f64,
     /// Steps of a real log (read, not simulated).
     pub log_steps: f64,
 }
 
-/// Seconds per unit of each [`Work`] term, fitted by non-negative least squares to the compute
-/// times of the runs of `make report` (see the module doc; refit when an algorithm's speed
-/// changes a lot — balance, not results, depends on them).
+/// Seconds per unit of each [`Work`] term: non-negative least squares (rows weighted by
+/// 1/√time) over the 8 174 runs computed by `make report` from scratch on the reference machine
+/// (2-core AMD EPYC, the CI machine; measured 2026-11-25). Per algorithm the fit's total is within
+/// a factor 2.2 of the measured one for all but odometry (over-estimated: its runs take ~2 ms);
+/// the median run within a factor 1.45. Refit (README, "Running on a cluster") when an algorithm's
+/// speed changes a lot: balance, never a result, depends on these.
 pub mod seconds_per_unit {
-    pub const STEP: f64 = 2.0e-6;
-    pub const RAY_WALL: f64 = 1.0e-8;
-    pub const EXTRACTED_BEAM: f64 = 2.0e-7;
-    pub const FILTER: f64 = 2.0e-8;
-    pub const MATCHING: f64 = 1.0e-8;
-    pub const LOG_STEP: f64 = 2.0e-5;
-    /// Every run: planning its world, writing its results.
-    pub const RUN: f64 = 2.0e-3;
+    pub const EXTRACTED_BEAM: f64 = 9.8e-8;
+    pub const FILTER: f64 = 6.3e-8;
+    pub const FILTER_POINTS: f64 = 1.5e-8;
+    /// A beam of one evaluation of the scan-matching objective.
+    pub const MATCHING: f64 = 2.3e-8;
+    pub const LOG_STEP: f64 = 1.8e-6;
+    /// Every run: its world (ray casting fitted no weight of its own), metrics, caching.
+    pub const RUN: f64 = 1.0e-2;
 }
 
 impl Work {
     /// Expected seconds on one core of the reference machine.
     pub fn seconds(&self) -> f64 {
         use seconds_per_unit as s;
-        s::RUN + s::STEP * self.steps + s::RAY_WALL * self.world + s::EXTRACTED_BEAM * self.extraction + s::FILTER * self.filter + s::MATCHING * self.matching + s::LOG_STEP * self.log_steps
+        s::RUN + s::EXTRACTED_BEAM * self.extraction + s::FILTER * self.filter + s::FILTER_POINTS * self.filter_points + s::MATCHING * self.matching + s::LOG_STEP * self.log_steps
     }
 }
 
@@ -73,12 +77,6 @@ pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
     let landmarks = (map.lines.len() + map.corners.len() + map.point_landmarks.len()) as f64;
     let laser = &params.laser;
     let (scans, beams) = if sensors.laser { (duration_s * laser.rate_hz, (laser.fov_deg / laser.resolution_deg).floor() + 1.0) } else { (0.0, 0.0) };
-    if sensors.laser {
-        w.world = scans * beams * map.walls.len() as f64;
-    }
-    if sensors.landmarks {
-        w.world = w.steps * map.point_landmarks.len() as f64;
-    }
     let kind = map.world_kind();
     let updates = if kind == WorldKind::Laser { scans } else { w.steps * params.landmark_sensor.rate_hz * params.sim.dt_s };
     match run.algorithm {
@@ -94,7 +92,12 @@ pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
             };
             // FastSLAM 2.0 samples its proposal once per particle per observation: about twice 1.0
             let proposal = if run.algorithm == AlgorithmKind::Fastslam2 { 2.0 } else { 1.0 };
-            w.filter = updates * particles * landmarks.max(1.0) * proposal;
+            let filter = updates * particles * landmarks.max(1.0) * proposal;
+            if kind == WorldKind::Laser {
+                w.filter = filter;
+            } else {
+                w.filter_points = filter;
+            }
         }
         a => {
             let sm = &params.scan_matching;
@@ -103,18 +106,35 @@ pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
             if sm.max_matches > 0 {
                 matches = matches.min(f64::from(sm.max_matches));
             }
-            // evaluations of the objective per match (each over all beams)
+            // evaluations of the objective per match (each over all beams): the means measured in
+            // the [EP] studies (matches.parquet), bounded by the budget where one applies
+            let maxeval = f64::from(params.pose_search.maxeval.max(1));
             let evaluations = match a {
-                AlgorithmKind::Psm | AlgorithmKind::PsmOriginal => f64::from(params.psm.max_iter.min(30)),
-                AlgorithmKind::Epsm => f64::from(params.epsm.max_iter.max(1)) * 20.0,
+                AlgorithmKind::Psm | AlgorithmKind::PsmOriginal => 12.0,
+                AlgorithmKind::Epsm => 670.0,
                 AlgorithmKind::BruteForce => {
-                    let side = 2.0 * params.brute_force.half_window_m / params.brute_force.step_m.max(1e-6) + 1.0;
+                    let side = 2.0 * (params.brute_force.half_window_m / params.brute_force.step_m.max(1e-6)).round() + 1.0;
+                    // E-PSM's orientation search at a cell: ≈ 121 evaluations
                     match params.brute_force.mode {
-                        crate::scanmatch::brute::BruteForceMode::Nested => side * side,
-                        crate::scanmatch::brute::BruteForceMode::Descent => f64::from(params.brute_force.max_moves).min(side * side) * 8.0,
+                        crate::scanmatch::brute::BruteForceMode::Nested => side * side * 121.0,
+                        crate::scanmatch::brute::BruteForceMode::Descent => side * side + f64::from(params.brute_force.max_moves).min(20.0) * 8.0 * 121.0,
                     }
                 }
-                _ => f64::from(params.pose_search.maxeval.max(1)),
+                AlgorithmKind::PoseSearch(o) => {
+                    use crate::scanmatch::search::Optimizer as O;
+                    match o {
+                        O::DirectL | O::Isres => maxeval,
+                        O::MlslLds => 4.0 * maxeval,
+                        O::Crs2 => maxeval.min(960.0),
+                        O::Bobyqa => 32.0,
+                        O::Cobyla => 46.0,
+                        O::Slsqp => 75.0,
+                        O::Lbfgs | O::Var2 => 90.0,
+                        O::Tnewton => 127.0,
+                        O::Sbplx => 154.0,
+                    }
+                }
+                _ => 12.0,
             };
             w.extraction = matches * beams;
             w.matching = matches * beams * evaluations;
@@ -126,4 +146,38 @@ pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
 /// Expected seconds of `run` on one core of the reference machine.
 pub fn expected_s(plan: &ExperimentPlan, run: &RunSpec) -> f64 {
     work(plan, run).seconds()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(spec: &str) -> ExperimentPlan {
+        crate::plan::build(crate::spec::load(std::path::Path::new(spec)).expect("spec loads"), std::path::Path::new("data/maps")).expect("spec plans")
+    }
+
+    /// The cost of the run of `plan` on `map` at the point whose label contains `point`.
+    fn cost(plan: &ExperimentPlan, map: &str, point: &str, algorithm: &str) -> f64 {
+        let r = plan.runs.iter().find(|r| plan.maps[r.map].name == map && plan.points[r.point].label.contains(point) && r.algorithm.name() == algorithm && r.replicate == 0).expect("such a run");
+        expected_s(plan, r)
+    }
+
+    #[test]
+    fn more_particles_and_longer_paths_cost_more() {
+        let p = plan("experiments/ft-particles.toml");
+        let (few, many) = (cost(&p, "bigloop2", "particles=5", "fastslam1"), cost(&p, "bigloop2", "particles=500", "fastslam1"));
+        // measured: 2.35 s against 0.136 s (17×)
+        assert!(many > 10.0 * few, "500 particles {many} s against 5: {few} s");
+        // Complex's route (285 m) is longer than Recinto básico's
+        assert!(cost(&p, "complex", "particles=100", "fastslam1") > cost(&p, "recinto_basico", "particles=100", "fastslam1"));
+    }
+
+    #[test]
+    fn the_exhaustive_brute_force_dwarfs_e_psm_and_psm() {
+        let p = plan("experiments/ep-cost.toml");
+        let (psm, epsm, brute) = (cost(&p, "ep_rect_column", "none", "psm"), cost(&p, "ep_rect_column", "none", "epsm"), cost(&p, "ep_rect_column", "none", "brute_force"));
+        assert!(psm < epsm && 100.0 * epsm < brute, "psm {psm}, epsm {epsm}, brute force {brute}");
+        // measured here: about 45 s per run (10 matches of 6 561 cells × 121 evaluations)
+        assert!((10.0..200.0).contains(&brute), "{brute}");
+    }
 }

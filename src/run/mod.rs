@@ -6,6 +6,7 @@
 pub mod diagnostics;
 pub mod progress;
 pub mod provenance;
+pub mod worlds;
 
 use crate::metrics;
 use crate::plan::{ExperimentPlan, RunSpec, SCHEMA_VERSION};
@@ -18,7 +19,6 @@ use progress::Progress;
 pub use provenance::Provenance;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -200,7 +200,7 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
             store::Lookup::Absent => missing.push(i),
         }
     }
-    compute(plan, &missing, &pool, |i, c| {
+    compute(plan, &missing, &|i| planned_cost[plan.runs[i].hash.as_str()], &pool, |i, c| {
         let run = &plan.runs[i];
         // Replace whatever is there: forced, or an entry that could not be read. A cache that
         // cannot be written only costs a recomputation next time.
@@ -255,17 +255,52 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
 }
 
 /// Computes the runs `todo` (indices into `plan.runs`) on `pool`, calling `done` on this thread
-/// with each result as it arrives. Cache IO (Parquet, through polars' own thread pool) belongs in
+/// with each result as it arrives. The runs are taken in decreasing expected cost (`cost`), each
+/// worker taking the next when it is free (Graham's longest-processing-time list schedule): the
+/// last runs to finish are short ones, so no core idles long at a study's end. The order
+/// changes nothing computed. Cache IO (Parquet, through polars' own thread pool) belongs in
 /// `done`, on this thread: a worker of ours waiting on polars would run further jobs of ours
 /// meanwhile, nesting without bound.
-fn compute(plan: &ExperimentPlan, todo: &[usize], pool: &rayon::ThreadPool, mut done: impl FnMut(usize, CachedRun)) {
+fn compute(plan: &ExperimentPlan, todo: &[usize], cost: &dyn Fn(usize) -> f64, pool: &rayon::ThreadPool, mut done: impl FnMut(usize, CachedRun)) {
+    let order = schedule(plan, todo, cost);
+    let worlds = worlds::Worlds::new(plan, todo);
+    let next = std::sync::atomic::AtomicUsize::new(0);
     let (sender, results) = std::sync::mpsc::channel();
     std::thread::scope(|scope| {
-        scope.spawn(move || pool.install(|| todo.par_iter().for_each_with(sender, |sender, &i| sender.send((i, execute(plan, &plan.runs[i]))).expect("the receiver outlives the workers"))));
+        let (order, next, worlds) = (&order, &next, &worlds);
+        scope.spawn(move || {
+            pool.broadcast(|_| {
+                let sender = sender.clone();
+                loop {
+                    let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(&i) = order.get(k) else { break };
+                    let run = &plan.runs[i];
+                    sender.send((i, execute_with(plan, run, || worlds.take(run)))).expect("the receiver outlives the workers");
+                }
+            });
+            drop(sender);
+        });
         for (i, c) in results {
             done(i, c);
         }
     });
+}
+
+/// The order runs are started in: the runs sharing a world one after another (so that a world
+/// lives only while its runs compute), those groups in decreasing cost of their dearest run, and
+/// the runs of a group in decreasing cost; ties by index.
+pub fn schedule(plan: &ExperimentPlan, todo: &[usize], cost: &dyn Fn(usize) -> f64) -> Vec<usize> {
+    let mut groups: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for &i in todo {
+        groups.entry(worlds::key(plan, &plan.runs[i])).or_default().push(i);
+    }
+    let by_cost = |a: &usize, b: &usize| cost(*b).total_cmp(&cost(*a)).then(a.cmp(b));
+    let mut groups: Vec<Vec<usize>> = groups.into_values().collect();
+    for g in &mut groups {
+        g.sort_by(by_cost);
+    }
+    groups.sort_by(|a, b| by_cost(&a[0], &b[0]));
+    groups.concat()
 }
 
 /// What computing one shard did.
@@ -315,7 +350,7 @@ pub fn run_shard(plans: &[ExperimentPlan], shard: crate::plan::shard::Shard, opt
         }
         let cost: f64 = todo.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i]) * 1e3).sum();
         let mut progress = Progress::new(&format!("{} (shard {shard})", plan.id()), todo.len(), todo.len(), cost, opts.progress);
-        compute(plan, &todo, &pool, |i, c| {
+        compute(plan, &todo, &|i| crate::plan::cost::expected_s(plan, &plan.runs[i]), &pool, |i, c| {
             let run = &plan.runs[i];
             if let Err(e) = cache.put(&run.hash, &c, true) {
                 progress.warn(&format!("cannot cache {}: {e}", run.run_id));
@@ -331,8 +366,13 @@ pub fn run_shard(plans: &[ExperimentPlan], shard: crate::plan::shard::Shard, opt
 
 /// Simulates one run; never panics outward: errors and panics become a failed row.
 pub fn execute(plan: &ExperimentPlan, run: &RunSpec) -> CachedRun {
+    execute_with(plan, run, || worlds::alone(plan, run))
+}
+
+/// [`execute`] with the run's world from `world` (shared with other runs, see [`worlds`]).
+pub fn execute_with(plan: &ExperimentPlan, run: &RunSpec, world: impl FnOnce() -> worlds::Shared) -> CachedRun {
     let start = Instant::now();
-    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| simulate(plan, run)));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| simulate(plan, run, world)));
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut row = base_row(plan, run);
     let no_map = || RunLandmarks { run_id: run.run_id.clone(), landmarks: Vec::new() };
@@ -406,31 +446,33 @@ pub fn world_of(plan: &ExperimentPlan, run: &RunSpec) -> Result<world::World, Si
 
 /// World → algorithm → metrics. Returns the trace, the final map, the metrics, and whether the
 /// estimate diverged.
-fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandmarks, MatchRows, metrics::RunMetrics, bool), String> {
+fn simulate(plan: &ExperimentPlan, run: &RunSpec, world: impl FnOnce() -> worlds::Shared) -> Result<(TraceRows, RunLandmarks, MatchRows, metrics::RunMetrics, bool), String> {
+    let shared = world()?;
     (|| -> Result<_, SimError> {
         let params = &plan.points[run.point].params;
         let kind = plan.maps[run.map].map.world_kind();
-        let mut world = world_of(plan, run)?;
         let mut filter_rng = ChaCha8Rng::seed_from_u64(run.filter_seed);
-        let trace = if run.algorithm.is_scan_matcher() {
+        let (trace, cut) = if run.algorithm.is_scan_matcher() {
             let start = Instant::now();
             let mut clock = || start.elapsed().as_secs_f64();
-            let tracked = crate::scanmatch::track::track(&world, scan_matcher(run.algorithm, params), &params.scan_matching, run.filter_seed, &mut clock)?;
-            // The metrics cover the steps up to the last match.
-            world.truth.truncate(tracked.steps);
-            world.odometry.truncate(tracked.steps.saturating_sub(1));
-            tracked.trace
+            let tracked = crate::scanmatch::track::track(&shared.world, scan_matcher(run.algorithm, params), &params.scan_matching, run.filter_seed, &mut clock)?;
+            // The metrics cover the steps up to the last match: a copy of the world cut there.
+            let mut cut = shared.world.clone();
+            cut.truth.truncate(tracked.steps);
+            cut.odometry.truncate(tracked.steps.saturating_sub(1));
+            (tracked.trace, Some(cut))
         } else {
-            run_algorithm(run.algorithm, &world, params, kind, &mut filter_rng)?
+            (run_algorithm(run.algorithm, &shared, params, kind, &mut filter_rng)?, None)
         };
-        let mut metrics = metrics::compute(&world, &trace);
+        let world: &world::World = cut.as_ref().unwrap_or(&shared.world);
+        let mut metrics = metrics::compute(world, &trace);
         // a scan matcher's incremental map against the walls of a simulated map
         let map = &plan.maps[run.map].map;
         if !trace.matches.is_empty() && map.dataset.is_none() && !map.walls.is_empty() {
             let mut steps = crate::scanmatch::track::matched_steps(&trace.matches);
             steps.sort_unstable();
             steps.dedup();
-            metrics.push((metrics::MAP_WALL_RMS, metrics::map_wall_rms(&world, &trace.estimate, &steps, &map.walls)));
+            metrics.push((metrics::MAP_WALL_RMS, metrics::map_wall_rms(world, &trace.estimate, &steps, &map.walls)));
         }
         let diverged = trace.estimate.iter().any(|p| !p.is_finite());
         let landmarks = RunLandmarks {
@@ -447,7 +489,7 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec) -> Result<(TraceRows, RunLandm
                 .collect(),
         };
         let matches = MatchRows { run_id: run.run_id.clone(), matches: trace.matches };
-        let rows = TraceRows { run_id: run.run_id.clone(), dt_s: world.dt_s, truth: world.truth, estimate: trace.estimate, neff: trace.neff };
+        let rows = TraceRows { run_id: run.run_id.clone(), dt_s: world.dt_s, truth: world.truth.clone(), estimate: trace.estimate, neff: trace.neff };
         Ok((rows, landmarks, matches, metrics, diverged))
     })()
     .map_err(|e| e.to_string())
@@ -467,24 +509,27 @@ pub fn scan_matcher(algorithm: AlgorithmKind, params: &crate::spec::Params) -> c
 
 /// The one place that maps an algorithm name to its implementation and its parameters: which
 /// observations it reads (laser features or point landmarks) follows the world's kind.
-fn run_algorithm(algorithm: AlgorithmKind, world: &world::World, params: &crate::spec::Params, kind: WorldKind, filter_rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+fn run_algorithm(algorithm: AlgorithmKind, shared: &worlds::SharedWorld, params: &crate::spec::Params, kind: WorldKind, filter_rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
     use slam::observations::{stream, Source};
+    let world = &shared.world;
     let fastslam_line_r = || nalgebra::Matrix2::new(params.fastslam.obs_var_rho_m2, 0.0, 0.0, params.fastslam.obs_var_theta_rad2);
-    let laser = kind == WorldKind::Laser;
+    // the scans' features, extracted once per world and `[features]` (see `worlds`)
+    let laser = |line_r| -> Result<_, SlamError> { stream(world, Source::Extracted { features: &shared.features(&params.features)?, line_r }) };
+    let is_laser = kind == WorldKind::Laser;
     match (algorithm, kind) {
         (AlgorithmKind::Odometry, _) => Ok(slam::odometry::run(world)),
         (AlgorithmKind::Psm | AlgorithmKind::PsmOriginal | AlgorithmKind::Epsm | AlgorithmKind::BruteForce | AlgorithmKind::PoseSearch(_), _) => unreachable!("scan matchers run through scanmatch::track"),
-        (AlgorithmKind::OdometryMap, WorldKind::Laser) => slam::odometry::run_with_map(world, &params.fastslam, &params.features, filter_rng),
+        (AlgorithmKind::OdometryMap, WorldKind::Laser) => slam::odometry::run_with_map_on(world, &params.fastslam, &laser(fastslam_line_r())?, filter_rng),
         (AlgorithmKind::OdometryMap, WorldKind::Points) => slam::odometry::run_with_point_map(world, &params.fastslam, &stream(world, Source::Points)?, filter_rng),
-        (AlgorithmKind::Fastslam1, WorldKind::Laser) => slam::fastslam::run(world, &params.fastslam, &params.features, filter_rng),
+        (AlgorithmKind::Fastslam1, WorldKind::Laser) => slam::fastslam::run_on(world, &params.fastslam, None, &laser(fastslam_line_r())?, true, filter_rng),
         (AlgorithmKind::Fastslam1, WorldKind::Points) => slam::fastslam::run_on(world, &params.fastslam, Some(&params.motion_model), &stream(world, Source::Points)?, false, filter_rng),
         (AlgorithmKind::Fastslam2, _) => {
-            let source = if laser { Source::LaserFeatures { features: &params.features, line_r: fastslam_line_r() } } else { Source::Points };
-            slam::fastslam2::run(world, &params.fastslam, &params.motion_model, &stream(world, source)?, laser, filter_rng)
+            let observations = if is_laser { laser(fastslam_line_r())? } else { stream(world, Source::Points)? };
+            slam::fastslam2::run(world, &params.fastslam, &params.motion_model, &observations, is_laser, filter_rng)
         }
         (AlgorithmKind::EkfSlam, _) => {
-            let source = if laser { Source::LaserFeatures { features: &params.features, line_r: params.ekf.laser_covariance() } } else { Source::Points };
-            slam::ekf::run(world, &params.motion_model, &params.ekf, &stream(world, source)?, laser)
+            let observations = if is_laser { laser(params.ekf.laser_covariance())? } else { stream(world, Source::Points)? };
+            slam::ekf::run(world, &params.motion_model, &params.ekf, &observations, is_laser)
         }
     }
 }

@@ -113,16 +113,27 @@ pub enum Source<'a> {
     /// Laser scans → line and corner features; R = `line_r` for lines (ρ, θ) and for corners
     /// (range, bearing) ([FT]'s single laser covariance).
     LaserFeatures { features: &'a FeatureParams, line_r: Matrix2<f64> },
+    /// The features of every laser scan, already extracted ([`extract_all`]), in scan order.
+    Extracted { features: &'a [ScanFeatures], line_r: Matrix2<f64> },
     /// The point-landmark sensor with its stated noise model.
     Points,
+}
+
+/// The features of every laser scan of `world`, in scan order ([FT] Ch. 4).
+pub fn extract_all(world: &World, params: &FeatureParams) -> Result<Vec<ScanFeatures>, SlamError> {
+    let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
+    Ok(world.scans.iter().map(|scan| features::extract(scan, &geometry, params)).collect())
 }
 
 /// Every step's observations, in step order (steps without a reading are absent).
 pub fn stream(world: &World, source: Source<'_>) -> Result<Vec<StepObservations>, SlamError> {
     match source {
-        Source::LaserFeatures { features: params, line_r } => {
-            let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
-            Ok(world.scans.iter().map(|scan| StepObservations { step: scan.step, observations: from_features(&features::extract(scan, &geometry, params), line_r) }).collect())
+        Source::LaserFeatures { features: params, line_r } => stream(world, Source::Extracted { features: &extract_all(world, params)?, line_r }),
+        Source::Extracted { features, line_r } => {
+            if features.len() != world.scans.len() {
+                return Err(SlamError::MissingSensor("laser"));
+            }
+            Ok(world.scans.iter().zip(features).map(|(scan, f)| StepObservations { step: scan.step, observations: from_features(f, line_r) }).collect())
         }
         Source::Points => {
             let noise = world.point_noise.ok_or(SlamError::MissingSensor("landmark sensor"))?;

@@ -22,6 +22,12 @@ pub fn run(world: &World) -> Trace {
 /// The odometry map: FastSLAM's mapping (extraction, ML association, landmark EKFs) along the
 /// dead-reckoned path — one particle, no motion noise, so its pose is exactly the odometry.
 pub fn run_with_map(world: &World, fastslam: &super::fastslam::FastSlamParams, features: &crate::features::FeatureParams, rng: &mut rand_chacha::ChaCha8Rng) -> Result<Trace, super::SlamError> {
+    let line_r = nalgebra::Matrix2::new(fastslam.obs_var_rho_m2, 0.0, 0.0, fastslam.obs_var_theta_rad2);
+    run_with_map_on(world, fastslam, &super::observations::stream(world, super::observations::Source::LaserFeatures { features, line_r })?, rng)
+}
+
+/// [`run_with_map`] on an observation stream of laser features.
+pub fn run_with_map_on(world: &World, fastslam: &super::fastslam::FastSlamParams, observations: &[super::observations::StepObservations], rng: &mut rand_chacha::ChaCha8Rng) -> Result<Trace, super::SlamError> {
     let params = super::fastslam::FastSlamParams {
         particles: 1,
         motion_x: 0.0,
@@ -29,7 +35,7 @@ pub fn run_with_map(world: &World, fastslam: &super::fastslam::FastSlamParams, f
         motion_theta: 0.0,
         ..fastslam.clone()
     };
-    super::fastslam::run(world, &params, features, rng)
+    super::fastslam::run_on(world, &params, None, observations, true, rng)
 }
 
 /// The odometry map of a point-landmark world: one particle driven by the odometry alone.

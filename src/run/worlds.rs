@@ -1,0 +1,123 @@
+//! Worlds shared by the runs that see the same one. A run's world depends on its map, its world
+//! seed and the parameters world generation reads (`sim`, `odometry`, and the sections of the
+//! sensors its algorithm uses) — not on the swept filter parameters (particles, P0, Neff, the
+//! filters' noise models) nor on the algorithm beyond its sensors. So every particle count, P0
+//! or Neff point of a study, and every algorithm with the same sensors, sees the same world for
+//! a given map and replicate: it is generated (or a dataset read) once, and dropped when the last
+//! run that needs it has finished. Likewise the features extracted from its laser scans: every
+//! run on that world with the same `[features]` parameters uses one extraction.
+
+use super::{world_of, SimError};
+use crate::features::{FeatureParams, ScanFeatures};
+use crate::plan::{ExperimentPlan, RunSpec};
+use crate::slam::SlamError;
+use crate::world::World;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// A world, or why it could not be made (the message of its [`SimError`]).
+pub type Shared = Result<Arc<SharedWorld>, String>;
+
+/// A world and what has been extracted from it.
+pub struct SharedWorld {
+    pub world: World,
+    /// Features of every scan, per `[features]` parameters (as JSON).
+    extracted: Mutex<HashMap<String, Arc<OnceLock<Arc<Vec<ScanFeatures>>>>>>,
+}
+
+impl SharedWorld {
+    pub fn new(world: World) -> Self {
+        Self { world, extracted: Mutex::new(HashMap::new()) }
+    }
+
+    /// The features of every laser scan with `params`, extracted by the first run that asks.
+    pub fn features(&self, params: &FeatureParams) -> Result<Arc<Vec<ScanFeatures>>, SlamError> {
+        if self.world.laser.is_none() {
+            return Err(SlamError::MissingSensor("laser"));
+        }
+        let cell = Arc::clone(self.extracted.lock().unwrap_or_else(|e| e.into_inner()).entry(erased::Json::json(params)).or_default());
+        Ok(Arc::clone(cell.get_or_init(|| Arc::new(crate::slam::observations::extract_all(&self.world, params).expect("the world has a laser")))))
+    }
+}
+
+/// A run's world on its own (not shared).
+pub fn alone(plan: &ExperimentPlan, run: &RunSpec) -> Shared {
+    world_of(plan, run).map(|w| Arc::new(SharedWorld::new(w))).map_err(|e: SimError| e.to_string())
+}
+
+struct Slot {
+    world: Arc<OnceLock<Shared>>,
+    /// Runs still to take it.
+    users: usize,
+}
+
+/// The worlds of one batch of runs.
+pub struct Worlds<'p> {
+    plan: &'p ExperimentPlan,
+    slots: Mutex<HashMap<String, Slot>>,
+}
+
+/// Everything [`world_of`] reads for `run`, as a string: equal keys, equal worlds.
+pub fn key(plan: &ExperimentPlan, run: &RunSpec) -> String {
+    let params = &plan.points[run.point].params;
+    let map = &plan.maps[run.map].map;
+    let sensors = run.algorithm.sensors(map.world_kind());
+    let json = |v: &dyn erased::Json| v.json();
+    format!(
+        "{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}",
+        run.map,
+        run.world_seed,
+        json(&params.sim),
+        json(&params.odometry),
+        if sensors.laser { json(&params.laser) } else { String::new() },
+        if sensors.landmarks { json(&params.landmark_sensor) } else { String::new() },
+    )
+}
+
+/// `serde_json::to_string` behind a trait object (for the key's sections of different types).
+mod erased {
+    pub trait Json {
+        fn json(&self) -> String;
+    }
+    impl<T: serde::Serialize> Json for T {
+        fn json(&self) -> String {
+            serde_json::to_string(self).expect("parameters serialise")
+        }
+    }
+}
+
+impl<'p> Worlds<'p> {
+    /// The worlds the runs `todo` (indices into `plan.runs`) need, none made yet.
+    pub fn new(plan: &'p ExperimentPlan, todo: &[usize]) -> Self {
+        let mut slots: HashMap<String, Slot> = HashMap::new();
+        for &i in todo {
+            slots.entry(key(plan, &plan.runs[i])).or_insert_with(|| Slot { world: Arc::new(OnceLock::new()), users: 0 }).users += 1;
+        }
+        Self { plan, slots: Mutex::new(slots) }
+    }
+
+    /// The world of `run`, made by the first run that asks (the others asking meanwhile wait for
+    /// it). Each run of the batch takes its world exactly once; after the last one, it is freed.
+    pub fn take(&self, run: &RunSpec) -> Shared {
+        let key = key(self.plan, run);
+        let cell = {
+            let mut slots = self.slots.lock().unwrap_or_else(|e| e.into_inner());
+            let Some(slot) = slots.get_mut(&key) else {
+                // not planned in this batch: make it on its own
+                return alone(self.plan, run);
+            };
+            slot.users -= 1;
+            let cell = Arc::clone(&slot.world);
+            if slot.users == 0 {
+                slots.remove(&key);
+            }
+            cell
+        };
+        cell.get_or_init(|| alone(self.plan, run)).clone()
+    }
+
+    /// Worlds still held (for tests).
+    pub fn held(&self) -> usize {
+        self.slots.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+}
