@@ -233,7 +233,7 @@ fn dispatch(command: Command) -> Result<()> {
         Command::Run { specs, dirs, threads, force, quiet, shard: None } => cmd_run(&specs, &dirs, threads, force, quiet),
         Command::Run { specs, dirs, threads, force, quiet, shard: Some(shard) } => cmd_run_shard(&specs, &dirs, threads, force, quiet, shard),
         Command::Slurm { specs, dirs, tasks, cpus, mem, time, partition, out, reports, submit } => {
-            let resources = crate::slurm::Resources { tasks, cpus, mem, time, partition };
+            let resources = crate::report::slurm::Resources { tasks, cpus, mem, time, partition };
             cmd_slurm(&specs, &dirs, &resources, &out, &reports, submit)
         }
         Command::Report { results, out, specs, published, prune } => {
@@ -478,8 +478,8 @@ fn cmd_run_shard(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: 
     Ok(())
 }
 
-fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::slurm::Resources, out: &Path, reports: &Path, submit: bool) -> Result<()> {
-    crate::slurm::validate(resources).map_err(anyhow::Error::msg)?;
+fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::report::slurm::Resources, out: &Path, reports: &Path, submit: bool) -> Result<()> {
+    crate::report::slurm::validate(resources).map_err(anyhow::Error::msg)?;
     let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
     let opts = options(dirs, Some(1), false, true)?;
     let owner = run::shards(&plans, resources.tasks);
@@ -506,7 +506,7 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::slurm::Resources
     // `report --specs`: the specs' folder when they share one (studies without results keep their report)
     let folders: std::collections::BTreeSet<PathBuf> = specs.iter().map(|s| s.parent().unwrap_or(Path::new("")).to_path_buf()).collect();
     let keep_specs = (folders.len() == 1).then(|| folders.into_iter().next().unwrap_or_default()).filter(|f| !f.as_os_str().is_empty()).map(|f| text(&f));
-    let job = crate::slurm::Job {
+    let job = crate::report::slurm::Job {
         repo: text(&repo),
         bin: text(&bin),
         specs: specs.iter().map(|s| text(s)).collect(),
@@ -518,7 +518,7 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::slurm::Resources
         logs: text(&logs),
         runs_script: text(&runs_path),
     };
-    let summary = crate::slurm::Summary {
+    let summary = crate::report::slurm::Summary {
         studies: plans.iter().filter(|p| !run::skipped(p)).map(|p| p.id().to_string()).collect(),
         runs,
         unique: seen.len(),
@@ -526,7 +526,7 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::slurm::Resources
         cost_total_s: load.iter().sum(),
         cost_max_s: load.iter().copied().fold(0.0, f64::max),
     };
-    let (runs_script, assemble_script) = crate::slurm::scripts(&job, resources, &summary).context("rendering the sbatch scripts")?;
+    let (runs_script, assemble_script) = crate::report::slurm::scripts(&job, resources, &summary).context("rendering the sbatch scripts")?;
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let assemble_path = out.join("assemble.sbatch");
     for (path, body) in [(&runs_path, &runs_script), (&assemble_path, &assemble_script)] {
@@ -546,7 +546,7 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::slurm::Resources
         assemble_path.display()
     );
     if !submit {
-        eprintln!("submit with:\n  jobid=$(sbatch --parsable {}) && sbatch --dependency=afterok:${{jobid%%;*}} {}", crate::slurm::shell_quote(&text(&runs_path)), crate::slurm::shell_quote(&text(&assemble_path)));
+        eprintln!("submit with:\n  jobid=$(sbatch --parsable {}) && sbatch --dependency=afterok:${{jobid%%;*}} {}", crate::report::slurm::shell_quote(&text(&runs_path)), crate::report::slurm::shell_quote(&text(&assemble_path)));
         return Ok(());
     }
     let sbatch = |args: &[&str]| -> Result<String> {

@@ -20,7 +20,6 @@ pub mod report;
 pub mod run;
 pub mod scanmatch;
 pub mod slam;
-pub mod slurm;
 pub mod source;
 pub mod spec;
 pub mod stats;

@@ -9,6 +9,7 @@ pub mod fidelity;
 pub mod figure;
 pub mod latex;
 pub mod pgf;
+pub mod slurm;
 pub mod timings;
 pub mod view;
 

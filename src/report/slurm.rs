@@ -1,4 +1,4 @@
-//! `slamlab slurm`: the two sbatch scripts that run studies on a Slurm cluster — a job array whose
+//! `slamlab slurm`: renders the two sbatch scripts that run studies on a Slurm cluster — a job array whose
 //! task I runs `slamlab run --shard I/N` into the shared cache, and an assembling job that
 //! depends on it (`afterok`) and writes the results and reports. The scripts are rendered from
 //! `templates/slurm-*.sbatch.j2`; this module only fills them (no IO).
@@ -7,9 +7,9 @@ use minijinja::{context, Environment, UndefinedBehavior};
 use serde::Serialize;
 
 /// The runs script's template (task I runs shard I/N).
-pub const RUNS_TEMPLATE: &str = include_str!("../templates/slurm-runs.sbatch.j2");
+pub const RUNS_TEMPLATE: &str = include_str!("../../templates/slurm-runs.sbatch.j2");
 /// The assembling job's template.
-pub const ASSEMBLE_TEMPLATE: &str = include_str!("../templates/slurm-assemble.sbatch.j2");
+pub const ASSEMBLE_TEMPLATE: &str = include_str!("../../templates/slurm-assemble.sbatch.j2");
 
 /// The resources each job asks for.
 #[derive(Debug, Clone, PartialEq, Serialize)]
