@@ -39,7 +39,7 @@ cleanup() {
   done
   if [ "$status" -ne 0 ]; then
     echo "test-slurm: FAILED; the cluster's logs:" >&2
-    tail -n 30 "$work"/*.log "$work"/slurm/logs/* 2>/dev/null >&2 || true
+    tail -n 30 "$work"/*.log "$work"/*.out "$work"/slurm/logs/* 2>/dev/null >&2 || true
   fi
   rm -rf "$work"
 }
@@ -68,7 +68,8 @@ chmod 700 "$work/munge"
 head -c 1024 /dev/urandom > "$work/munge/munge.key"
 chmod 400 "$work/munge/munge.key"
 munged --foreground --force --key-file="$work/munge/munge.key" --socket="$work/munge/munge.socket" \
-  --pid-file="$work/munge/munged.pid" --log-file="$work/munged.log" --seed-file="$work/munge/munged.seed" &
+  --pid-file="$work/munge/munged.pid" --log-file="$work/munged.log" --seed-file="$work/munge/munged.seed" \
+  >"$work/munged.out" 2>&1 &
 pids+=($!)
 wait_for 30 munged test -S "$work/munge/munge.socket"
 
