@@ -169,7 +169,7 @@ mod tests {
         }
         assert!(runs.contains(r#"run --shard "${SLURM_ARRAY_TASK_ID}/4""#), "{runs}");
         assert!(runs.contains("experiments/smoke.toml experiments/ft-dmax.toml"), "{runs}");
-        assert!(runs.contains("118 not yet in the cache") && runs.contains("the largest shard 151 s"), "{runs}");
+        assert!(runs.contains("118 not yet in the cache") && runs.contains("600 s of one core of the reference machine in all, 151 s in the"), "{runs}");
         assert!(!assemble.contains("--array") && !assemble.contains("--shard"), "{assemble}");
         assert!(assemble.contains("--results data/results") && assemble.contains("report --results data/results --out reports --specs experiments"), "{assemble}");
         assert!(runs.starts_with("#!/bin/bash\n") && assemble.starts_with("#!/bin/bash\n"));

@@ -121,3 +121,60 @@ impl<'p> Worlds<'p> {
         self.slots.lock().unwrap_or_else(|e| e.into_inner()).len()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(spec: &str) -> ExperimentPlan {
+        crate::plan::build(crate::spec::load(std::path::Path::new(spec)).expect("spec loads"), std::path::Path::new("data/maps")).expect("spec plans")
+    }
+
+    #[test]
+    fn the_p0_points_of_a_replicate_share_one_world_and_one_extraction() {
+        let p = plan("experiments/ft-p0.toml");
+        let todo: Vec<usize> = (0..p.runs.len()).collect();
+        let keys: std::collections::BTreeSet<String> = p.runs.iter().map(|r| key(&p, r)).collect();
+        assert_eq!(keys.len(), p.spec.spec.replicates as usize, "one world per replicate: P0 is no world parameter");
+        let worlds = Worlds::new(&p, &todo);
+        let of = |replicate: u32, point: usize| p.runs.iter().position(|r| r.replicate == replicate && r.point == point).unwrap();
+        let (a, b, other) = (worlds.take(&p.runs[of(0, 0)]).unwrap(), worlds.take(&p.runs[of(0, 3)]).unwrap(), worlds.take(&p.runs[of(1, 0)]).unwrap());
+        assert!(Arc::ptr_eq(&a, &b), "two P0 points of replicate 0 see one world");
+        assert!(!Arc::ptr_eq(&a, &other), "replicate 1 sees its own");
+        let params = &p.points[0].params.features;
+        assert!(Arc::ptr_eq(&a.features(params).unwrap(), &b.features(params).unwrap()), "one extraction");
+        // the shared world is the one `world_of` makes for the run alone
+        let alone = world_of(&p, &p.runs[of(0, 3)]).unwrap();
+        assert_eq!((alone.truth.clone(), alone.odometry.clone(), alone.scans.len()), (b.world.truth.clone(), b.world.odometry.clone(), b.world.scans.len()));
+        assert!(alone.scans.iter().zip(&b.world.scans).all(|(x, y)| x.ranges_m == y.ranges_m));
+        // every run takes its world once; after the last, nothing is held
+        for (i, r) in p.runs.iter().enumerate() {
+            if ![of(0, 0), of(0, 3), of(1, 0)].contains(&i) {
+                worlds.take(r).unwrap();
+            }
+        }
+        assert_eq!(worlds.held(), 0);
+    }
+
+    #[test]
+    fn the_schedule_keeps_a_worlds_runs_together_dearest_first() {
+        let p = plan("experiments/ft-particles.toml");
+        let todo: Vec<usize> = (0..p.runs.len()).collect();
+        let cost = |i: usize| crate::plan::cost::expected_s(&p, &p.runs[i]);
+        let order = crate::run::schedule(&p, &todo, &cost);
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, todo, "every run once");
+        // runs of one world are consecutive
+        let keys: Vec<String> = order.iter().map(|&i| key(&p, &p.runs[i])).collect();
+        let mut seen = std::collections::BTreeSet::new();
+        for w in keys.windows(2) {
+            if w[0] != w[1] {
+                assert!(seen.insert(w[0].clone()), "a world's runs are split");
+            }
+        }
+        // the first run is the dearest of all (500 particles on Complex)
+        let first = &p.runs[order[0]];
+        assert!(todo.iter().all(|&i| cost(i) <= cost(order[0])), "{}", first.run_id);
+    }
+}
