@@ -14,7 +14,7 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 . tests/tools/apt_install.sh
 
-BIN=${BIN:-$PWD/target/release/slamlab}
+BIN=${BIN:-${CARGO_TARGET_DIR:-$PWD/target}/release/slamlab}
 SPECS=(${SPECS:-experiments/smoke.toml experiments/ft-p0.toml})
 TASKS=${TASKS:-4}
 KILL_TASK=${KILL_TASK:-2}
