@@ -1,0 +1,312 @@
+//! Global sensitivity analysis, variance-based (Sobol' indices), the statistical core of issue 16:
+//! a scrambled Sobol' sequence, Saltelli's sampling design and the first-order and total indices
+//! S1 (Saltelli et al. 2010) and ST (Jansen 1999) with percentile-bootstrap intervals. Pure: the
+//! caller evaluates the model at the design's points (for slamlab: the runs of a sweep) and hands
+//! the outputs back.
+//!
+//! Not yet wired into specs, runs or reports (the `sobol` / `morris` sweep kinds are still to do).
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Bits of every Sobol' coordinate.
+const BITS: usize = 32;
+
+/// Primitive polynomials (degree s, coefficients a) and initial direction numbers m₁…m_s of the
+/// Sobol' dimensions after the first (which is the van der Corput sequence), in the order of
+/// Joe & Kuo's tables. Any odd mₖ < 2ᵏ gives a valid Sobol' sequence; these set its quality.
+const DIRECTIONS: [(u32, u32, &[u32]); 20] = [
+    (1, 0, &[1]),
+    (2, 1, &[1, 3]),
+    (3, 1, &[1, 3, 1]),
+    (3, 2, &[1, 1, 1]),
+    (4, 1, &[1, 1, 3, 3]),
+    (4, 4, &[1, 3, 5, 13]),
+    (5, 2, &[1, 1, 5, 5, 17]),
+    (5, 4, &[1, 1, 5, 5, 5]),
+    (5, 7, &[1, 1, 7, 11, 19]),
+    (5, 11, &[1, 1, 5, 1, 1]),
+    (5, 13, &[1, 1, 1, 3, 11]),
+    (5, 14, &[1, 3, 5, 5, 31]),
+    (6, 1, &[1, 3, 3, 9, 7, 49]),
+    (6, 13, &[1, 1, 1, 15, 21, 21]),
+    (6, 16, &[1, 3, 1, 13, 27, 49]),
+    (6, 19, &[1, 1, 1, 15, 7, 5]),
+    (6, 22, &[1, 3, 1, 15, 13, 25]),
+    (6, 25, &[1, 1, 5, 5, 19, 61]),
+    (7, 1, &[1, 3, 7, 11, 23, 15, 103]),
+    (7, 4, &[1, 3, 7, 13, 13, 15, 69]),
+];
+
+/// The most dimensions [`sobol`] provides.
+pub const MAX_DIMENSIONS: usize = DIRECTIONS.len() + 1;
+
+/// Direction numbers v₁…v₃₂ of dimension `dim` (0-based), left-aligned in 32 bits.
+fn direction_numbers(dim: usize) -> [u32; BITS] {
+    let mut v = [0u32; BITS];
+    if dim == 0 {
+        for (k, x) in v.iter_mut().enumerate() {
+            *x = 1 << (BITS - 1 - k);
+        }
+        return v;
+    }
+    let (s, a, m) = DIRECTIONS[dim - 1];
+    let s = s as usize;
+    for k in 0..s.min(BITS) {
+        v[k] = m[k] << (BITS - 1 - k);
+    }
+    for k in s..BITS {
+        // vₖ = a₁vₖ₋₁ ⊕ … ⊕ a_{s−1}vₖ₋ₛ₊₁ ⊕ vₖ₋ₛ ⊕ (vₖ₋ₛ >> s)
+        let mut x = v[k - s] ^ (v[k - s] >> s);
+        for j in 1..s {
+            if (a >> (s - 1 - j)) & 1 == 1 {
+                x ^= v[k - j];
+            }
+        }
+        v[k] = x;
+    }
+    v
+}
+
+/// The first `n` points of a `d`-dimensional Sobol' sequence in [0, 1)ᵈ, scrambled with
+/// Matoušek's random linear matrix scramble and a digital shift drawn from `seed` (the same seed,
+/// the same points). Scrambling keeps every net property of the sequence and makes the points
+/// an unbiased randomised QMC design. Panics if `d` > [`MAX_DIMENSIONS`].
+pub fn sobol(n: usize, d: usize, seed: u64) -> Vec<Vec<f64>> {
+    assert!(d <= MAX_DIMENSIONS, "at most {MAX_DIMENSIONS} dimensions");
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let dims: Vec<[u32; BITS]> = (0..d)
+        .map(|dim| {
+            let v = direction_numbers(dim);
+            // lower-triangular random binary matrix with a unit diagonal, applied to each vₖ:
+            // output digit i (from the most significant) = parity(row i · v)
+            let rows: [u32; BITS] = std::array::from_fn(|i| {
+                let above = if i == 0 { 0 } else { rng.random::<u32>() & (!0u32 << (BITS - i)) };
+                above | (1 << (BITS - 1 - i))
+            });
+            v.map(|x| (0..BITS).fold(0u32, |acc, i| acc | ((rows[i] & x).count_ones() & 1) << (BITS - 1 - i)))
+        })
+        .collect();
+    let shifts: Vec<u32> = (0..d).map(|_| rng.random::<u32>()).collect();
+    let mut x: Vec<u32> = shifts.clone();
+    let mut points = Vec::with_capacity(n);
+    for i in 0..n {
+        points.push(x.iter().map(|&b| (f64::from(b) + 0.5) / 4_294_967_296.0).collect());
+        // Gray-code order: flip the direction number of the lowest zero bit of i
+        let c = (!i).trailing_zeros() as usize;
+        if c < BITS {
+            for (xj, v) in x.iter_mut().zip(&dims) {
+                *xj ^= v[c];
+            }
+        }
+    }
+    points
+}
+
+/// Saltelli's design for `d` parameters in [0, 1)ᵈ: matrices A and B (the two halves of a
+/// 2d-dimensional Sobol' sequence of `n` points) and, for each i, A with its column i from B.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Saltelli {
+    pub a: Vec<Vec<f64>>,
+    pub b: Vec<Vec<f64>>,
+    /// `ab[i][k]` = row k of A with column i taken from B.
+    pub ab: Vec<Vec<Vec<f64>>>,
+}
+
+impl Saltelli {
+    /// `n` base points (a power of two keeps the Sobol' balance), `d` ≤ [`MAX_DIMENSIONS`]/2.
+    pub fn new(n: usize, d: usize, seed: u64) -> Self {
+        let points = sobol(n, 2 * d, seed);
+        let a: Vec<Vec<f64>> = points.iter().map(|p| p[..d].to_vec()).collect();
+        let b: Vec<Vec<f64>> = points.iter().map(|p| p[d..].to_vec()).collect();
+        let ab = (0..d)
+            .map(|i| {
+                a.iter()
+                    .zip(&b)
+                    .map(|(ra, rb)| {
+                        let mut r = ra.clone();
+                        r[i] = rb[i];
+                        r
+                    })
+                    .collect()
+            })
+            .collect();
+        Self { a, b, ab }
+    }
+}
+
+/// An index with its 95 % percentile-bootstrap interval.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    pub value: f64,
+    pub low: f64,
+    pub high: f64,
+}
+
+/// First-order and total indices per parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Indices {
+    pub s1: Vec<Estimate>,
+    pub st: Vec<Estimate>,
+}
+
+/// S1 and ST from the model's outputs at a [`Saltelli`] design: `fa[k]`, `fb[k]`, `fab[i][k]`.
+/// S1ᵢ = mean(f_B (f_ABᵢ − f_A)) / V (Saltelli et al. 2010), STᵢ = mean((f_A − f_ABᵢ)²) / 2V
+/// (Jansen 1999), V the variance of f_A and f_B together. Intervals: `resamples` bootstrap
+/// resamples of the rows (seeded), 2.5 and 97.5 percentiles.
+pub fn sobol_indices(fa: &[f64], fb: &[f64], fab: &[Vec<f64>], resamples: usize, seed: u64) -> Indices {
+    let n = fa.len();
+    let estimate = |rows: &[usize]| -> (Vec<f64>, Vec<f64>) {
+        let m = rows.len() as f64;
+        let mean = rows.iter().map(|&k| fa[k] + fb[k]).sum::<f64>() / (2.0 * m);
+        let var = rows.iter().map(|&k| (fa[k] - mean).powi(2) + (fb[k] - mean).powi(2)).sum::<f64>() / (2.0 * m);
+        let s1 = fab.iter().map(|f| rows.iter().map(|&k| fb[k] * (f[k] - fa[k])).sum::<f64>() / m / var).collect();
+        let st = fab.iter().map(|f| rows.iter().map(|&k| (fa[k] - f[k]).powi(2)).sum::<f64>() / m / (2.0 * var)).collect();
+        (s1, st)
+    };
+    let all: Vec<usize> = (0..n).collect();
+    let (s1, st) = estimate(&all);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut boot_s1 = vec![Vec::with_capacity(resamples); fab.len()];
+    let mut boot_st = vec![Vec::with_capacity(resamples); fab.len()];
+    for _ in 0..resamples {
+        let rows: Vec<usize> = (0..n).map(|_| rng.random_range(0..n)).collect();
+        let (b1, bt) = estimate(&rows);
+        for i in 0..fab.len() {
+            boot_s1[i].push(b1[i]);
+            boot_st[i].push(bt[i]);
+        }
+    }
+    let with_ci = |values: Vec<f64>, boot: Vec<Vec<f64>>| -> Vec<Estimate> {
+        values
+            .into_iter()
+            .zip(boot)
+            .map(|(value, mut b)| {
+                b.sort_by(f64::total_cmp);
+                let q = |p: f64| if b.is_empty() { f64::NAN } else { b[((p * (b.len() - 1) as f64).round() as usize).min(b.len() - 1)] };
+                Estimate { value, low: q(0.025), high: q(0.975) }
+            })
+            .collect()
+    };
+    Indices { s1: with_ci(s1, boot_s1), st: with_ci(st, boot_st) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::PI;
+
+    #[test]
+    fn every_dimension_is_stratified_and_the_first_two_form_a_net() {
+        let m = 10;
+        let n = 1 << m;
+        let p = sobol(n, MAX_DIMENSIONS, 7);
+        for dim in 0..MAX_DIMENSIONS {
+            // each of the 2^m intervals [k/2^m, (k+1)/2^m) holds exactly one point
+            let mut seen = vec![false; n];
+            for x in &p {
+                let k = (x[dim] * n as f64) as usize;
+                assert!(!seen[k], "dimension {dim}: two points in interval {k}");
+                seen[k] = true;
+            }
+        }
+        // dimensions 1 and 2 form a (0, m, 2)-net: one point in every 2^-j × 2^-(m−j) box
+        for j in 0..=m {
+            let (cols, rows) = (1usize << j, 1usize << (m - j));
+            let mut seen = vec![false; n];
+            for x in &p {
+                let k = (x[0] * cols as f64) as usize * rows + (x[1] * rows as f64) as usize;
+                assert!(!seen[k], "box {k} of {cols} × {rows} twice");
+                seen[k] = true;
+            }
+        }
+    }
+
+    #[test]
+    fn the_same_seed_gives_the_same_points_and_another_seed_others() {
+        assert_eq!(sobol(64, 5, 1), sobol(64, 5, 1));
+        assert_ne!(sobol(64, 5, 1), sobol(64, 5, 2));
+        assert!(sobol(256, 6, 3).iter().flatten().all(|x| (0.0..1.0).contains(x)));
+    }
+
+    fn run(model: impl Fn(&[f64]) -> f64, n: usize, d: usize) -> Indices {
+        let design = Saltelli::new(n, d, 2026);
+        let fa: Vec<f64> = design.a.iter().map(|x| model(x)).collect();
+        let fb: Vec<f64> = design.b.iter().map(|x| model(x)).collect();
+        let fab: Vec<Vec<f64>> = design.ab.iter().map(|m| m.iter().map(|x| model(x)).collect()).collect();
+        sobol_indices(&fa, &fb, &fab, 500, 11)
+    }
+
+    fn assert_covers(what: &str, got: &[Estimate], truth: &[f64], tolerance: f64) {
+        for (i, (e, t)) in got.iter().zip(truth).enumerate() {
+            assert!(e.low <= *t && *t <= e.high, "{what}[{i}] = {} [{}, {}] misses the analytic {t}", e.value, e.low, e.high);
+            assert!((e.value - t).abs() < tolerance, "{what}[{i}] = {} against {t}", e.value);
+            // an interval that covers by being wide proves nothing
+            assert!(e.high - e.low < 4.0 * tolerance, "{what}[{i}]: interval [{}, {}] too wide to test", e.low, e.high);
+        }
+    }
+
+    /// Ishigami & Homma (1990), a = 7, b = 0.1 on [−π, π]³: S1 = (0.3139, 0.4424, 0),
+    /// ST = (0.5576, 0.4424, 0.2437) (Saltelli et al. 2008, §4.6).
+    #[test]
+    fn ishigami_indices_match_the_analytic_ones() {
+        let (a, b) = (7.0, 0.1);
+        let ishigami = |u: &[f64]| {
+            let x: Vec<f64> = u.iter().map(|v| -PI + 2.0 * PI * v).collect();
+            x[0].sin() + a * x[1].sin().powi(2) + b * x[2].powi(4) * x[0].sin()
+        };
+        let v1 = 0.5 * (1.0 + b * PI.powi(4) / 5.0).powi(2);
+        let v2 = a * a / 8.0;
+        let v13 = b * b * PI.powi(8) * 8.0 / 225.0;
+        let v = v1 + v2 + v13;
+        let got = run(ishigami, 1 << 13, 3);
+        assert_covers("S1", &got.s1, &[v1 / v, v2 / v, 0.0], 0.03);
+        assert_covers("ST", &got.st, &[(v1 + v13) / v, v2 / v, v13 / v], 0.03);
+    }
+
+    /// Sobol's G function with a = (0, 1, 4.5, 9, 99, 99, 99, 99) on [0, 1]⁸: Vᵢ = 1/(3(1 + aᵢ)²),
+    /// S1ᵢ = Vᵢ/V, STᵢ = Vᵢ Π_{j≠i}(1 + Vⱼ)/V with V = Π(1 + Vⱼ) − 1.
+    #[test]
+    fn g_function_indices_match_the_analytic_ones() {
+        let a = [0.0, 1.0, 4.5, 9.0, 99.0, 99.0, 99.0, 99.0];
+        let g = |x: &[f64]| x.iter().zip(&a).map(|(x, a)| ((4.0 * x - 2.0).abs() + a) / (1.0 + a)).product::<f64>();
+        let vi: Vec<f64> = a.iter().map(|a| 1.0 / (3.0 * (1.0 + a) * (1.0 + a))).collect();
+        let v = vi.iter().map(|x| 1.0 + x).product::<f64>() - 1.0;
+        let s1: Vec<f64> = vi.iter().map(|x| x / v).collect();
+        let st: Vec<f64> = vi.iter().map(|x| x * (v + 1.0) / (1.0 + x) / v).collect();
+        let got = run(g, 1 << 13, 8);
+        assert_covers("S1", &got.s1, &s1, 0.03);
+        assert_covers("ST", &got.st, &st, 0.03);
+    }
+
+    /// Writes the Ishigami outputs in SALib's order (per base row: A, AB₁…AB_d, B) and our
+    /// indices, for the comparison with SALib outside the test suite:
+    /// `SLAMLAB_SALIB_OUT=/tmp/ishigami cargo test --release --lib salib_export -- --ignored`.
+    #[test]
+    #[ignore]
+    fn salib_export() {
+        let Some(out) = std::env::var_os("SLAMLAB_SALIB_OUT") else { return };
+        let ishigami = |u: &[f64]| {
+            let x: Vec<f64> = u.iter().map(|v| -PI + 2.0 * PI * v).collect();
+            x[0].sin() + 7.0 * x[1].sin().powi(2) + 0.1 * x[2].powi(4) * x[0].sin()
+        };
+        let design = Saltelli::new(1 << 13, 3, 2026);
+        let fa: Vec<f64> = design.a.iter().map(|x| ishigami(x)).collect();
+        let fb: Vec<f64> = design.b.iter().map(|x| ishigami(x)).collect();
+        let fab: Vec<Vec<f64>> = design.ab.iter().map(|m| m.iter().map(|x| ishigami(x)).collect()).collect();
+        let mut y = String::new();
+        for k in 0..fa.len() {
+            y.push_str(&format!("{:e}\n", fa[k]));
+            for f in &fab {
+                y.push_str(&format!("{:e}\n", f[k]));
+            }
+            y.push_str(&format!("{:e}\n", fb[k]));
+        }
+        let out = std::path::PathBuf::from(out);
+        std::fs::create_dir_all(&out).unwrap();
+        std::fs::write(out.join("y.txt"), y).unwrap();
+        let got = sobol_indices(&fa, &fb, &fab, 1000, 11);
+        let line = |e: &[Estimate]| e.iter().map(|e| format!("{:.4} [{:.4}, {:.4}]", e.value, e.low, e.high)).collect::<Vec<_>>().join("  ");
+        std::fs::write(out.join("ours.txt"), format!("S1 {}\nST {}\n", line(&got.s1), line(&got.st))).unwrap();
+    }
+}
