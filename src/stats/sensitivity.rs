@@ -1,6 +1,7 @@
-//! Global sensitivity analysis, variance-based (Sobol' indices), the statistical core of issue 16:
-//! a scrambled Sobol' sequence, Saltelli's sampling design and the first-order and total indices
-//! S1 (Saltelli et al. 2010) and ST (Jansen 1999) with percentile-bootstrap intervals. Pure: the
+//! Global sensitivity analysis, the statistical core of issue 16: Morris's elementary-effects
+//! screening (μ, μ*, σ), and variance-based Sobol' indices — a scrambled Sobol' sequence,
+//! Saltelli's sampling design and the first-order and total indices S1 (Saltelli et al. 2010)
+//! and ST (Jansen 1999) with percentile-bootstrap intervals. Pure: the
 //! caller evaluates the model at the design's points (for slamlab: the runs of a sweep) and hands
 //! the outputs back.
 //!
@@ -191,6 +192,91 @@ pub fn sobol_indices(fa: &[f64], fb: &[f64], fab: &[Vec<f64>], resamples: usize,
     Indices { s1: with_ci(s1, boot_s1), st: with_ci(st, boot_st) }
 }
 
+/// Morris's elementary-effects design (Morris 1991): `trajectories` one-at-a-time paths on a grid
+/// of `levels` levels per parameter in [0, 1]ᵈ (`levels` even, step Δ = levels / (2 (levels − 1))).
+/// Each path starts at a random grid point whose coordinates keep x ± Δ inside [0, 1], then moves
+/// one parameter at a time, in a random order, by +Δ or −Δ (random, kept inside). Seeded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Morris {
+    /// `points[t]`: the d + 1 points of trajectory t.
+    pub points: Vec<Vec<Vec<f64>>>,
+    /// `moved[t][k]`: the parameter that step k (from point k to k + 1) moves.
+    pub moved: Vec<Vec<usize>>,
+    pub delta: f64,
+}
+
+impl Morris {
+    pub fn new(d: usize, levels: usize, trajectories: usize, seed: u64) -> Self {
+        assert!(levels >= 2 && levels % 2 == 0, "an even number of levels");
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let step = 1.0 / (levels - 1) as f64;
+        let delta = levels as f64 * step / 2.0;
+        let mut points = Vec::with_capacity(trajectories);
+        let mut moved = Vec::with_capacity(trajectories);
+        for _ in 0..trajectories {
+            // a grid level from which both x and x + Δ are on the grid, then either end of that pair
+            let mut x: Vec<f64> = (0..d).map(|_| rng.random_range(0..levels / 2) as f64 * step).collect();
+            let up: Vec<bool> = (0..d).map(|_| rng.random::<bool>()).collect();
+            for (xi, &u) in x.iter_mut().zip(&up) {
+                if !u {
+                    *xi += delta;
+                }
+            }
+            let mut order: Vec<usize> = (0..d).collect();
+            for i in (1..d).rev() {
+                order.swap(i, rng.random_range(0..=i));
+            }
+            let mut path = vec![x.clone()];
+            for &i in &order {
+                x[i] += if up[i] { delta } else { -delta };
+                path.push(x.clone());
+            }
+            points.push(path);
+            moved.push(order);
+        }
+        Self { points, moved, delta }
+    }
+}
+
+/// Morris's statistics of one parameter: μ (mean elementary effect), μ* (mean absolute,
+/// Campolongo et al. 2007) with its 95 % percentile-bootstrap interval over trajectories, and σ
+/// (standard deviation: non-linearity or interactions).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Screening {
+    pub mu: f64,
+    pub mu_star: Estimate,
+    pub sigma: f64,
+}
+
+/// The elementary effects EEᵢ = (f(after) − f(before)) / (±Δ) of the outputs `f[t][k]` at the
+/// design's points, summarised per parameter.
+pub fn morris_indices(design: &Morris, f: &[Vec<f64>], resamples: usize, seed: u64) -> Vec<Screening> {
+    let d = design.moved.first().map_or(0, Vec::len);
+    // effects[i][t]
+    let mut effects = vec![Vec::with_capacity(f.len()); d];
+    for ((path, order), y) in design.points.iter().zip(&design.moved).zip(f) {
+        for (k, &i) in order.iter().enumerate() {
+            let step = path[k + 1][i] - path[k][i];
+            effects[i].push((y[k + 1] - y[k]) / step);
+        }
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    effects
+        .iter()
+        .map(|ee| {
+            let n = ee.len() as f64;
+            let mu = ee.iter().sum::<f64>() / n;
+            let mean_abs = |rows: &mut dyn Iterator<Item = f64>| rows.map(f64::abs).sum::<f64>() / n;
+            let mu_star = mean_abs(&mut ee.iter().copied());
+            let sigma = if ee.len() > 1 { (ee.iter().map(|e| (e - mu).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { f64::NAN };
+            let mut boot: Vec<f64> = (0..resamples).map(|_| mean_abs(&mut (0..ee.len()).map(|_| ee[rng.random_range(0..ee.len())]))).collect();
+            boot.sort_by(f64::total_cmp);
+            let q = |p: f64| if boot.is_empty() { f64::NAN } else { boot[((p * (boot.len() - 1) as f64).round() as usize).min(boot.len() - 1)] };
+            Screening { mu, mu_star: Estimate { value: mu_star, low: q(0.025), high: q(0.975) }, sigma }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -227,6 +313,55 @@ mod tests {
         assert_eq!(sobol(64, 5, 1), sobol(64, 5, 1));
         assert_ne!(sobol(64, 5, 1), sobol(64, 5, 2));
         assert!(sobol(256, 6, 3).iter().flatten().all(|x| (0.0..1.0).contains(x)));
+    }
+
+    fn screen(model: impl Fn(&[f64]) -> f64, d: usize) -> Vec<Screening> {
+        let design = Morris::new(d, 4, 50, 5);
+        let f: Vec<Vec<f64>> = design.points.iter().map(|path| path.iter().map(|x| model(x)).collect()).collect();
+        morris_indices(&design, &f, 500, 3)
+    }
+
+    #[test]
+    fn morris_paths_stay_on_the_grid_and_move_each_parameter_once() {
+        let m = Morris::new(5, 4, 20, 9);
+        assert_eq!(m.delta, 4.0 / 6.0);
+        for (path, order) in m.points.iter().zip(&m.moved) {
+            let mut sorted = order.clone();
+            sorted.sort_unstable();
+            assert_eq!(sorted, [0, 1, 2, 3, 4]);
+            for x in path.iter().flatten() {
+                let level = x * 3.0;
+                assert!((level - level.round()).abs() < 1e-12 && (0.0..=1.0).contains(x), "{x} is off the grid");
+            }
+            for (k, &i) in order.iter().enumerate() {
+                let changed: Vec<usize> = (0..5).filter(|&j| path[k][j] != path[k + 1][j]).collect();
+                assert_eq!(changed, [i]);
+                assert!(((path[k + 1][i] - path[k][i]).abs() - m.delta).abs() < 1e-12);
+            }
+        }
+        assert_eq!(Morris::new(5, 4, 20, 9), m, "seeded");
+    }
+
+    #[test]
+    fn a_linear_model_has_exact_effects_and_no_spread() {
+        let c = [3.0, -2.0, 0.5, 0.0];
+        let s = screen(|x| x.iter().zip(&c).map(|(x, c)| x * c).sum(), 4);
+        for (si, ci) in s.iter().zip(c) {
+            assert!((si.mu - ci).abs() < 1e-9 && (si.mu_star.value - ci.abs()).abs() < 1e-9 && si.sigma < 1e-9, "{si:?} for c = {ci}");
+        }
+    }
+
+    #[test]
+    fn morris_ranks_the_g_function_by_its_coefficients_and_sees_interactions() {
+        let a = [0.0, 1.0, 4.5, 9.0, 99.0];
+        let s = screen(|x| x.iter().zip(&a).map(|(x, a)| ((4.0 * x - 2.0).abs() + a) / (1.0 + a)).product(), 5);
+        for w in s.windows(2) {
+            assert!(w[0].mu_star.value > w[1].mu_star.value, "μ* must fall as a grows: {s:?}");
+        }
+        assert!(s[4].mu_star.high < 0.1 * s[0].mu_star.low, "a = 99 is negligible: {s:?}");
+        // f = x₁x₂: each effect depends on the other parameter (σ > 0); x₃ does nothing
+        let s = screen(|x| x[0] * x[1], 3);
+        assert!(s[0].sigma > 0.1 && s[1].sigma > 0.1 && s[2].mu_star.value == 0.0 && s[2].sigma == 0.0, "{s:?}");
     }
 
     fn run(model: impl Fn(&[f64]) -> f64, n: usize, d: usize) -> Indices {
