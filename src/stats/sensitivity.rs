@@ -415,12 +415,13 @@ mod tests {
     }
 
     /// Writes the Ishigami outputs in SALib's order (per base row: A, AB₁…AB_d, B) and our
-    /// indices, for the comparison with SALib outside the test suite:
-    /// `SLAMLAB_SALIB_OUT=/tmp/ishigami cargo test --release --lib salib_export -- --ignored`.
+    /// indices, for the comparison with SALib outside the test suite (README of issue 16's note):
+    /// `SLAMLAB_SALIB_OUT=/tmp/ishigami cargo test --release --lib salib_export`, then
+    /// `SALib.analyze.sobol.analyze(problem, numpy.loadtxt("/tmp/ishigami/y.txt"),
+    /// calc_second_order=False)`. Checks the layout it writes.
     #[test]
-    #[ignore]
     fn salib_export() {
-        let Some(out) = std::env::var_os("SLAMLAB_SALIB_OUT") else { return };
+        let out = std::env::var_os("SLAMLAB_SALIB_OUT").map(std::path::PathBuf::from).unwrap_or_else(|| std::env::temp_dir().join(format!("slamlab-salib-{}", std::process::id())));
         let ishigami = |u: &[f64]| {
             let x: Vec<f64> = u.iter().map(|v| -PI + 2.0 * PI * v).collect();
             x[0].sin() + 7.0 * x[1].sin().powi(2) + 0.1 * x[2].powi(4) * x[0].sin()
@@ -437,11 +438,19 @@ mod tests {
             }
             y.push_str(&format!("{:e}\n", fb[k]));
         }
-        let out = std::path::PathBuf::from(out);
         std::fs::create_dir_all(&out).unwrap();
-        std::fs::write(out.join("y.txt"), y).unwrap();
+        std::fs::write(out.join("y.txt"), &y).unwrap();
         let got = sobol_indices(&fa, &fb, &fab, 1000, 11);
         let line = |e: &[Estimate]| e.iter().map(|e| format!("{:.4} [{:.4}, {:.4}]", e.value, e.low, e.high)).collect::<Vec<_>>().join("  ");
         std::fs::write(out.join("ours.txt"), format!("S1 {}\nST {}\n", line(&got.s1), line(&got.st))).unwrap();
+        // SALib's layout: d + 2 lines per base row, A first and B last
+        let back: Vec<f64> = std::fs::read_to_string(out.join("y.txt")).unwrap().lines().map(|l| l.parse().unwrap()).collect();
+        assert_eq!(back.len(), fa.len() * 5);
+        for k in [0, 1, fa.len() - 1] {
+            assert_eq!((back[5 * k], back[5 * k + 2], back[5 * k + 4]), (fa[k], fab[1][k], fb[k]));
+        }
+        if std::env::var_os("SLAMLAB_SALIB_OUT").is_none() {
+            std::fs::remove_dir_all(&out).unwrap();
+        }
     }
 }
