@@ -128,7 +128,7 @@ ids=$("$BIN" slurm "${SPECS[@]}" "${cluster[@]}" --submit)
 read -r runs1 assemble1 <<<"$ids"
 running() { [ "$(state "${runs1}_$KILL_TASK")" = RUNNING ]; }
 wait_for "$TIMEOUT" "task $KILL_TASK to start" running
-sleep 3
+sleep 1  # early enough that even a fast machine has not finished the shard
 scancel --signal=KILL --full "${runs1}_$KILL_TASK"
 # the other tasks finish; the assembling job's dependency can now never be met
 others_done() { ! squeue -h -j "$runs1" -o %i 2>/dev/null | grep -q .; }
