@@ -391,9 +391,6 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
     let plans = load_plans(spec_paths, &dirs.maps, dirs.max_runs)?;
     let opts = options(dirs, Some(1), force, true)?;
     let owner = shards.map(|n| run::shards(&plans, n));
-    // per shard: distinct runs, to compute, expected cost of each
-    let mut table = vec![(0usize, 0usize, 0.0f64, 0.0f64); shards.unwrap_or(0)];
-    let mut seen = std::collections::BTreeSet::new();
     for plan in &plans {
         let reasons = run::reasons(plan, &opts);
         println!("study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs", plan.id(), plan.points.len(), plan.maps.len(), plan.spec.spec.algorithms.len(), plan.spec.spec.replicates, plan.runs.len());
@@ -414,16 +411,6 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
             match owner.as_ref().and_then(|o| o.get(r.hash.as_str())) {
                 Some(&k) => {
                     let n = shards.unwrap_or(1);
-                    if seen.insert(r.hash.as_str()) {
-                        let cost = crate::plan::cost::expected_s(plan, r);
-                        let t = &mut table[k - 1];
-                        t.0 += 1;
-                        t.2 += cost;
-                        if *reason != Reason::Cached {
-                            t.1 += 1;
-                            t.3 += cost;
-                        }
-                    }
                     println!("{:<36} {:<width$} {}{changed}", reason.as_str(), format!("{k}/{n}"), r.run_id, width = 2 * n.to_string().len() + 1);
                 }
                 None => println!("{:<36} {}{changed}", reason.as_str(), r.run_id),
@@ -442,15 +429,17 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
             count(Reason::Cached)
         );
     }
-    if let Some(n) = shards {
+    if let (Some(n), Some(owner)) = (shards, &owner) {
+        let cache = store::Cache::new(&opts.cache_dir);
+        let table = run::shard_loads(&plans, owner, n, &|h| !force && cache.contains(h));
         let studies = plans.iter().filter(|p| !run::skipped(p)).count();
         println!("\nshards of the runs of {studies} {} (`run --shard I/{n}`; runs that share a content hash are one run; expected cost in seconds of one core of the reference machine, README \"Running on a cluster\"):", if studies == 1 { "study" } else { "studies" });
         println!("{:<12} {:>8} {:>12} {:>14} {:>22}", "shard", "runs", "to compute", "expected [s]", "to compute, exp. [s]");
-        for (k, (runs, todo, cost, todo_cost)) in table.iter().enumerate() {
-            println!("{:<12} {runs:>8} {todo:>12} {cost:>14.1} {todo_cost:>22.1}", format!("{}/{n}", k + 1));
+        for (k, t) in table.iter().enumerate() {
+            println!("{:<12} {:>8} {:>12} {:>14.1} {:>22.1}", format!("{}/{n}", k + 1), t.runs, t.to_compute, t.cost_s, t.to_compute_s);
         }
-        let total = |f: fn(&(usize, usize, f64, f64)) -> f64| table.iter().map(f).sum::<f64>();
-        println!("{:<12} {:>8} {:>12} {:>14.1} {:>22.1}", "all", total(|t| t.0 as f64), total(|t| t.1 as f64), total(|t| t.2), total(|t| t.3));
+        let total = |f: fn(&run::ShardLoad) -> f64| table.iter().map(f).sum::<f64>();
+        println!("{:<12} {:>8} {:>12} {:>14.1} {:>22.1}", "all", total(|t| t.runs as f64), total(|t| t.to_compute as f64), total(|t| t.cost_s), total(|t| t.to_compute_s));
     }
     Ok(())
 }
@@ -484,18 +473,8 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::report::slurm::R
     let opts = options(dirs, Some(1), false, true)?;
     let owner = run::shards(&plans, resources.tasks);
     let cache = store::Cache::new(&opts.cache_dir);
-    let mut load = vec![0.0f64; resources.tasks];
-    let mut seen = std::collections::BTreeSet::new();
-    let (mut runs, mut to_compute) = (0, 0);
-    for plan in plans.iter().filter(|p| !run::skipped(p)) {
-        runs += plan.runs.len();
-        for r in &plan.runs {
-            if seen.insert(r.hash.as_str()) {
-                load[owner[r.hash.as_str()] - 1] += crate::plan::cost::expected_s(plan, r);
-                to_compute += usize::from(!cache.contains(&r.hash));
-            }
-        }
-    }
+    let loads = run::shard_loads(&plans, &owner, resources.tasks, &|h| cache.contains(h));
+    let runs: usize = plans.iter().filter(|p| !run::skipped(p)).map(|p| p.runs.len()).sum();
     let repo = std::env::current_dir().context("reading the working directory")?;
     let absolute = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { repo.join(p) };
     let text = |p: &Path| p.to_string_lossy().into_owned();
@@ -521,10 +500,10 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::report::slurm::R
     let summary = crate::report::slurm::Summary {
         studies: plans.iter().filter(|p| !run::skipped(p)).map(|p| p.id().to_string()).collect(),
         runs,
-        unique: seen.len(),
-        to_compute,
-        cost_total_s: load.iter().sum(),
-        cost_max_s: load.iter().copied().fold(0.0, f64::max),
+        unique: loads.iter().map(|l| l.runs).sum(),
+        to_compute: loads.iter().map(|l| l.to_compute).sum(),
+        cost_total_s: loads.iter().map(|l| l.cost_s).sum(),
+        cost_max_s: loads.iter().map(|l| l.cost_s).fold(0.0, f64::max),
     };
     let (runs_script, assemble_script) = crate::report::slurm::scripts(&job, resources, &summary).context("rendering the sbatch scripts")?;
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;

@@ -322,6 +322,34 @@ pub fn shards(plans: &[ExperimentPlan], count: usize) -> BTreeMap<&str, usize> {
     crate::plan::shard::partition(items, count)
 }
 
+/// What one shard holds: its distinct runs, those not cached yet, and their expected cost [s].
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ShardLoad {
+    pub runs: usize,
+    pub to_compute: usize,
+    pub cost_s: f64,
+    pub to_compute_s: f64,
+}
+
+/// The load of each shard (index k − 1) of the partition `owner` ([`shards`]); `cached` says
+/// whether a content hash needs no computing.
+pub fn shard_loads(plans: &[ExperimentPlan], owner: &BTreeMap<&str, usize>, count: usize, cached: &dyn Fn(&str) -> bool) -> Vec<ShardLoad> {
+    let mut loads = vec![ShardLoad::default(); count];
+    let mut seen = std::collections::BTreeSet::new();
+    for plan in plans.iter().filter(|p| !skipped(p)) {
+        for r in plan.runs.iter().filter(|r| seen.insert(r.hash.as_str())) {
+            let (load, cost) = (&mut loads[owner[r.hash.as_str()] - 1], crate::plan::cost::expected_s(plan, r));
+            load.runs += 1;
+            load.cost_s += cost;
+            if !cached(&r.hash) {
+                load.to_compute += 1;
+                load.to_compute_s += cost;
+            }
+        }
+    }
+    loads
+}
+
 /// A study whose real data is absent on this machine (`run` skips it).
 pub fn skipped(plan: &ExperimentPlan) -> bool {
     plan.maps.iter().any(|m| m.missing_data.is_some())

@@ -35,7 +35,7 @@ impl SharedWorld {
         if self.world.laser.is_none() {
             return Err(SlamError::MissingSensor("laser"));
         }
-        let cell = Arc::clone(self.extracted.lock().unwrap_or_else(|e| e.into_inner()).entry(erased::Json::json(params)).or_default());
+        let cell = Arc::clone(self.extracted.lock().unwrap_or_else(|e| e.into_inner()).entry(json(params)).or_default());
         Ok(Arc::clone(cell.get_or_init(|| Arc::new(crate::slam::observations::extract_all(&self.world, params).expect("the world has a laser")))))
     }
 }
@@ -62,7 +62,6 @@ pub fn key(plan: &ExperimentPlan, run: &RunSpec) -> String {
     let params = &plan.points[run.point].params;
     let map = &plan.maps[run.map].map;
     let sensors = run.algorithm.sensors(map.world_kind());
-    let json = |v: &dyn erased::Json| v.json();
     format!(
         "{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}",
         run.map,
@@ -74,16 +73,9 @@ pub fn key(plan: &ExperimentPlan, run: &RunSpec) -> String {
     )
 }
 
-/// `serde_json::to_string` behind a trait object (for the key's sections of different types).
-mod erased {
-    pub trait Json {
-        fn json(&self) -> String;
-    }
-    impl<T: serde::Serialize> Json for T {
-        fn json(&self) -> String {
-            serde_json::to_string(self).expect("parameters serialise")
-        }
-    }
+/// A parameter section as JSON (part of a key).
+fn json(section: &impl serde::Serialize) -> String {
+    serde_json::to_string(section).expect("parameters serialise")
 }
 
 impl<'p> Worlds<'p> {
