@@ -15,6 +15,12 @@
 //!   non-inferiority at 5 % one-sided to confirm, an excess beyond the tolerance at 2.5 %
 //!   one-sided (Holm) to refute.
 //! - **above / below / between**: the 95 % CI of the cell's mean against the threshold(s).
+//! - **index claims** (`index = "s1" | "st" | "interaction" | "mu_star"`, on a morris / sobol
+//!   sweep): the index's 95 % bootstrap interval against the threshold(s), or for greater / less
+//!   the interval of its difference with `than_parameter`'s (same resamples) against
+//!   `min_effect` (default 0). Noise raises ST and μ* of every parameter (see
+//!   [`super::sensitivity`]): an `above` claim on them confirms only when the interval also
+//!   clears the noise floor.
 //! - **untestable**: fewer than 3 replicates, ∞ or NaN in a compared cell, a cell compared with
 //!   itself, or compared cells that give identical values in every replicate — such a test could
 //!   not have come out otherwise, so it is never counted as confirmed.
@@ -407,13 +413,17 @@ fn pooled(outcomes: &[MapOutcome]) -> (Verdict, String) {
 /// Judges every claim of a study.
 pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
     let spec = &data.resolved.spec;
+    let mut index_metrics: Vec<String> = spec.claims.iter().filter(|c| c.index.is_some()).map(|c| c.metric.clone()).collect();
+    index_metrics.sort();
+    index_metrics.dedup();
+    let analyses = if index_metrics.is_empty() { Vec::new() } else { super::sensitivity::analyse(data, &index_metrics) };
     spec.claims
         .iter()
         .filter_map(|claim| {
             let cells = data.resolved.claims.iter().find(|c| c.id == claim.id)?;
             let maps: Vec<&String> = if claim.maps.is_empty() { spec.maps.iter().collect() } else { claim.maps.iter().collect() };
             let algorithm = claim.algorithm.or(spec.algorithms.first().copied())?;
-            let outcomes: Vec<MapOutcome> = maps.iter().map(|m| on_map(data, claim, cells, m, algorithm.name())).collect();
+            let outcomes: Vec<MapOutcome> = maps.iter().map(|m| if claim.index.is_some() { index_on_map(&analyses, claim, m, algorithm.name()) } else { on_map(data, claim, cells, m, algorithm.name()) }).collect();
             let verdicts: Vec<Verdict> = outcomes.iter().map(|o| o.verdict).collect();
             let comparative = matches!(claim.test, ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess);
             let pooled = (claim.require == Require::Pooled && comparative).then(|| pooled(&outcomes));
@@ -481,7 +491,91 @@ fn cell_text(t: &toml::Table) -> String {
 }
 
 /// The test in words.
+/// One map's outcome of an index claim.
+fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, map: &str, algorithm: &str) -> MapOutcome {
+    use super::sensitivity::Indices;
+    use crate::spec::IndexKind;
+    use crate::stats::sensitivity::percentile_interval;
+    let Some(kind) = claim.index else { return MapOutcome::untestable("not an index claim".into()) };
+    let Some(a) = analyses.iter().find(|a| a.kind == kind.sweep() && a.map == map && a.algorithm == algorithm && a.metric == claim.metric) else {
+        return MapOutcome::untestable(format!("no {} analysis of {} on this map", kind.as_str(), claim.metric));
+    };
+    let Some(indices) = &a.indices else { return MapOutcome::untestable(a.note.clone()) };
+    let Some(i) = a.params.iter().position(|p| *p == claim.parameter) else { return MapOutcome::untestable(format!("`{}` is not a parameter of the sweep", claim.parameter)) };
+    // (estimate, bootstrap replicates) of the index of parameter j
+    let of = |j: usize| -> (f64, Vec<f64>) {
+        match (indices, kind) {
+            (Indices::Sobol(x), IndexKind::S1) => (x.s1[j].value, x.boot_s1[j].clone()),
+            (Indices::Sobol(x), IndexKind::St) => (x.st[j].value, x.boot_st[j].clone()),
+            (Indices::Sobol(x), IndexKind::Interaction) => (x.st[j].value - x.s1[j].value, x.boot_st[j].iter().zip(&x.boot_s1[j]).map(|(t, s)| t - s).collect()),
+            (Indices::Morris(m), IndexKind::MuStar) => (m[j].mu_star.value, m[j].boot_mu_star.clone()),
+            _ => (f64::NAN, Vec::new()),
+        }
+    };
+    let name = kind.as_str();
+    let floor = a.noise_floor.filter(|_| matches!(kind, IndexKind::St | IndexKind::MuStar));
+    let floor_text = floor.map_or(String::new(), |f| format!("; noise floor {}", sig(f, 2)));
+    let (value, reps) = of(i);
+    if reps.is_empty() || !value.is_finite() {
+        return MapOutcome::untestable(format!("{name} of {} has no bootstrap interval", claim.parameter));
+    }
+    match claim.test {
+        ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {
+            let e = percentile_interval(value, &reps);
+            let (lo_bound, hi_bound) = match claim.test {
+                ClaimTest::Above => (claim.value.unwrap_or(f64::NAN).max(floor.unwrap_or(f64::NEG_INFINITY)), f64::INFINITY),
+                ClaimTest::Below => (f64::NEG_INFINITY, claim.value.unwrap_or(f64::NAN)),
+                _ => (claim.value.unwrap_or(f64::NAN), claim.upper.unwrap_or(f64::NAN)),
+            };
+            let strict = claim.test != ClaimTest::Between;
+            let mut verdict = decide_range((e.low, e.high), (lo_bound, hi_bound), strict);
+            // above the noise floor but not above the claimed value is still a refutation of the
+            // value only when the interval lies below the value itself
+            if claim.test == ClaimTest::Above && verdict == Verdict::Refuted && e.high > claim.value.unwrap_or(f64::NAN) {
+                verdict = Verdict::Inconclusive;
+            }
+            let direction = Some(if strict { value > lo_bound && value < hi_bound } else { value >= lo_bound && value <= hi_bound });
+            MapOutcome { verdict, text: format!("{name} of {} = {} [{}, {}]{floor_text}", claim.parameter, sig(value, 3), sig(e.low, 3), sig(e.high, 3)), direction, p_claim: f64::NAN, p_against: f64::NAN }
+        }
+        _ => {
+            let Some(j) = a.params.iter().position(|p| *p == claim.than_parameter) else { return MapOutcome::untestable(format!("`{}` is not a parameter of the sweep", claim.than_parameter)) };
+            let (other, other_reps) = of(j);
+            let diffs: Vec<f64> = reps.iter().zip(&other_reps).map(|(x, y)| x - y).collect();
+            let e = percentile_interval(value - other, &diffs);
+            let delta = claim.min_effect.unwrap_or(0.0);
+            let above = claim.test == ClaimTest::Greater;
+            let (lo, hi) = if above { (delta, f64::INFINITY) } else { (f64::NEG_INFINITY, -delta) };
+            let verdict = decide_range((e.low, e.high), (lo, hi), true);
+            let direction = Some(if above { e.value > delta } else { e.value < -delta });
+            MapOutcome {
+                verdict,
+                text: format!("{name}: {} {} vs {} {}; difference {} [{}, {}] (δ = {})", claim.parameter, sig(value, 3), claim.than_parameter, sig(other, 3), sig(e.value, 3), sig(e.low, 3), sig(e.high, 3), sig(delta, 2)),
+                direction,
+                p_claim: f64::NAN,
+                p_against: f64::NAN,
+            }
+        }
+    }
+}
+
 fn test_text(c: &ClaimSpec, cells: &ClaimCells) -> String {
+    if let Some(kind) = c.index {
+        let v = |x: Option<f64>| x.map_or("?".into(), |x| sig(x, 3));
+        let name = kind.as_str();
+        return match c.test {
+            ClaimTest::Above => format!("{name} of {} for {}: 95 % bootstrap interval above {}{}", c.parameter, c.metric, v(c.value), if matches!(kind, crate::spec::IndexKind::St | crate::spec::IndexKind::MuStar) { " and above the noise floor" } else { "" }),
+            ClaimTest::Below => format!("{name} of {} for {}: 95 % bootstrap interval below {}", c.parameter, c.metric, v(c.value)),
+            ClaimTest::Between => format!("{name} of {} for {}: 95 % bootstrap interval within [{}, {}]", c.parameter, c.metric, v(c.value), v(c.upper)),
+            _ => format!(
+                "{name} of {} for {} {} that of {} by more than {}: 95 % bootstrap interval of the difference (same resamples)",
+                c.parameter,
+                c.metric,
+                if c.test == ClaimTest::Greater { "exceeds" } else { "is below" },
+                c.than_parameter,
+                v(Some(c.min_effect.unwrap_or(0.0)))
+            ),
+        };
+    }
     let at = cell_text(&c.at);
     let metric = &c.metric;
     let v = |x: Option<f64>| x.map_or("?".into(), |x| sig(x, 3));
@@ -656,5 +750,48 @@ mod tests {
         assert_eq!(pooled(&[o(0.04, 0.96), o(0.04, 0.96), o(0.04, 0.96)]).0, Verdict::Confirmed);
         assert_eq!(pooled(&[o(0.001, 0.999), o(0.999, 0.001)]).0, Verdict::Inconclusive);
         assert_eq!(pooled(&[MapOutcome::untestable("x".into())]).0, Verdict::Untestable);
+    }
+
+    /// Index claims: an ST interval above the threshold confirms only when it also clears the
+    /// noise floor; one below the threshold refutes; a ranking claim reads the interval of the
+    /// difference over the same resamples.
+    #[test]
+    fn index_claims_test_intervals_noise_floor_and_differences() {
+        use super::super::sensitivity::{Analysis, Indices};
+        use crate::stats::sensitivity::{percentile_interval, Indices as Sobol};
+        // bootstrap replicates: parameter a's ST around 0.5, b's around 0.1
+        let boot_a: Vec<f64> = (0..200).map(|k| 0.4 + 0.2 * k as f64 / 199.0).collect();
+        let boot_b: Vec<f64> = boot_a.iter().map(|x| x - 0.4).collect();
+        let st = vec![percentile_interval(0.5, &boot_a), percentile_interval(0.1, &boot_b)];
+        let analysis = |floor: Option<f64>| Analysis {
+            group: 0,
+            kind: crate::spec::SweepKind::Sobol,
+            map: "m".into(),
+            algorithm: "fastslam1".into(),
+            metric: "ate_rmse_m".into(),
+            params: vec!["a".into(), "b".into()],
+            indices: Some(Indices::Sobol(Sobol { s1: st.clone(), st: st.clone(), boot_s1: vec![boot_a.clone(), boot_b.clone()], boot_st: vec![boot_a.clone(), boot_b.clone()] })),
+            shares: None,
+            noise_floor: floor,
+            used: 32,
+            size: 32,
+            runs: 0,
+            failed: 0,
+            variance: 1.0,
+            rows: Vec::new(),
+            note: String::new(),
+        };
+        let claim = |test: &str, parameter: &str, extra: &str| -> ClaimSpec {
+            toml::from_str(&format!("id = \"c\"\nsource = \"s\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"st\"\nparameter = \"{parameter}\"\ntest = \"{test}\"\n{extra}")).unwrap()
+        };
+        let verdict = |c: &ClaimSpec, floor: Option<f64>| index_on_map(&[analysis(floor)], c, "m", "fastslam1").verdict;
+        let above = claim("above", "a", "value = 0.3");
+        assert_eq!(verdict(&above, Some(0.05)), Verdict::Confirmed);
+        assert_eq!(verdict(&above, Some(0.45)), Verdict::Inconclusive, "inside the noise: cannot confirm");
+        assert_eq!(verdict(&claim("above", "b", "value = 0.3"), Some(0.05)), Verdict::Refuted);
+        assert_eq!(verdict(&claim("greater", "a", "than_parameter = \"b\""), None), Verdict::Confirmed);
+        assert_eq!(verdict(&claim("greater", "b", "than_parameter = \"a\""), None), Verdict::Refuted);
+        assert_eq!(verdict(&claim("greater", "a", "than_parameter = \"b\"\nmin_effect = 0.5"), None), Verdict::Refuted, "difference 0.4 is not more than 0.5");
+        assert_eq!(index_on_map(&[analysis(None)], &above, "other-map", "fastslam1").verdict, Verdict::Untestable);
     }
 }

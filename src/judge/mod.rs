@@ -8,3 +8,4 @@ pub mod agreement;
 pub mod change;
 pub mod claims;
 pub mod scoreboard;
+pub mod sensitivity;

@@ -15,6 +15,7 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 pub mod cost;
+pub mod design;
 pub mod shard;
 
 /// Version of the results schema (`runs.parquet`, `traces.parquet`): part of every content hash.
@@ -41,6 +42,8 @@ pub struct SweepGroup {
     pub params: Vec<String>,
     /// The group's points are named cells (a zip sweep with `labels`).
     pub named: bool,
+    /// A morris / sobol group: the sweep point of each design row.
+    pub design: Option<design::DesignRecord>,
 }
 
 /// One parameter set of the study.
@@ -116,17 +119,22 @@ pub fn build(spec: LoadedSpec, maps_dir: &Path) -> Result<ExperimentPlan, InputE
 
 /// Runs a spec would expand to, counted before expanding anything (saturating): sweep points
 /// (one-at-a-time: the sum of the lists; grid: their product; zip: the list length; duplicates
-/// counted) × maps × algorithms × replicates.
+/// counted; morris: trajectories × (d + 1); sobol: samples × (d + 2)) × maps × algorithms ×
+/// replicates.
 pub fn planned_runs(spec: &LoadedSpec) -> u64 {
     let points = if spec.sweeps.is_empty() {
         1u64
     } else {
         spec.sweeps.iter().fold(0u64, |acc, block| {
             let lens = block.params.iter().map(|p| p.values.len() as u64);
-            let n = match block.kind {
-                SweepKind::OneAtATime => lens.sum(),
-                SweepKind::Grid => lens.fold(1u64, u64::saturating_mul),
-                SweepKind::Zip => lens.max().unwrap_or(0),
+            let d = block.design.as_ref().map_or(0, |d| d.params.len() as u64);
+            let n = match (block.kind, &block.design) {
+                (SweepKind::OneAtATime, _) => lens.sum(),
+                (SweepKind::Grid, _) => lens.fold(1u64, u64::saturating_mul),
+                (SweepKind::Zip, _) => lens.max().unwrap_or(0),
+                (SweepKind::Morris, Some(g)) => (g.trajectories as u64).saturating_mul(d + 1),
+                (SweepKind::Sobol, Some(g)) => (g.samples as u64).saturating_mul(d + 2),
+                (_, None) => 0,
             };
             acc.saturating_add(n)
         })
@@ -267,22 +275,46 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
     // (assignments, group, name of a named cell)
     let mut candidates: Vec<(Candidate, usize, Option<String>)> = Vec::new();
     if spec.sweeps.is_empty() {
-        groups.push(SweepGroup { kind: SweepKind::OneAtATime, params: Vec::new(), named: false });
+        groups.push(SweepGroup { kind: SweepKind::OneAtATime, params: Vec::new(), named: false, design: None });
         candidates.push((Vec::new(), 0, None));
     }
-    for block in &spec.sweeps {
+    // design groups: (group, realised unit rows)
+    let mut designs: Vec<(usize, Vec<Vec<f64>>)> = Vec::new();
+    for (bi, block) in spec.sweeps.iter().enumerate() {
+        if let Some(d) = &block.design {
+            let unit = design::unit_rows(block.kind, d, derive_seed(spec.spec.seed, "sweeps", bi as u32, "design"));
+            let kind = if block.kind == SweepKind::Morris { "morris" } else { "sobol" };
+            groups.push(SweepGroup {
+                kind: block.kind,
+                params: d.params.iter().map(|p| p.path.clone()).collect(),
+                named: false,
+                design: Some(design::DesignRecord { size: unit.size, rows: Vec::new(), moved: unit.moved.clone(), unit: Vec::new(), delta: unit.delta }),
+            });
+            let mut realised = Vec::with_capacity(unit.rows.len());
+            for (row, u) in unit.rows.iter().enumerate() {
+                let (values, coords): (Vec<toml::Value>, Vec<f64>) = d.params.iter().zip(u).map(|(p, &x)| design::realise(p, x)).unzip();
+                let mut assignments: Candidate = d.params.iter().zip(&values).map(|(p, v)| (p.path.clone(), v.clone(), p.key.clone())).collect();
+                for (path, j) in &d.tied {
+                    assignments.push((path.clone(), values[*j].clone(), d.params[*j].key.clone()));
+                }
+                candidates.push((assignments, groups.len() - 1, Some(format!("{kind}{bi}-{row:04}"))));
+                realised.push(coords);
+            }
+            designs.push((groups.len() - 1, realised));
+            continue;
+        }
         let at = |p: &crate::spec::SweptParam, i: usize| (p.path.clone(), p.values[i].clone(), format!("{}[{i}]", p.key));
         match block.kind {
             SweepKind::OneAtATime => {
                 for p in &block.params {
-                    groups.push(SweepGroup { kind: block.kind, params: vec![p.path.clone()], named: false });
+                    groups.push(SweepGroup { kind: block.kind, params: vec![p.path.clone()], named: false, design: None });
                     for i in 0..p.values.len() {
                         candidates.push((vec![at(p, i)], groups.len() - 1, None));
                     }
                 }
             }
             SweepKind::Grid => {
-                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect(), named: false });
+                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect(), named: false, design: None });
                 let mut combos: Vec<Candidate> = vec![Vec::new()];
                 for p in &block.params {
                     combos = combos.into_iter().flat_map(|c| (0..p.values.len()).map(move |i| [c.clone(), vec![at(p, i)]].concat())).collect();
@@ -290,11 +322,12 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
                 candidates.extend(combos.into_iter().map(|c| (c, groups.len() - 1, None)));
             }
             SweepKind::Zip => {
-                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect(), named: !block.labels.is_empty() });
+                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect(), named: !block.labels.is_empty(), design: None });
                 for i in 0..block.params[0].values.len() {
                     candidates.push((block.params.iter().map(|p| at(p, i)).collect(), groups.len() - 1, block.labels.get(i).cloned()));
                 }
             }
+            SweepKind::Morris | SweepKind::Sobol => unreachable!("a design block without its design was rejected by the spec check"),
         }
     }
 
@@ -320,7 +353,13 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
             if !existing.groups.contains(&group) {
                 existing.groups.push(group);
             }
+            if let Some(d) = &mut groups[group].design {
+                d.rows.push(existing.label.clone());
+            }
             continue;
+        }
+        if let Some(d) = &mut groups[group].design {
+            d.rows.push(name.clone().expect("design rows are named"));
         }
         seen.entry(key).or_default().push(points.len());
         let label = if let Some(name) = name {
@@ -331,6 +370,15 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
             assignments.iter().map(|(p, v, _)| format!("{p}={}", format_value(v))).collect::<Vec<_>>().join(",")
         };
         points.push(SweepPoint { label, assignments: assignments.into_iter().map(|(p, v, _)| (p, v)).collect(), params, groups: vec![group] });
+    }
+    // Morris divides by the realised steps: keep each row's realised coordinates.
+    for (g, realised) in designs {
+        let morris = groups[g].kind == SweepKind::Morris;
+        if let Some(d) = &mut groups[g].design
+            && morris
+        {
+            d.unit = realised;
+        }
     }
     if !errors.is_empty() {
         // The same bad value can make several points invalid: report it once.
@@ -413,6 +461,11 @@ fn claim_cells(spec: &LoadedSpec, points: &[SweepPoint]) -> Result<Vec<ClaimCell
     let mut out = Vec::new();
     let mut errors = Vec::new();
     for (i, c) in spec.spec.claims.iter().enumerate() {
+        // An index claim is about a whole design, not cells.
+        if c.index.is_some() {
+            out.push(ClaimCells { id: c.id.clone(), at: None, than: None, over: Vec::new() });
+            continue;
+        }
         // An empty table means the base configuration.
         let mut cell = |t: &toml::Table, k: &str| match find_point(spec, points, t, &format!("claims[{i}].{k}")) {
             Ok(p) => Some(points[p].label.clone()),
@@ -692,5 +745,43 @@ mod tests {
         let a = plan_of(HEAD).unwrap();
         let b = plan_of(&format!("{HEAD}[base.laser]\nmax_range_m = 30.0\n")).unwrap();
         assert_eq!(a.runs[0].hash, b.runs[0].hash);
+    }
+
+    /// A morris sweep expands to r (d + 1) design rows; integer rounding merges equal rows into
+    /// one point (one run per replicate) and the record keeps each row's point and realised
+    /// coordinates; tied keys follow their parameter; the same spec gives the same design.
+    #[test]
+    fn morris_rows_become_deduplicated_points() {
+        let text = HEAD.replace("[\"odometry\"]", "[\"fastslam1\"]")
+            + "[[sweeps]]\nkind = \"morris\"\ntrajectories = 6\nlevels = 4\nranges = { \"fastslam.particles\" = [1, 3], \"fastslam.motion_x\" = [0.001, 0.1] }\nlog = [\"fastslam.motion_x\"]\ntied = { \"fastslam.motion_y\" = \"fastslam.motion_x\" }\n";
+        let plan = plan_of(&text).unwrap();
+        let d = plan.groups[0].design.as_ref().unwrap();
+        assert_eq!((d.rows.len(), d.unit.len(), d.moved.len(), d.size), (6 * 3, 6 * 3, 6, 6));
+        let distinct: std::collections::BTreeSet<&String> = d.rows.iter().collect();
+        assert_eq!(distinct.len(), plan.points.len(), "every point is some row's");
+        assert!(plan.points.len() < d.rows.len(), "particles 1.67 and 2.33 both round to 2 (and trajectories share grid points)");
+        for (row, label) in d.rows.iter().enumerate() {
+            let p = &plan.points.iter().find(|p| &p.label == label).unwrap().params.fastslam;
+            assert_eq!(p.motion_y, p.motion_x, "tied");
+            // the realised coordinate is the run's own value on the unit scale
+            assert!((d.unit[row][0] - (p.particles as f64 - 1.0) / 2.0).abs() < 1e-12);
+            assert!((d.unit[row][1] - (p.motion_x / 0.001).ln() / 100f64.ln()).abs() < 1e-9);
+        }
+        assert!(plan.points.iter().all(|p| p.label.starts_with("morris0-")));
+        assert_eq!(plan.runs.len(), plan.points.len() * 3);
+        assert_eq!(plan_of(&text).unwrap().groups, plan.groups, "seeded by the spec");
+        let other = plan_of(&text.replace("seed = 5", "seed = 6")).unwrap();
+        assert_ne!(other.groups[0].design.as_ref().unwrap().unit, d.unit);
+    }
+
+    /// planned_runs counts a sobol design as N (d + 2) points before expanding it.
+    #[test]
+    fn sobol_designs_are_counted_before_expansion() {
+        let text = HEAD.replace("[\"odometry\"]", "[\"fastslam1\"]") + "[[sweeps]]\nkind = \"sobol\"\nsamples = 8\nranges = { \"fastslam.p0\" = [0.001, 1.0], \"fastslam.motion_x\" = [0.001, 0.1] }\n";
+        let spec = crate::spec::parse(Path::new("s.toml"), &text).unwrap();
+        assert_eq!(planned_runs(&spec), 8 * 4 * 3);
+        let plan = plan_of(&text).unwrap();
+        assert_eq!(plan.groups[0].design.as_ref().unwrap().rows.len(), 32);
+        assert!(plan.groups[0].design.as_ref().unwrap().unit.is_empty(), "sobol keeps no coordinates");
     }
 }

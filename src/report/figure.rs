@@ -684,3 +684,139 @@ mod tests {
         assert_eq!(d.last(), pts.last());
     }
 }
+
+/// Sobol' indices of one metric: per parameter, S1 and ST bars with their 95 % intervals, and the
+/// noise floor (the ST a parameter without effect shows) as a dashed line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IndexBarsFigure {
+    pub params: Vec<String>,
+    /// (value, low, high) per parameter.
+    pub s1: Vec<(f64, f64, f64)>,
+    pub st: Vec<(f64, f64, f64)>,
+    pub noise_floor: Option<f64>,
+}
+
+impl IndexBarsFigure {
+    /// y range: [min(0, lowest bound), max(1, highest bound)].
+    pub fn y_range(&self) -> (f64, f64) {
+        let all = self.s1.iter().chain(&self.st).flat_map(|&(v, l, h)| [v, l, h]).filter(|v| v.is_finite());
+        let (lo, hi) = all.fold((0.0f64, 1.0f64), |(a, b), v| (a.min(v), b.max(v)));
+        (lo - 0.02, hi + 0.02)
+    }
+}
+
+pub fn index_bars_svg(fig: &IndexBarsFigure) -> String {
+    let entries = [
+        LegendEntry { label: "S1 (first order)", color: rgb(0), dot: true, dashed: false, dotted: false },
+        LegendEntry { label: "ST (total)", color: rgb(1), dot: true, dashed: false, dotted: false },
+        LegendEntry { label: "noise floor of ST", color: TRUTH, dot: false, dashed: true, dotted: false },
+    ];
+    let shown = if fig.noise_floor.is_some() { &entries[..] } else { &entries[..2] };
+    let (_, legend_px) = legend_layout(shown, WIDTH, LEFT_PX);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px + 60)).into_drawing_area();
+        root.fill(&WHITE).expect("drawing an SVG into memory");
+        let (top, plot) = root.split_vertically(legend_px);
+        draw_legend(&top, shown, LEFT_PX).expect("drawing an SVG into memory");
+        draw_index_bars(&plot, fig).expect("drawing an SVG into memory");
+        root.present().expect("finishing an SVG in memory");
+    }
+    svg
+}
+
+fn draw_index_bars(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &IndexBarsFigure) -> Result<(), String> {
+    let d = fig.params.len() as f64;
+    let (y0, y1) = fig.y_range();
+    let mut chart = ChartBuilder::on(root).margin(14).x_label_area_size(100).y_label_area_size(LEFT_PX - 14).build_cartesian_2d(0.0..d, y0..y1).map_err(|e| e.to_string())?;
+    chart.configure_mesh().disable_x_mesh().x_labels(0).y_desc("Sobol' index").label_style((FONT, 13)).axis_desc_style((FONT, 14)).light_line_style(WHITE.mix(0.0)).draw().map_err(|e| e.to_string())?;
+    for (series, (values, offset)) in [(&fig.s1, 0.18), (&fig.st, 0.52)].into_iter().enumerate() {
+        let color = rgb(series);
+        for (i, &(v, lo, hi)) in values.iter().enumerate() {
+            let x = i as f64 + offset;
+            if v.is_finite() {
+                chart.draw_series(std::iter::once(Rectangle::new([(x, 0.0), (x + 0.3, v)], color.mix(0.85).filled()))).map_err(|e| e.to_string())?;
+            }
+            if lo.is_finite() && hi.is_finite() {
+                let xm = x + 0.15;
+                let whisker = vec![(xm, lo), (xm, hi)];
+                chart.draw_series([PathElement::new(whisker, BLACK.stroke_width(1)), PathElement::new(vec![(xm - 0.06, lo), (xm + 0.06, lo)], BLACK.stroke_width(1)), PathElement::new(vec![(xm - 0.06, hi), (xm + 0.06, hi)], BLACK.stroke_width(1))]).map_err(|e| e.to_string())?;
+            }
+        }
+    }
+    chart.draw_series(std::iter::once(PathElement::new(vec![(0.0, 0.0), (d, 0.0)], BLACK.stroke_width(1)))).map_err(|e| e.to_string())?;
+    if let Some(f) = fig.noise_floor.filter(|f| f.is_finite()) {
+        chart.draw_series(plotters::series::DashedLineSeries::new(vec![(0.0, f), (d, f)], 6, 4, TRUTH.stroke_width(1))).map_err(|e| e.to_string())?;
+    }
+    let style = TextStyle::from((FONT, 12).into_font()).pos(Pos::new(HPos::Right, VPos::Center)).transform(FontTransform::Rotate270);
+    let (bx, by) = root.get_base_pixel();
+    for (i, p) in fig.params.iter().enumerate() {
+        let (px, py) = chart.backend_coord(&(i as f64 + 0.5, y0));
+        root.draw(&Text::new(p.as_str(), (px - bx, py - by + 6), style.clone().pos(Pos::new(HPos::Right, VPos::Center)))).map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// Morris's screening of one metric: μ* against σ per parameter (labelled), the line σ = μ*
+/// (above it: non-linear or interacting), and the noise floor of μ* as a dashed vertical line.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MorrisFigure {
+    pub params: Vec<String>,
+    pub mu_star: Vec<f64>,
+    pub sigma: Vec<f64>,
+    pub noise_floor: Option<f64>,
+    pub unit: String,
+}
+
+impl MorrisFigure {
+    pub fn max(&self) -> f64 {
+        let m = self.mu_star.iter().chain(&self.sigma).chain(self.noise_floor.iter()).copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max);
+        if m > 0.0 { m * 1.12 } else { 1.0 }
+    }
+}
+
+pub fn morris_svg(fig: &MorrisFigure) -> String {
+    let entries = [
+        LegendEntry { label: "parameter", color: rgb(0), dot: true, dashed: false, dotted: false },
+        LegendEntry { label: "σ = μ*", color: TRUTH, dot: false, dashed: false, dotted: false },
+        LegendEntry { label: "noise floor of μ*", color: rgb(3), dot: false, dashed: true, dotted: false },
+    ];
+    let shown = if fig.noise_floor.is_some() { &entries[..] } else { &entries[..2] };
+    let (_, legend_px) = legend_layout(shown, WIDTH, LEFT_PX);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px)).into_drawing_area();
+        root.fill(&WHITE).expect("drawing an SVG into memory");
+        let (top, plot) = root.split_vertically(legend_px);
+        draw_legend(&top, shown, LEFT_PX).expect("drawing an SVG into memory");
+        draw_morris(&plot, fig).expect("drawing an SVG into memory");
+        root.present().expect("finishing an SVG in memory");
+    }
+    svg
+}
+
+fn draw_morris(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &MorrisFigure) -> Result<(), String> {
+    let m = fig.max();
+    let mut chart = ChartBuilder::on(root).margin(14).x_label_area_size(46).y_label_area_size(LEFT_PX - 14).build_cartesian_2d(0.0..m, 0.0..m).map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc(format!("μ* [{}]", fig.unit))
+        .y_desc(format!("σ [{}]", fig.unit))
+        .label_style((FONT, 13))
+        .axis_desc_style((FONT, 14))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    chart.draw_series(std::iter::once(PathElement::new(vec![(0.0, 0.0), (m, m)], TRUTH.stroke_width(1)))).map_err(|e| e.to_string())?;
+    if let Some(f) = fig.noise_floor.filter(|f| f.is_finite()) {
+        chart.draw_series(plotters::series::DashedLineSeries::new(vec![(f, 0.0), (f, m)], 6, 4, rgb(3).stroke_width(1))).map_err(|e| e.to_string())?;
+    }
+    let style = TextStyle::from((FONT, 12).into_font()).pos(Pos::new(HPos::Left, VPos::Bottom));
+    for ((p, &x), &y) in fig.params.iter().zip(&fig.mu_star).zip(&fig.sigma) {
+        if x.is_finite() && y.is_finite() {
+            chart.draw_series(std::iter::once(Circle::new((x, y), 4, rgb(0).filled()))).map_err(|e| e.to_string())?;
+            chart.draw_series(std::iter::once(Text::new(p.clone(), (x, y), style.clone()))).map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(())
+}

@@ -9,6 +9,7 @@ pub mod fidelity;
 pub mod figure;
 pub mod latex;
 pub mod pgf;
+pub mod sensitivity;
 pub mod slurm;
 pub mod timings;
 pub mod view;
@@ -211,7 +212,10 @@ pub fn render_all(results_dir: &Path, reports_dir: &Path, keep: &[String], publi
         files.push((format!("{id}/index.html"), render(&env, "study.html", ctx.clone())?.into_bytes()));
         files.push((format!("{id}/{id}.tex"), render(&env, "study.tex", ctx)?.into_bytes()));
         files.push((format!("{id}/summary.csv"), p.csv.clone().into_bytes()));
-        for f in p.view.groups.iter().flat_map(|g| &g.figures).chain(&p.view.trajectories).chain(&p.view.diagnostics) {
+        if !p.sensitivity_csv.is_empty() {
+            files.push((format!("{id}/sensitivity.csv"), p.sensitivity_csv.clone().into_bytes()));
+        }
+        for f in p.view.groups.iter().flat_map(|g| &g.figures).chain(p.view.sensitivity.iter().flat_map(|s| &s.blocks).filter_map(|b| b.figure.as_ref())).chain(&p.view.trajectories).chain(&p.view.diagnostics) {
             files.push((format!("{id}/figures/{}.svg", f.file), f.svg.clone().into_bytes()));
             files.push((format!("{id}/figures/{}.tex", f.file), f.pgf.clone().into_bytes()));
         }

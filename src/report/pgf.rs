@@ -267,3 +267,46 @@ pub fn scan_map_pgf(fig: &ScanMapFigure) -> String {
     let _ = writeln!(s, "\\end{{axis}}\n\\end{{tikzpicture}}");
     s
 }
+
+/// Sobol' indices as grouped bars with their intervals (see [`super::figure::IndexBarsFigure`]).
+pub fn index_bars_pgf(fig: &super::figure::IndexBarsFigure) -> String {
+    let (y0, y1) = fig.y_range();
+    let labels: Vec<String> = fig.params.iter().map(|p| escape(p)).collect();
+    let mut out = String::new();
+    let _ = writeln!(out, "\\begin{{tikzpicture}}\n\\begin{{axis}}[width=\\linewidth, height=6cm, ybar, bar width=6pt, ymin={}, ymax={}, ylabel={{Sobol' index}}, xtick={{1,...,{}}}, xticklabels={{{}}}, x tick label style={{rotate=45, anchor=east, font=\\footnotesize}}, legend style={{font=\\footnotesize, at={{(0.5,1.02)}}, anchor=south}}, legend columns=3, enlarge x limits=0.06]", num(y0), num(y1), fig.params.len(), labels.join(","));
+    for (i, (values, name)) in [(&fig.s1, "S1 (first order)"), (&fig.st, "ST (total)")].into_iter().enumerate() {
+        let _ = write!(out, "\\addplot+[draw=slamlab{i}, fill=slamlab{i}, error bars/.cd, y dir=both, y explicit] coordinates {{");
+        for (k, &(v, lo, hi)) in values.iter().enumerate() {
+            if v.is_finite() {
+                let (plus, minus) = if lo.is_finite() && hi.is_finite() { (hi - v, v - lo) } else { (0.0, 0.0) };
+                let _ = write!(out, " ({}, {}) += (0, {}) -= (0, {})", k + 1, num(v), num(plus.max(0.0)), num(minus.max(0.0)));
+            }
+        }
+        let _ = writeln!(out, " }};\n\\addlegendentry{{{name}}}");
+    }
+    if let Some(f) = fig.noise_floor.filter(|f| f.is_finite()) {
+        let _ = writeln!(out, "\\draw[dashed, gray] (axis cs:0.5,{0}) -- (axis cs:{1}.5,{0});", num(f), fig.params.len());
+    }
+    out.push_str("\\end{axis}\n\\end{tikzpicture}\n");
+    out
+}
+
+/// Morris's μ*–σ plane (see [`super::figure::MorrisFigure`]).
+pub fn morris_pgf(fig: &super::figure::MorrisFigure) -> String {
+    let m = fig.max();
+    let mut out = String::new();
+    let unit = escape(&fig.unit);
+    let _ = writeln!(out, "\\begin{{tikzpicture}}\n\\begin{{axis}}[width=\\linewidth, height=7cm, xmin=0, ymin=0, xmax={0}, ymax={0}, xlabel={{$\\mu^*$ [{1}]}}, ylabel={{$\\sigma$ [{1}]}}]", num(m), unit);
+    let _ = writeln!(out, "\\addplot[gray, domain=0:{0}] {{x}};", num(m));
+    if let Some(f) = fig.noise_floor.filter(|f| f.is_finite()) {
+        let _ = writeln!(out, "\\addplot[dashed, slamlab3] coordinates {{({0}, 0) ({0}, {1})}};", num(f), num(m));
+    }
+    let _ = write!(out, "\\addplot[only marks, mark=*, color=slamlab0, nodes near coords, point meta=explicit symbolic, every node near coord/.append style={{font=\\scriptsize, anchor=south west}}] coordinates {{");
+    for ((p, &x), &y) in fig.params.iter().zip(&fig.mu_star).zip(&fig.sigma) {
+        if x.is_finite() && y.is_finite() {
+            let _ = write!(out, " ({}, {}) [{}]", num(x), num(y), escape(p));
+        }
+    }
+    out.push_str(" };\n\\end{axis}\n\\end{tikzpicture}\n");
+    out
+}

@@ -84,6 +84,8 @@ pub struct StudyView {
     pub choices: Vec<String>,
     pub notes: Vec<String>,
     pub groups: Vec<GroupView>,
+    /// morris / sobol groups: global sensitivity.
+    pub sensitivity: Vec<super::sensitivity::SensitivitySection>,
     pub claims: Vec<crate::judge::claims::ClaimResult>,
     pub trajectories: Vec<FigureView>,
     /// Scan matching: the match diagnostics' sentences and figures ([EP] Figs 25–27, 52–59).
@@ -118,6 +120,8 @@ pub struct StudyPages {
     pub view: StudyView,
     pub index: IndexEntry,
     pub csv: String,
+    /// morris / sobol groups: every design row's outputs (`sensitivity.csv`; empty: none).
+    pub sensitivity_csv: String,
 }
 
 /// Maps and runs of a study, in the order the spec lists them.
@@ -212,7 +216,9 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
     let base = crate::store::select::read_base(spec, &world_kinds(&maps));
     let study = Study { data, maps, metrics, base };
 
-    let mut groups: Vec<GroupView> = data.resolved.groups.iter().enumerate().map(|(gi, _)| group_view(&study, gi)).collect();
+    // morris / sobol groups get the sensitivity section instead of error-vs-parameter plots
+    let mut groups: Vec<GroupView> = data.resolved.groups.iter().enumerate().filter(|(_, g)| g.design.is_none()).map(|(gi, _)| group_view(&study, gi)).collect();
+    let sensitivity = super::sensitivity::build(data, &study.metrics);
     // Two groups can sweep the same parameters (e.g. a one-at-a-time list and a zip): keep file
     // names (and HTML ids) unique, deterministically, in group order.
     let mut used: Vec<String> = Vec::new();
@@ -242,6 +248,7 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
         choices: modelling_choices(&study),
         notes: spec.notes.clone(),
         groups,
+        sensitivity,
         claims: crate::judge::claims::evaluate(data),
         trajectories,
         diagnostics_intro: diagnostics.as_ref().map_or(Vec::new(), |d| d.intro.clone()),
@@ -267,7 +274,8 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
         algorithms: spec.algorithms.iter().map(|a| a.name()).collect::<Vec<_>>().join(", "),
     };
     let csv = summary_csv(&study);
-    StudyPages { view, index, csv }
+    let sensitivity_csv = super::sensitivity::csv(data, &study.metrics);
+    StudyPages { view, index, csv, sensitivity_csv }
 }
 
 fn paragraphs(text: &str) -> Vec<String> {
@@ -403,6 +411,9 @@ fn sweep_lines(study: &Study<'_>) -> Vec<String> {
     spec.sweeps
         .iter()
         .map(|s| {
+            if s.kind.is_design() {
+                return super::sensitivity::sweep_line(s);
+            }
             let mut leaves = Vec::new();
             flatten("", &toml::Value::Table(s.values.clone()), &mut leaves);
             // `flatten` stops at arrays: each leaf is one parameter's list.
@@ -417,6 +428,7 @@ fn sweep_lines(study: &Study<'_>) -> Vec<String> {
                 SweepKind::OneAtATime => "one at a time",
                 SweepKind::Grid => "full grid",
                 SweepKind::Zip => "zipped",
+                SweepKind::Morris | SweepKind::Sobol => unreachable!("described above"),
             };
             format!("{kind}: {}", lists.join("; "))
         })
@@ -516,6 +528,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
         (SweepKind::OneAtATime, _) => format!("Varying {} (others at base)", group.params[0]),
         (SweepKind::Grid, _) => format!("Grid over {}", group.params.join(" × ")),
         (SweepKind::Zip, _) => format!("Varying {} together", group.params.join(", ")),
+        (SweepKind::Morris | SweepKind::Sobol, _) => unreachable!("design groups have their own section"),
     };
 
     // Table: one row per (map, algorithm, point), metrics as "mean [CI]".

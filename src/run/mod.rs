@@ -652,7 +652,7 @@ fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
     // `spec.base` is already resolved: serialising it writes every default out.
     ResolvedStudy {
         spec: plan.spec.spec.clone(),
-        groups: plan.groups.iter().map(|g| GroupRecord { kind: g.kind, params: g.params.clone(), named: g.named }).collect(),
+        groups: plan.groups.iter().map(|g| GroupRecord { kind: g.kind, params: g.params.clone(), named: g.named, design: g.design.clone() }).collect(),
         points: plan
             .points
             .iter()

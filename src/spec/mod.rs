@@ -128,6 +128,47 @@ pub struct ClaimSpec {
     /// How many maps must confirm: all (default), most, or any.
     #[serde(default)]
     pub require: Require,
+    /// A claim on a global-sensitivity index (a morris / sobol sweep of the study) instead of a
+    /// cell: `above` / `below` / `between` test the index's 95 % bootstrap interval against
+    /// `value` (and `upper`), `greater` / `less` the interval of its difference with
+    /// `than_parameter`'s same index against `min_effect` (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub index: Option<IndexKind>,
+    /// For an index claim: the parameter (a path of the sweep's `ranges`).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub parameter: String,
+    /// For an index claim with `greater` / `less`: the parameter compared with.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub than_parameter: String,
+}
+
+/// The sensitivity index an index claim is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum IndexKind {
+    /// Sobol' first-order index (sobol sweep).
+    S1,
+    /// Sobol' total index (sobol sweep).
+    St,
+    /// ST − S1: the share of variance due to the parameter's interactions (sobol sweep).
+    Interaction,
+    /// Morris's μ*, in the metric's unit per full range (morris sweep).
+    MuStar,
+}
+
+impl IndexKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            IndexKind::S1 => "S1",
+            IndexKind::St => "ST",
+            IndexKind::Interaction => "ST − S1",
+            IndexKind::MuStar => "μ*",
+        }
+    }
+    /// The sweep kind that estimates it.
+    pub fn sweep(self) -> SweepKind {
+        if self == IndexKind::MuStar { SweepKind::Morris } else { SweepKind::Sobol }
+    }
 }
 
 /// The statistical test behind a claim (the rules are in `judge::claims`).
@@ -254,12 +295,58 @@ fn one_run() -> u32 {
 #[serde(deny_unknown_fields)]
 pub struct SweepSpec {
     pub kind: SweepKind,
+    /// one_at_a_time / grid / zip: each parameter's list of values.
+    #[serde(default)]
     pub values: toml::Table,
     /// Names of a zip sweep's points, one per position (e.g. [EP] Table 1's noise cells
     /// `none`, `odo1`, …): they label the points (and run ids), the columns of the report's
     /// per-cell tables and the categorical x axis of its plots.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub labels: Vec<String>,
+    /// morris / sobol: each parameter's range `[low, high]` (integers for an integer parameter,
+    /// which is then rounded to the nearest integer).
+    #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
+    pub ranges: toml::Table,
+    /// morris / sobol: parameters whose range is sampled uniformly in the logarithm (low > 0).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub log: Vec<String>,
+    /// morris / sobol: parameter → the ranged parameter whose value it takes at every point
+    /// (e.g. `"fastslam.motion_y" = "fastslam.motion_x"`: one factor, two keys).
+    #[serde(default, skip_serializing_if = "toml::Table::is_empty")]
+    pub tied: toml::Table,
+    /// morris: grid levels per parameter (even; default 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub levels: Option<u32>,
+    /// morris: trajectories (default 10).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trajectories: Option<u32>,
+    /// sobol: base samples N, a power of two (default 64); the design has N (d + 2) points.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub samples: Option<u32>,
+}
+
+/// A parameter of a morris / sobol sweep and its range.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RangedParam {
+    pub path: String,
+    /// Location key of its range in the spec.
+    pub key: String,
+    pub low: f64,
+    pub high: f64,
+    pub log: bool,
+    /// An integer parameter (its `[base]` value is an integer): values are rounded.
+    pub integer: bool,
+}
+
+/// The design of a morris / sobol sweep block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DesignSpec {
+    pub params: Vec<RangedParam>,
+    /// (tied parameter path, index of the ranged parameter it follows).
+    pub tied: Vec<(String, usize)>,
+    pub levels: usize,
+    pub trajectories: usize,
+    pub samples: usize,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
@@ -271,6 +358,17 @@ pub enum SweepKind {
     Grid,
     /// The i-th values of every list together (lists of equal length).
     Zip,
+    /// Morris's elementary-effects screening over `ranges` (global sensitivity).
+    Morris,
+    /// Saltelli's design on a scrambled Sobol' sequence over `ranges`: Sobol' indices S1, ST.
+    Sobol,
+}
+
+impl SweepKind {
+    /// A global-sensitivity design (`ranges`, not `values`).
+    pub fn is_design(self) -> bool {
+        matches!(self, SweepKind::Morris | SweepKind::Sobol)
+    }
 }
 
 /// What the report shows.
@@ -408,6 +506,8 @@ pub struct SweepBlock {
     pub params: Vec<SweptParam>,
     /// Point names (zip sweeps with `labels`), else empty.
     pub labels: Vec<String>,
+    /// morris / sobol sweeps: their ranges and design sizes.
+    pub design: Option<DesignSpec>,
 }
 
 /// A parsed, validated spec with what is needed to place later errors in its text.
@@ -569,6 +669,16 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     let known = |p: &str| base_leaves.iter().any(|(k, _)| k == p);
     let mut sweeps = Vec::new();
     for (i, block) in spec.sweeps.iter().enumerate() {
+        if block.kind.is_design() {
+            let design = check_design(i, block, &base_leaves, &spec.algorithms, &mut err);
+            sweeps.push(SweepBlock { kind: block.kind, params: Vec::new(), labels: Vec::new(), design });
+            continue;
+        }
+        for (k, set) in [("ranges", !block.ranges.is_empty()), ("log", !block.log.is_empty()), ("tied", !block.tied.is_empty()), ("levels", block.levels.is_some()), ("trajectories", block.trajectories.is_some()), ("samples", block.samples.is_some())] {
+            if set {
+                err(&format!("sweeps[{i}].{k}"), "only a morris or sobol sweep has this key".into());
+            }
+        }
         let mut swept = Vec::new();
         flatten_sweep(&block.values, "", &format!("sweeps[{i}].values"), &mut swept);
         if swept.is_empty() {
@@ -613,7 +723,7 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
                 }
             }
         }
-        sweeps.push(SweepBlock { kind: block.kind, params: swept, labels: block.labels.clone() });
+        sweeps.push(SweepBlock { kind: block.kind, params: swept, labels: block.labels.clone(), design: None });
     }
     for (i, p) in spec.report.log_x.iter().enumerate() {
         let values: Vec<&toml::Value> = sweeps.iter().flat_map(|b| &b.params).filter(|s| &s.path == p).flat_map(|s| &s.values).collect();
@@ -626,6 +736,37 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
 
     for (i, c) in spec.claims.iter().enumerate() {
         let key = |k: &str| format!("claims[{i}].{k}");
+        if let Some(index) = c.index {
+            // where the index comes from: a design sweep of its kind with this parameter
+            let ranged = |p: &str| sweeps.iter().filter(|b| b.kind == index.sweep()).filter_map(|b| b.design.as_ref()).any(|d| d.params.iter().any(|r| r.path == p));
+            if !sweeps.iter().any(|b| b.kind == index.sweep()) {
+                err(&key("index"), format!("{} comes from a {} sweep, which this study does not have", index.as_str(), if index.sweep() == SweepKind::Morris { "morris" } else { "sobol" }));
+            } else if c.parameter.is_empty() {
+                err(&format!("claims[{i}]"), "an index claim needs the `parameter` it is about".into());
+            } else if !ranged(&c.parameter) {
+                err(&key("parameter"), format!("`{}` has no range in this study's {} sweep", c.parameter, if index.sweep() == SweepKind::Morris { "morris" } else { "sobol" }));
+            }
+            match c.test {
+                ClaimTest::Greater | ClaimTest::Less if c.than_parameter.is_empty() => err(&format!("claims[{i}]"), "this test needs a `than_parameter` to compare the index with".into()),
+                ClaimTest::Greater | ClaimTest::Less if !ranged(&c.than_parameter) => err(&key("than_parameter"), format!("`{}` has no range in the same sweep", c.than_parameter)),
+                ClaimTest::Greater | ClaimTest::Less | ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {}
+                _ => err(&key("test"), "an index claim is tested with above, below, between, greater or less".into()),
+            }
+            if !c.than_parameter.is_empty() && !matches!(c.test, ClaimTest::Greater | ClaimTest::Less) {
+                err(&key("than_parameter"), "only a greater or less index claim compares parameters".into());
+            }
+            for (k, set) in [("at", !c.at.is_empty()), ("than", !c.than.is_empty()), ("over", !c.over.is_empty()), ("than_algorithm", c.than_algorithm.is_some()), ("precondition", c.precondition.is_some()), ("min_effect_rel", c.min_effect_rel.is_some())] {
+                if set {
+                    err(&key(k), "an index claim is about the whole design, not cells: leave this key out".into());
+                }
+            }
+        } else {
+            for (k, set) in [("parameter", !c.parameter.is_empty()), ("than_parameter", !c.than_parameter.is_empty())] {
+                if set {
+                    err(&key(k), "only an index claim (`index = …`) names a parameter".into());
+                }
+            }
+        }
         if c.test == ClaimTest::Fails {
             if !c.metric.is_empty() {
                 err(&key("metric"), "a `fails` claim tests run failures, not a metric: leave `metric` out".into());
@@ -643,7 +784,7 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
             ClaimTest::Fails => None,
             ClaimTest::Between => (c.value.is_none() || c.upper.is_none()).then_some("bounds `value` and `upper`"),
             ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
-                (c.than.is_empty() && c.than_algorithm.is_none()).then_some("a cell (`than`) or an algorithm (`than_algorithm`) to compare with")
+                (c.index.is_none() && c.than.is_empty() && c.than_algorithm.is_none()).then_some("a cell (`than`) or an algorithm (`than_algorithm`) to compare with")
             }
             ClaimTest::Flat => (c.over.len() != 1 || c.tolerance.is_some() == c.tolerance_rel.is_some()).then_some("one parameter's values in `over` and either `tolerance` or `tolerance_rel`"),
         };
@@ -710,6 +851,115 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         return Err(SpecError::new(path, errors));
     }
     Ok(LoadedSpec { path: path.to_path_buf(), hash: blake3::hash(text.as_bytes()).to_hex().to_string(), locator, spec, sweeps })
+}
+
+/// Checks a morris / sobol block: `ranges` of known parameters read by the study's algorithms,
+/// `[low, high]` numbers with low < high (integers for an integer parameter), `log` ranges
+/// above 0, `tied` keys following a ranged parameter, and the design's sizes.
+fn check_design(i: usize, block: &SweepSpec, base_leaves: &[(String, toml::Value)], algorithms: &[AlgorithmKind], err: &mut dyn FnMut(&str, String)) -> Option<DesignSpec> {
+    let key = |k: &str| format!("sweeps[{i}].{k}");
+    let before = std::cell::Cell::new(0usize);
+    let mut fail = |k: String, m: String| {
+        before.set(before.get() + 1);
+        err(&k, m)
+    };
+    if !block.values.is_empty() {
+        fail(key("values"), "a morris or sobol sweep samples `ranges`, not lists of `values`".into());
+    }
+    if !block.labels.is_empty() {
+        fail(key("labels"), "only a zip sweep can name its points".into());
+    }
+    let mut ranged = Vec::new();
+    flatten_sweep(&block.ranges, "", &key("ranges"), &mut ranged);
+    if ranged.is_empty() {
+        fail(key("ranges"), "give each parameter's range, e.g. ranges = { \"features.dmax_m\" = [0.001, 0.1] }".into());
+    }
+    let mut params = Vec::new();
+    for p in &ranged {
+        let Some((_, base)) = base_leaves.iter().find(|(k, _)| *k == p.path) else {
+            let names: Vec<_> = base_leaves.iter().map(|(k, _)| k.as_str()).collect();
+            fail(p.key.clone(), format!("unknown parameter `{}` (parameters: {})", p.path, names.join(", ")));
+            continue;
+        };
+        let read: Vec<&str> = algorithms.iter().flat_map(|a| crate::world::WorldKind::ALL.into_iter().flat_map(move |k| a.sections_read(k))).collect();
+        if !read.contains(&p.path.split('.').next().unwrap_or("")) {
+            let names: Vec<&str> = algorithms.iter().map(|a| a.name()).collect();
+            fail(p.key.clone(), format!("`{}` is not read by any of this study's algorithms ({}): its indices would be zero by construction", p.path, names.join(", ")));
+            continue;
+        }
+        let integer = base.is_integer();
+        if !(base.is_integer() || base.is_float()) {
+            fail(p.key.clone(), format!("`{}` is not a number: a range needs a numeric parameter", p.path));
+            continue;
+        }
+        let bounds: Vec<Option<f64>> = p.values.iter().map(|v| v.as_float().or(v.as_integer().map(|n| n as f64))).collect();
+        let (low, high) = match bounds[..] {
+            [Some(lo), Some(hi)] if lo.is_finite() && hi.is_finite() && lo < hi => (lo, hi),
+            _ => {
+                fail(p.key.clone(), "must be [low, high], two finite numbers with low < high".into());
+                continue;
+            }
+        };
+        if integer && !p.values.iter().all(toml::Value::is_integer) {
+            fail(p.key.clone(), format!("`{}` is an integer parameter: give integer bounds", p.path));
+            continue;
+        }
+        let log = block.log.contains(&p.path);
+        if log && low <= 0.0 {
+            fail(p.key.clone(), format!("`{}` is sampled on a log scale (`log`): its low bound must be > 0", p.path));
+        }
+        params.push(RangedParam { path: p.path.clone(), key: p.key.clone(), low, high, log, integer });
+    }
+    for (j, l) in block.log.iter().enumerate() {
+        if !ranged.iter().any(|p| &p.path == l) {
+            fail(key(&format!("log[{j}]")), format!("`{l}` has no range in this sweep"));
+        }
+    }
+    let mut tied = Vec::new();
+    for (path, source) in &block.tied {
+        let k = join_key(&key("tied"), path);
+        if !base_leaves.iter().any(|(b, _)| b == path) {
+            fail(k, format!("unknown parameter `{path}`"));
+        } else if ranged.iter().any(|p| &p.path == path) {
+            fail(k, format!("`{path}` has its own range"));
+        } else {
+            match source.as_str().and_then(|s| params.iter().position(|p| p.path == s)) {
+                Some(j) => tied.push((path.clone(), j)),
+                None => fail(k, "must name a parameter of this sweep's `ranges`".into()),
+            }
+        }
+    }
+    let d = params.len();
+    let positive = |v: Option<u32>, default: u32| v.unwrap_or(default) as usize;
+    let (levels, trajectories, samples) = (positive(block.levels, 4), positive(block.trajectories, 10), positive(block.samples, 64));
+    match block.kind {
+        SweepKind::Morris => {
+            if block.samples.is_some() {
+                fail(key("samples"), "a morris sweep has `trajectories` and `levels`, not `samples`".into());
+            }
+            if !(2..=64).contains(&levels) || levels % 2 == 1 {
+                fail(key("levels"), format!("must be an even number in [2, 64], got {levels}"));
+            }
+            if !(2..=10_000).contains(&trajectories) {
+                fail(key("trajectories"), format!("must be in [2, 10000], got {trajectories}"));
+            }
+        }
+        _ => {
+            for (k, set) in [("levels", block.levels.is_some()), ("trajectories", block.trajectories.is_some())] {
+                if set {
+                    fail(key(k), "a sobol sweep has `samples`, not this key".into());
+                }
+            }
+            if !samples.is_power_of_two() || !(8..=65_536).contains(&samples) {
+                fail(key("samples"), format!("must be a power of two in [8, 65536] (the Sobol' sequence's balance), got {samples}"));
+            }
+            let most = crate::stats::sensitivity::MAX_DIMENSIONS / 2;
+            if !(2..=most).contains(&d) && !ranged.is_empty() {
+                fail(key("ranges"), format!("a sobol sweep takes 2 to {most} parameters (its design uses 2d Sobol' dimensions, {} available), got {d}", crate::stats::sensitivity::MAX_DIMENSIONS));
+            }
+        }
+    }
+    (before.get() == 0).then_some(DesignSpec { params, tied, levels, trajectories, samples })
 }
 
 /// Walks a sweep's `values` table: a list is a leaf (the values of one parameter); a non-list,
@@ -855,5 +1105,49 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let e = errs(&format!("{GOOD}\n[report.diff]\nalpha = 1.5\n[report.diff.metrics.nope]\nmin_effect = -1.0\n"));
         let keys: Vec<&str> = e.iter().map(|e| e.key.as_str()).collect();
         assert_eq!(keys, ["report.diff.alpha", "report.diff.metrics.nope", "report.diff.metrics.nope.min_effect"]);
+    }
+
+    const DESIGN_HEAD: &str = "id = \"t\"\ntitle = \"T\"\nseed = 1\nreplicates = 2\nmaps = [\"a\"]\nalgorithms = [\"fastslam1\"]\n";
+
+    /// A sobol sweep: ranges of known, read, numeric parameters with low < high, integer bounds for
+    /// an integer parameter, log ranges above 0, tied keys naming a ranged parameter, a
+    /// power-of-two sample count, no `values`; each error at its key.
+    #[test]
+    fn design_sweeps_are_checked_key_by_key() {
+        let good = format!("{DESIGN_HEAD}[[sweeps]]\nkind = \"sobol\"\nsamples = 16\nranges = {{ \"features.dmax_m\" = [0.001, 0.1], \"fastslam.particles\" = [5, 500], \"fastslam.motion_x\" = [0.0001, 0.02] }}\nlog = [\"features.dmax_m\", \"fastslam.particles\"]\ntied = {{ \"fastslam.motion_y\" = \"fastslam.motion_x\" }}\n");
+        let s = parse(Path::new("x.toml"), &good).unwrap();
+        let d = s.sweeps[0].design.as_ref().unwrap();
+        let summary: Vec<(&str, bool, bool)> = d.params.iter().map(|p| (p.path.as_str(), p.log, p.integer)).collect();
+        assert_eq!(summary, [("features.dmax_m", true, false), ("fastslam.particles", true, true), ("fastslam.motion_x", false, false)]);
+        assert_eq!((d.tied.clone(), d.samples), (vec![("fastslam.motion_y".to_string(), 2)], 16));
+        let keys = |text: String| errs(&text).into_iter().map(|e| e.key).collect::<Vec<_>>();
+        assert_eq!(keys(good.replace("[5, 500]", "[5.0, 500.0]")), ["sweeps[0].ranges.\"fastslam.particles\""], "integer parameter, float bounds");
+        assert_eq!(keys(good.replace("[0.001, 0.1]", "[0.1, 0.001]")), ["sweeps[0].ranges.\"features.dmax_m\""], "low ≥ high");
+        assert_eq!(keys(good.replace("[0.001, 0.1]", "[0.0, 0.1]")), ["sweeps[0].ranges.\"features.dmax_m\""], "log from 0");
+        assert_eq!(keys(good.replace("samples = 16", "samples = 24")), ["sweeps[0].samples"]);
+        assert_eq!(keys(good.replace("\"fastslam.motion_x\" }", "\"fastslam.motion_z\" }")), ["sweeps[0].tied.\"fastslam.motion_y\""]);
+        assert_eq!(keys(good.replace("features.dmax_m\" = [", "features.dmax\" = [")).first().map(String::as_str), Some("sweeps[0].ranges.\"features.dmax\""));
+        assert_eq!(keys(good.replace("\"fastslam.particles\" = [5, 500]", "\"ekf.gate\" = [1.0, 9.0]")).first().map(String::as_str), Some("sweeps[0].ranges.\"ekf.gate\""), "{:?}", errs(&good.replace("\"fastslam.particles\" = [5, 500]", "\"ekf.gate\" = [1.0, 9.0]")));
+        assert_eq!(keys(good.replace("samples = 16", "samples = 16\nvalues = { \"fastslam.p0\" = [0.1] }")), ["sweeps[0].values"]);
+        assert_eq!(keys(good.replace("samples = 16", "samples = 16\nlevels = 4")), ["sweeps[0].levels"]);
+        // morris: even levels; a grid sweep has no ranges
+        let morris = good.replace("kind = \"sobol\"\nsamples = 16", "kind = \"morris\"\nlevels = 5");
+        assert_eq!(keys(morris), ["sweeps[0].levels"]);
+        let grid = format!("{DESIGN_HEAD}[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"fastslam.p0\" = [0.1] }}\nranges = {{ \"fastslam.p0\" = [0.1, 1.0] }}\n");
+        assert_eq!(keys(grid), ["sweeps[0].ranges"]);
+    }
+
+    /// Index claims name a ranged parameter of a sweep of their index's kind and no cells.
+    #[test]
+    fn index_claims_are_checked() {
+        let base = format!("{DESIGN_HEAD}[[sweeps]]\nkind = \"sobol\"\nsamples = 16\nranges = {{ \"features.dmax_m\" = [0.001, 0.1], \"fastslam.particles\" = [5, 500] }}\n[[claims]]\nid = \"c\"\nsource = \"slamlab\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"st\"\nparameter = \"fastslam.particles\"\ntest = \"above\"\nvalue = 0.3\n");
+        assert!(parse(Path::new("x.toml"), &base).is_ok());
+        let keys = |text: String| errs(&text).into_iter().map(|e| e.key).collect::<Vec<_>>();
+        assert_eq!(keys(base.replace("index = \"st\"", "index = \"mu_star\"")), ["claims[0].index"], "no morris sweep");
+        assert_eq!(keys(base.replace("parameter = \"fastslam.particles\"", "parameter = \"fastslam.p0\"")), ["claims[0].parameter"]);
+        assert_eq!(keys(base.replace("test = \"above\"", "test = \"greater\"")), ["claims[0]"], "greater needs than_parameter");
+        assert!(parse(Path::new("x.toml"), &base.replace("test = \"above\"", "test = \"greater\"\nthan_parameter = \"features.dmax_m\"")).is_ok());
+        assert_eq!(keys(base.replace("test = \"above\"", "test = \"flat\"")).first().map(String::as_str), Some("claims[0].test"));
+        assert_eq!(keys(base.replace("value = 0.3", "value = 0.3\nat = { \"fastslam.p0\" = 0.1 }")), ["claims[0].at"]);
     }
 }

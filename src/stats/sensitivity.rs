@@ -5,7 +5,7 @@
 //! caller evaluates the model at the design's points (for slamlab: the runs of a sweep) and hands
 //! the outputs back.
 //!
-//! Not yet wired into specs, runs or reports (the `sobol` / `morris` sweep kinds are still to do).
+//! Wired into studies by the `morris` / `sobol` sweep kinds (`plan::design`, `judge::sensitivity`).
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -149,6 +149,18 @@ pub struct Estimate {
 pub struct Indices {
     pub s1: Vec<Estimate>,
     pub st: Vec<Estimate>,
+    /// The bootstrap replicates behind the intervals, `boot_s1[i][b]` (the same resampled rows
+    /// for every parameter): intervals of differences (ST − S1, STᵢ − STⱼ) come from them.
+    pub boot_s1: Vec<Vec<f64>>,
+    pub boot_st: Vec<Vec<f64>>,
+}
+
+/// The 95 % percentile interval of bootstrap replicates (NaN when there are none).
+pub fn percentile_interval(value: f64, boot: &[f64]) -> Estimate {
+    let mut b = boot.to_vec();
+    b.sort_by(f64::total_cmp);
+    let q = |p: f64| if b.is_empty() { f64::NAN } else { b[((p * (b.len() - 1) as f64).round() as usize).min(b.len() - 1)] };
+    Estimate { value, low: q(0.025), high: q(0.975) }
 }
 
 /// S1 and ST from the model's outputs at a [`Saltelli`] design: `fa[k]`, `fb[k]`, `fab[i][k]`.
@@ -178,18 +190,8 @@ pub fn sobol_indices(fa: &[f64], fb: &[f64], fab: &[Vec<f64>], resamples: usize,
             boot_st[i].push(bt[i]);
         }
     }
-    let with_ci = |values: Vec<f64>, boot: Vec<Vec<f64>>| -> Vec<Estimate> {
-        values
-            .into_iter()
-            .zip(boot)
-            .map(|(value, mut b)| {
-                b.sort_by(f64::total_cmp);
-                let q = |p: f64| if b.is_empty() { f64::NAN } else { b[((p * (b.len() - 1) as f64).round() as usize).min(b.len() - 1)] };
-                Estimate { value, low: q(0.025), high: q(0.975) }
-            })
-            .collect()
-    };
-    Indices { s1: with_ci(s1, boot_s1), st: with_ci(st, boot_st) }
+    let with_ci = |values: Vec<f64>, boot: &[Vec<f64>]| -> Vec<Estimate> { values.into_iter().zip(boot).map(|(value, b)| percentile_interval(value, b)).collect() };
+    Indices { s1: with_ci(s1, &boot_s1), st: with_ci(st, &boot_st), boot_s1, boot_st }
 }
 
 /// Morris's elementary-effects design (Morris 1991): `trajectories` one-at-a-time paths on a grid
@@ -240,41 +242,110 @@ impl Morris {
 
 /// Morris's statistics of one parameter: μ (mean elementary effect), μ* (mean absolute,
 /// Campolongo et al. 2007) with its 95 % percentile-bootstrap interval over trajectories, and σ
-/// (standard deviation: non-linearity or interactions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// (standard deviation: non-linearity or interactions), over the `effects` kept; `dropped`
+/// steps had no realised move (rounding of an integer parameter) and give no effect.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Screening {
     pub mu: f64,
     pub mu_star: Estimate,
     pub sigma: f64,
+    pub effects: usize,
+    pub dropped: usize,
+    /// μ*'s bootstrap replicates (resampled trajectories; the same for every parameter).
+    pub boot_mu_star: Vec<f64>,
 }
 
 /// The elementary effects EEᵢ = (f(after) − f(before)) / (±Δ) of the outputs `f[t][k]` at the
 /// design's points, summarised per parameter.
 pub fn morris_indices(design: &Morris, f: &[Vec<f64>], resamples: usize, seed: u64) -> Vec<Screening> {
-    let d = design.moved.first().map_or(0, Vec::len);
+    screen(&design.points, &design.moved, f, resamples, seed)
+}
+
+/// Morris's statistics from the trajectories' realised coordinates `points[t][k]` (what was
+/// run, after rounding), the parameter each step moves, and the outputs `f[t][k]`: each
+/// effect divides by its realised step; a step of zero is dropped and counted; a trajectory
+/// whose `f` is not finite at either end of a step loses that effect only.
+pub fn screen(points: &[Vec<Vec<f64>>], moved: &[Vec<usize>], f: &[Vec<f64>], resamples: usize, seed: u64) -> Vec<Screening> {
+    let d = moved.first().map_or(0, Vec::len);
     // effects[i][t]
     let mut effects = vec![Vec::with_capacity(f.len()); d];
-    for ((path, order), y) in design.points.iter().zip(&design.moved).zip(f) {
+    let mut dropped = vec![0usize; d];
+    for (t, ((path, order), y)) in points.iter().zip(moved).zip(f).enumerate() {
         for (k, &i) in order.iter().enumerate() {
             let step = path[k + 1][i] - path[k][i];
-            effects[i].push((y[k + 1] - y[k]) / step);
+            if step == 0.0 {
+                dropped[i] += 1;
+            } else if y[k].is_finite() && y[k + 1].is_finite() {
+                effects[i].push((t, (y[k + 1] - y[k]) / step));
+            }
         }
     }
+    // resample trajectories (the same ones for every parameter, so that differences of μ* have
+    // intervals too); a trajectory contributes the effects it has
+    let t = f.len();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let picks: Vec<Vec<usize>> = if t == 0 { Vec::new() } else { (0..resamples).map(|_| (0..t).map(|_| rng.random_range(0..t)).collect()).collect() };
     effects
         .iter()
-        .map(|ee| {
+        .zip(dropped)
+        .map(|(ee, dropped)| {
             let n = ee.len() as f64;
-            let mu = ee.iter().sum::<f64>() / n;
-            let mean_abs = |rows: &mut dyn Iterator<Item = f64>| rows.map(f64::abs).sum::<f64>() / n;
-            let mu_star = mean_abs(&mut ee.iter().copied());
-            let sigma = if ee.len() > 1 { (ee.iter().map(|e| (e - mu).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { f64::NAN };
-            let mut boot: Vec<f64> = (0..resamples).map(|_| mean_abs(&mut (0..ee.len()).map(|_| ee[rng.random_range(0..ee.len())]))).collect();
-            boot.sort_by(f64::total_cmp);
-            let q = |p: f64| if boot.is_empty() { f64::NAN } else { boot[((p * (boot.len() - 1) as f64).round() as usize).min(boot.len() - 1)] };
-            Screening { mu, mu_star: Estimate { value: mu_star, low: q(0.025), high: q(0.975) }, sigma }
+            let values: Vec<f64> = ee.iter().map(|e| e.1).collect();
+            let mu = values.iter().sum::<f64>() / n;
+            let mu_star = values.iter().map(|v| v.abs()).sum::<f64>() / n;
+            let sigma = if ee.len() > 1 { (values.iter().map(|e| (e - mu).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { f64::NAN };
+            let mut by_trajectory: Vec<Vec<f64>> = vec![Vec::new(); t];
+            for &(tj, e) in ee {
+                by_trajectory[tj].push(e.abs());
+            }
+            let boot: Vec<f64> = if ee.is_empty() {
+                Vec::new()
+            } else {
+                picks
+                    .iter()
+                    .map(|pick| {
+                        let (sum, count) = pick.iter().flat_map(|&tj| &by_trajectory[tj]).fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
+                        if count == 0 { f64::NAN } else { sum / count as f64 }
+                    })
+                    .collect()
+            };
+            Screening { mu, mu_star: percentile_interval(mu_star, &boot), sigma, effects: ee.len(), dropped, boot_mu_star: boot }
         })
         .collect()
+}
+
+/// How the variance of a metric over a design's points × replicates splits (two-way ANOVA
+/// without replication, replicate k of every point seeing the same world): the points (the
+/// parameters), the replicate seed (the world's main effect), and the residual — run-to-run
+/// noise and world × parameter interaction. Shares of the total sum of squares.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VarianceShares {
+    pub params: f64,
+    pub world: f64,
+    pub residual: f64,
+    /// Residual mean square: the variance of one run around its point's and world's effects.
+    pub residual_var: f64,
+}
+
+/// [`VarianceShares`] of `y[point][replicate]` (complete: every point has every replicate;
+/// at least 2 points and 2 replicates, else None).
+pub fn variance_shares(y: &[Vec<f64>]) -> Option<VarianceShares> {
+    let p = y.len();
+    let r = y.first()?.len();
+    if p < 2 || r < 2 || y.iter().any(|row| row.len() != r) {
+        return None;
+    }
+    let grand = y.iter().flatten().sum::<f64>() / (p * r) as f64;
+    let point_means: Vec<f64> = y.iter().map(|row| row.iter().sum::<f64>() / r as f64).collect();
+    let rep_means: Vec<f64> = (0..r).map(|k| y.iter().map(|row| row[k]).sum::<f64>() / p as f64).collect();
+    let total: f64 = y.iter().flatten().map(|v| (v - grand).powi(2)).sum();
+    let ss_points = r as f64 * point_means.iter().map(|m| (m - grand).powi(2)).sum::<f64>();
+    let ss_world = p as f64 * rep_means.iter().map(|m| (m - grand).powi(2)).sum::<f64>();
+    let ss_res = (total - ss_points - ss_world).max(0.0);
+    if total <= 0.0 {
+        return None;
+    }
+    Some(VarianceShares { params: ss_points / total, world: ss_world / total, residual: ss_res / total, residual_var: ss_res / ((p - 1) * (r - 1)) as f64 })
 }
 
 #[cfg(test)]
@@ -452,5 +523,33 @@ mod tests {
         if std::env::var_os("SLAMLAB_SALIB_OUT").is_none() {
             std::fs::remove_dir_all(&out).unwrap();
         }
+    }
+
+    /// y = point effect + replicate effect: no residual, and the shares are the two effects'
+    /// sums of squares; noise on top moves share into the residual.
+    #[test]
+    fn variance_shares_split_points_world_and_residual() {
+        let y: Vec<Vec<f64>> = (0..6).map(|i| (0..3).map(|k| i as f64 + 0.5 * k as f64).collect()).collect();
+        let s = variance_shares(&y).unwrap();
+        // SS_points = 3·Σ(i − 2.5)² = 52.5; SS_world = 6·Σ(0.5k − 0.5)² = 3
+        assert!((s.params - 52.5 / 55.5).abs() < 1e-12 && (s.world - 3.0 / 55.5).abs() < 1e-12 && s.residual.abs() < 1e-12, "{s:?}");
+        let mut noisy = y.clone();
+        noisy[2][1] += 1.0;
+        assert!(variance_shares(&noisy).unwrap().residual > 0.0);
+        assert!(variance_shares(&y[..1]).is_none() && variance_shares(&[vec![1.0], vec![2.0]]).is_none(), "needs 2 points and 2 replicates");
+    }
+
+    /// Each effect divides by its realised step; a step that rounding made zero is dropped and
+    /// counted, not divided by zero.
+    #[test]
+    fn screening_divides_by_realised_steps_and_drops_vanished_ones() {
+        // one trajectory over 2 parameters: x₀ moves 0 → 0.5 (realised 0.4), then x₁ 0 → 0 (rounded away)
+        let points = vec![vec![vec![0.0, 0.0], vec![0.4, 0.0], vec![0.4, 0.0]]];
+        let moved = vec![vec![0, 1]];
+        let f = vec![vec![1.0, 3.0, 3.0]];
+        let s = super::screen(&points, &moved, &f, 10, 1);
+        assert_eq!((s[0].mu, s[0].effects, s[0].dropped), (5.0, 1, 0));
+        assert_eq!((s[1].effects, s[1].dropped), (0, 1));
+        assert!(s[1].mu_star.value.is_nan() && s[1].boot_mu_star.is_empty());
     }
 }

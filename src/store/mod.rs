@@ -225,6 +225,9 @@ pub struct GroupRecord {
     /// The points are named cells (a zip sweep with `labels`): the report tabulates them as columns.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub named: bool,
+    /// A morris / sobol group: its design rows' sweep points.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub design: Option<crate::plan::design::DesignRecord>,
 }
 
 /// A sweep point of `resolved.toml`.

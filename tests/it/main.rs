@@ -15,6 +15,7 @@ mod point_worlds;
 mod psm_reference;
 mod psm_samples;
 mod scan_matching;
+mod sensitivity;
 mod sharding;
 mod specs;
 mod util;
