@@ -18,9 +18,9 @@
 //! - **index claims** (`index = "s1" | "st" | "interaction" | "mu_star"`, on a morris / sobol
 //!   sweep): the index's 95 % bootstrap interval against the threshold(s), or for greater / less
 //!   the interval of its difference with `than_parameter`'s (same resamples) against
-//!   `min_effect` (default 0). Noise raises ST and μ* of every parameter (see
-//!   [`super::sensitivity`]): an `above` claim on them confirms only when the interval also
-//!   clears the noise floor.
+//!   `min_effect` (default 0). Noise raises ST and μ* of every parameter by about the noise
+//!   floor (see [`super::sensitivity`]): thresholds on them are moved up by the floor (a
+//!   difference between two parameters' indices carries no such bias).
 //! - **untestable**: fewer than 3 replicates, ∞ or NaN in a compared cell, a cell compared with
 //!   itself, or compared cells that give identical values in every replicate — such a test could
 //!   not have come out otherwise, so it is never counted as confirmed.
@@ -468,7 +468,7 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
                 seed: claim.seed_tag().unwrap_or("").to_string(),
                 kind: claim.kind.as_str().to_string(),
                 text: claim.text.clone(),
-                test: test_text(claim, cells),
+                test: test_text(claim, cells, spec.report.sensitivity_log.contains(&claim.metric)),
                 verdict,
                 summary,
                 evidence,
@@ -522,20 +522,18 @@ fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, ma
     match claim.test {
         ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {
             let e = percentile_interval(value, &reps);
+            // noise raises an ST or μ* estimate by about the floor: the threshold moves with it
+            let shift = floor.unwrap_or(0.0);
             let (lo_bound, hi_bound) = match claim.test {
-                ClaimTest::Above => (claim.value.unwrap_or(f64::NAN).max(floor.unwrap_or(f64::NEG_INFINITY)), f64::INFINITY),
-                ClaimTest::Below => (f64::NEG_INFINITY, claim.value.unwrap_or(f64::NAN)),
-                _ => (claim.value.unwrap_or(f64::NAN), claim.upper.unwrap_or(f64::NAN)),
+                ClaimTest::Above => (claim.value.unwrap_or(f64::NAN) + shift, f64::INFINITY),
+                ClaimTest::Below => (f64::NEG_INFINITY, claim.value.unwrap_or(f64::NAN) + shift),
+                _ => (claim.value.unwrap_or(f64::NAN) + shift, claim.upper.unwrap_or(f64::NAN) + shift),
             };
             let strict = claim.test != ClaimTest::Between;
-            let mut verdict = decide_range((e.low, e.high), (lo_bound, hi_bound), strict);
-            // above the noise floor but not above the claimed value is still a refutation of the
-            // value only when the interval lies below the value itself
-            if claim.test == ClaimTest::Above && verdict == Verdict::Refuted && e.high > claim.value.unwrap_or(f64::NAN) {
-                verdict = Verdict::Inconclusive;
-            }
+            let verdict = decide_range((e.low, e.high), (lo_bound, hi_bound), strict);
             let direction = Some(if strict { value > lo_bound && value < hi_bound } else { value >= lo_bound && value <= hi_bound });
-            MapOutcome { verdict, text: format!("{name} of {} = {} [{}, {}]{floor_text}", claim.parameter, sig(value, 3), sig(e.low, 3), sig(e.high, 3)), direction, p_claim: f64::NAN, p_against: f64::NAN }
+            let against = if shift > 0.0 { format!(" (threshold + noise floor: {})", [lo_bound, hi_bound].iter().filter(|b| b.is_finite()).map(|b| sig(*b, 3)).collect::<Vec<_>>().join(", ")) } else { String::new() };
+            MapOutcome { verdict, text: format!("{name} of {} = {} [{}, {}]{floor_text}{against}", claim.parameter, sig(value, 3), sig(e.low, 3), sig(e.high, 3)), direction, p_claim: f64::NAN, p_against: f64::NAN }
         }
         _ => {
             let Some(j) = a.params.iter().position(|p| *p == claim.than_parameter) else { return MapOutcome::untestable(format!("`{}` is not a parameter of the sweep", claim.than_parameter)) };
@@ -558,14 +556,18 @@ fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, ma
     }
 }
 
-fn test_text(c: &ClaimSpec, cells: &ClaimCells) -> String {
+/// `log`: an index claim's metric is analysed as ln (`[report] sensitivity_log`).
+fn test_text(c: &ClaimSpec, cells: &ClaimCells, log: bool) -> String {
     if let Some(kind) = c.index {
         let v = |x: Option<f64>| x.map_or("?".into(), |x| sig(x, 3));
         let name = kind.as_str();
+        let metric_text = if log { format!("ln {}", c.metric) } else { c.metric.clone() };
+        let c = &ClaimSpec { metric: metric_text, ..c.clone() };
+        let floored = if matches!(kind, crate::spec::IndexKind::St | crate::spec::IndexKind::MuStar) { " plus the noise floor (the bias run-to-run noise adds to the estimate)" } else { "" };
         return match c.test {
-            ClaimTest::Above => format!("{name} of {} for {}: 95 % bootstrap interval above {}{}", c.parameter, c.metric, v(c.value), if matches!(kind, crate::spec::IndexKind::St | crate::spec::IndexKind::MuStar) { " and above the noise floor" } else { "" }),
-            ClaimTest::Below => format!("{name} of {} for {}: 95 % bootstrap interval below {}", c.parameter, c.metric, v(c.value)),
-            ClaimTest::Between => format!("{name} of {} for {}: 95 % bootstrap interval within [{}, {}]", c.parameter, c.metric, v(c.value), v(c.upper)),
+            ClaimTest::Above => format!("{name} of {} for {}: 95 % bootstrap interval above {}{floored}", c.parameter, c.metric, v(c.value)),
+            ClaimTest::Below => format!("{name} of {} for {}: 95 % bootstrap interval below {}{floored}", c.parameter, c.metric, v(c.value)),
+            ClaimTest::Between => format!("{name} of {} for {}: 95 % bootstrap interval within [{}, {}]{floored}", c.parameter, c.metric, v(c.value), v(c.upper)),
             _ => format!(
                 "{name} of {} for {} {} that of {} by more than {}: 95 % bootstrap interval of the difference (same resamples)",
                 c.parameter,
@@ -769,6 +771,7 @@ mod tests {
             map: "m".into(),
             algorithm: "fastslam1".into(),
             metric: "ate_rmse_m".into(),
+            log: false,
             params: vec!["a".into(), "b".into()],
             indices: Some(Indices::Sobol(Sobol { s1: st.clone(), st: st.clone(), boot_s1: vec![boot_a.clone(), boot_b.clone()], boot_st: vec![boot_a.clone(), boot_b.clone()] })),
             shares: None,
@@ -787,8 +790,12 @@ mod tests {
         let verdict = |c: &ClaimSpec, floor: Option<f64>| index_on_map(&[analysis(floor)], c, "m", "fastslam1").verdict;
         let above = claim("above", "a", "value = 0.3");
         assert_eq!(verdict(&above, Some(0.05)), Verdict::Confirmed);
-        assert_eq!(verdict(&above, Some(0.45)), Verdict::Inconclusive, "inside the noise: cannot confirm");
+        assert_eq!(verdict(&above, Some(0.15)), Verdict::Inconclusive, "0.3 + a floor of 0.15 is inside [0.4, 0.6]: noise could make up the excess");
         assert_eq!(verdict(&claim("above", "b", "value = 0.3"), Some(0.05)), Verdict::Refuted);
+        // "below 0.05" with a floor of 0.25: an estimate of 0.1 [0, 0.2] is what noise alone gives
+        let below = claim("below", "b", "value = 0.05");
+        assert_eq!(verdict(&below, None), Verdict::Inconclusive);
+        assert_eq!(verdict(&below, Some(0.25)), Verdict::Confirmed);
         assert_eq!(verdict(&claim("greater", "a", "than_parameter = \"b\""), None), Verdict::Confirmed);
         assert_eq!(verdict(&claim("greater", "b", "than_parameter = \"a\""), None), Verdict::Refuted);
         assert_eq!(verdict(&claim("greater", "a", "than_parameter = \"b\"\nmin_effect = 0.5"), None), Verdict::Refuted, "difference 0.4 is not more than 0.5");

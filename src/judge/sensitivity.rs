@@ -2,7 +2,8 @@
 //! design rows' outputs are gathered from the runs and handed to [`crate::stats::sensitivity`].
 //! What the report shows and index claims test.
 //!
-//! - **The output of a design row** is the mean of its point's successful replicates (replicate
+//! - **The output of a design row** is the mean of its point's successful replicates (of ln of
+//!   each value for a metric in `[report] sensitivity_log`; a value ≤ 0 then counts as missing) (replicate
 //!   k of every point saw the same world: common random numbers). A row whose point has no
 //!   finite value drops its whole Saltelli sample (A, B and every ABᵢ of that sample) or, in a
 //!   Morris trajectory, the effects of the steps that touch it; the counts are reported.
@@ -45,6 +46,8 @@ pub struct Analysis {
     pub map: String,
     pub algorithm: String,
     pub metric: String,
+    /// The metric was analysed as ln(value) (`[report] sensitivity_log`).
+    pub log: bool,
     pub params: Vec<String>,
     /// None when too few rows are usable (`note` says why).
     pub indices: Option<Indices>,
@@ -84,7 +87,8 @@ pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
                 let failed = (any_failed && !metrics.iter().any(|m| m == FAILED)).then(|| FAILED.to_string());
                 for metric in metrics.iter().chain(failed.as_ref()) {
                     let seed = crate::plan::derive_seed(spec.seed, map, gi as u32, &format!("bootstrap:{alg}:{metric}"));
-                    out.push(one(gi, group.kind, &group.params, design, |point| of_cell.and_then(|c| c.get(point)).map(Vec::as_slice).unwrap_or_default(), map, alg, metric, spec.replicates as usize, seed));
+                    let log = spec.report.sensitivity_log.contains(metric);
+                    out.push(one(gi, group.kind, &group.params, design, |point| of_cell.and_then(|c| c.get(point)).map(Vec::as_slice).unwrap_or_default(), map, alg, metric, log, spec.replicates as usize, seed));
                 }
             }
         }
@@ -93,7 +97,7 @@ pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &DesignRecord, runs_of: impl Fn(&str) -> &'a [&'r crate::store::RunRow], map: &str, alg: &str, metric: &str, replicates: usize, seed: u64) -> Analysis {
+fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &DesignRecord, runs_of: impl Fn(&str) -> &'a [&'r crate::store::RunRow], map: &str, alg: &str, metric: &str, log: bool, replicates: usize, seed: u64) -> Analysis {
     let d = params.len();
     // each distinct point once: its replicates' values (None: failed or not finite)
     let mut points: BTreeMap<&str, Vec<Option<f64>>> = BTreeMap::new();
@@ -115,6 +119,7 @@ fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &Desig
                 continue;
             }
             if let (Some(slot), Some(v)) = (reps.get_mut(r.replicate as usize), r.metric(metric)) {
+                let v = if log { v.ln() } else { v };
                 *slot = v.is_finite().then_some(v);
             }
         }
@@ -133,6 +138,7 @@ fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &Desig
         map: map.to_string(),
         algorithm: alg.to_string(),
         metric: metric.to_string(),
+        log,
         params: params.to_vec(),
         indices: None,
         shares,
@@ -229,7 +235,7 @@ mod tests {
         let refs: Vec<&RunRow> = runs.iter().collect();
         let by_point = |p: &str| -> Vec<&RunRow> { refs.iter().copied().filter(|r| r.point == p).collect() };
         let cells: HashMap<String, Vec<&RunRow>> = labels.iter().map(|l| (l.clone(), by_point(l))).collect();
-        let a = one(0, SweepKind::Sobol, &["a".into(), "b".into()], &design, |p| cells.get(p).map(Vec::as_slice).unwrap_or_default(), "m", "odometry", "y", 3, 1);
+        let a = one(0, SweepKind::Sobol, &["a".into(), "b".into()], &design, |p| cells.get(p).map(Vec::as_slice).unwrap_or_default(), "m", "odometry", "y", false, 3, 1);
         let Some(Indices::Sobol(x)) = &a.indices else { panic!("{}", a.note) };
         let (s1, st) = (&x.s1, &x.st);
         assert!((s1[0].value - 16.0 / 17.0).abs() < 0.08 && (st[0].value - 16.0 / 17.0).abs() < 0.05, "{s1:?} {st:?}");

@@ -712,14 +712,20 @@ pub fn index_bars_svg(fig: &IndexBarsFigure) -> String {
         LegendEntry { label: "noise floor of ST", color: TRUTH, dot: false, dashed: true, dotted: false },
     ];
     let shown = if fig.noise_floor.is_some() { &entries[..] } else { &entries[..2] };
-    let (_, legend_px) = legend_layout(shown, WIDTH, LEFT_PX);
+    // room below the plot for the rotated parameter names
+    legend_and_plot(shown, 60, |plot| draw_index_bars(plot, fig))
+}
+
+/// An SVG of a legend strip above a plot drawn by `draw` (`extra` px taller than the default).
+fn legend_and_plot(entries: &[LegendEntry<'_>], extra: u32, draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>) -> String {
+    let (_, legend_px) = legend_layout(entries, WIDTH, LEFT_PX);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px + 60)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px + extra)).into_drawing_area();
         root.fill(&WHITE).expect("drawing an SVG into memory");
         let (top, plot) = root.split_vertically(legend_px);
-        draw_legend(&top, shown, LEFT_PX).expect("drawing an SVG into memory");
-        draw_index_bars(&plot, fig).expect("drawing an SVG into memory");
+        draw_legend(&top, entries, LEFT_PX).expect("drawing an SVG into memory");
+        draw(&plot).expect("drawing an SVG into memory");
         root.present().expect("finishing an SVG in memory");
     }
     svg
@@ -782,17 +788,7 @@ pub fn morris_svg(fig: &MorrisFigure) -> String {
         LegendEntry { label: "noise floor of μ*", color: rgb(3), dot: false, dashed: true, dotted: false },
     ];
     let shown = if fig.noise_floor.is_some() { &entries[..] } else { &entries[..2] };
-    let (_, legend_px) = legend_layout(shown, WIDTH, LEFT_PX);
-    let mut svg = String::new();
-    {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px)).into_drawing_area();
-        root.fill(&WHITE).expect("drawing an SVG into memory");
-        let (top, plot) = root.split_vertically(legend_px);
-        draw_legend(&top, shown, LEFT_PX).expect("drawing an SVG into memory");
-        draw_morris(&plot, fig).expect("drawing an SVG into memory");
-        root.present().expect("finishing an SVG in memory");
-    }
-    svg
+    legend_and_plot(shown, 0, |plot| draw_morris(plot, fig))
 }
 
 fn draw_morris(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &MorrisFigure) -> Result<(), String> {

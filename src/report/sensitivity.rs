@@ -72,7 +72,9 @@ pub fn csv(data: &StudyData, metrics: &[&MetricDef]) -> String {
     if analyses.is_empty() {
         return String::new();
     }
-    let mut out = format!("group,kind,map,algorithm,row,point,role,{}\n", names.join(","));
+    // a metric analysed on a log scale is exported as what was analysed: ln of the replicates' values, averaged
+    let header: Vec<String> = names.iter().map(|m| if data.resolved.spec.report.sensitivity_log.contains(m) { format!("ln_{m}") } else { m.clone() }).collect();
+    let mut out = format!("group,kind,map,algorithm,row,point,role,{}\n", header.join(","));
     for (gi, group) in data.resolved.groups.iter().enumerate() {
         let Some(design) = &group.design else { continue };
         let d = group.params.len();
@@ -120,7 +122,7 @@ pub fn build(data: &StudyData, metrics: &[&MetricDef]) -> Vec<SensitivitySection
                 spec.replicates
             ),
             _ => format!(
-                "Saltelli's design with N = {} base samples ({} design rows, {distinct} distinct parameter sets) over {} parameters, each run {} times (replicate k of every point sees the same world); indices computed on the replicates' mean: S1 (Saltelli et al. 2010) is the share of variance a parameter explains alone, ST (Jansen 1999) its share including every interaction. Intervals: 95 % percentile bootstrap over the samples.",
+                "Saltelli's design with N = {} base samples ({} design rows, {distinct} distinct parameter sets) over {} parameters, each run {} times (replicate k of every point sees the same world); indices computed on the replicates' mean: S1 (Saltelli et al. 2010's estimator, outputs centred) is the share of variance a parameter explains alone, ST (Jansen 1999) its share including every interaction. Intervals: 95 % percentile bootstrap over the samples.",
                 design.size,
                 design.rows.len(),
                 group.params.len(),
@@ -141,11 +143,12 @@ pub fn build(data: &StudyData, metrics: &[&MetricDef]) -> Vec<SensitivitySection
 
 fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef], gi: usize) -> SensitivityBlock {
     let spec = &data.resolved.spec;
-    let unit = metrics.iter().find(|m| m.name == a.metric).map_or("share of runs", |m| m.unit);
+    let unit = metrics.iter().find(|m| m.name == a.metric).map_or("share of runs".to_string(), |m| if a.log { format!("ln {}", m.unit) } else { m.unit.to_string() });
     let alg = if spec.algorithms.len() > 1 { format!(" · {}", a.algorithm) } else { String::new() };
-    let title = format!("{} · {}{alg}", a.map, a.metric);
+    let shown = if a.log { format!("ln {}", a.metric) } else { a.metric.clone() };
+    let title = format!("{} · {shown}{alg}", a.map);
     let mut findings = Vec::new();
-    let file_stem = format!("sensitivity-g{gi}-{}-{}-{}", a.map, a.algorithm, a.metric).replace('_', "-");
+    let file_stem = format!("sensitivity-g{gi}-{}-{}-{}{}", a.map, a.algorithm, if a.log { "ln-" } else { "" }, a.metric).replace('_', "-");
     let file = crate::store::short_name(&file_stem);
     let empty = TableView { columns: Vec::new(), rows: Vec::new(), align: String::new() };
     let Some(indices) = &a.indices else {
@@ -175,7 +178,21 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
                 ),
             });
             let sum_s1: f64 = s1.iter().map(|e| e.value).sum();
-            findings.push(format!("ΣS1 = {}: {}", sig(sum_s1, 2), if sum_s1 < 0.8 { format!("about {} of the variance comes from interactions between parameters (or noise).", pct((1.0 - sum_s1).clamp(0.0, 1.0))) } else { "the parameters act mostly alone (additively).".to_string() }));
+            // ΣS1's own interval, from the same resamples
+            let resamples = x.boot_s1.first().map_or(0, Vec::len);
+            let sums: Vec<f64> = (0..resamples).map(|b| x.boot_s1.iter().map(|r| r[b]).sum()).collect();
+            let total = crate::stats::sensitivity::percentile_interval(sum_s1, &sums);
+            findings.push(format!(
+                "ΣS1 = {}: {}",
+                ci(&total),
+                if total.low >= 0.7 {
+                    format!("the parameters act mostly alone (additively): at most {} of the variance comes from interactions.", pct(1.0 - total.low))
+                } else if total.high < 0.9 {
+                    format!("at least {} of the variance comes from interactions between parameters (or from noise).", pct(1.0 - total.high))
+                } else {
+                    "too uncertain at this N to say how much of the variance comes from interactions.".to_string()
+                }
+            ));
             let interacting: Vec<String> = order.iter().filter(|&&i| inter[i].value > INTERACTION && inter[i].low > 0.0 && clears(st[i].low)).map(|&i| format!("{} (ST − S1 = {}, S1 {}, ST {})", short[i], ci(&inter[i]), sig(s1[i].value, 2), sig(st[i].value, 2))).collect();
             if interacting.is_empty() {
                 findings.push(format!("No parameter acts measurably through interactions (ST − S1 above {INTERACTION} with an interval above 0)."));
@@ -189,7 +206,7 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
                 .collect();
             let table = TableView { columns: vec!["Parameter".into(), "S1 [95 % CI]".into(), "ST [95 % CI]".into(), "ST − S1 [95 % CI]".into(), "Rank (ST)".into()], rows, align: "lrrrr".into() };
             let fig = IndexBarsFigure { params: short.to_vec(), s1: s1.iter().map(|e| (e.value, e.low, e.high)).collect(), st: st.iter().map(|e| (e.value, e.low, e.high)).collect(), noise_floor: floor };
-            let caption = format!("Sobol' indices of {} on {}: S1 and ST with 95 % bootstrap intervals; dashed: the noise floor of ST.", a.metric, a.map);
+            let caption = format!("Sobol' indices of {shown} on {}: S1 and ST with 95 % bootstrap intervals; dashed: the noise floor of ST.", a.map);
             (table, FigureView { file, caption, svg: figure::index_bars_svg(&fig), pgf: super::pgf::index_bars_pgf(&fig), panel: false })
         }
         Indices::Morris(s) => {
@@ -224,7 +241,7 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
                 .collect();
             let table = TableView { columns: vec!["Parameter".into(), "μ".into(), "μ* [95 % CI]".into(), "σ".into(), "σ/μ*".into(), "Effects".into(), "Rank (μ*)".into()], rows, align: "lrrrrrr".into() };
             let fig = MorrisFigure { params: short.to_vec(), mu_star: s.iter().map(|e| e.mu_star.value).collect(), sigma: s.iter().map(|e| e.sigma).collect(), noise_floor: floor, unit: unit.to_string() };
-            let caption = format!("Morris screening of {} on {}: μ* against σ per parameter; grey: σ = μ*; dashed: the noise floor of μ*.", a.metric, a.map);
+            let caption = format!("Morris screening of {shown} on {}: μ* against σ per parameter; grey: σ = μ*; dashed: the noise floor of μ*.", a.map);
             (table, FigureView { file, caption, svg: figure::morris_svg(&fig), pgf: super::pgf::morris_pgf(&fig), panel: false })
         }
     };

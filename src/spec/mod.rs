@@ -396,6 +396,12 @@ pub struct ReportSpec {
     /// contribution of each modelling choice to an error budget.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub contrasts: Vec<ContrastSpec>,
+    /// morris / sobol sweeps: metrics analysed on a log scale (ln of each run's value; the
+    /// indices then apportion the variance of the metric's order of magnitude, which heavy-tailed
+    /// errors — a few diverged runs metres off — would otherwise dominate). Values ≤ 0 count as
+    /// missing.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sensitivity_log: Vec<String>,
 }
 
 /// `[[report.contrasts]]`: each pair `[cell, against]` of sweep points (a named zip cell's name,
@@ -486,6 +492,7 @@ impl Default for ReportSpec {
             diff: DiffSpec::default(),
             bands: Bands::default(),
             contrasts: Vec::new(),
+            sensitivity_log: Vec::new(),
         }
     }
 }
@@ -659,6 +666,14 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
             if metric_def(m).is_none() {
                 err(&format!("report.contrasts[{i}].metrics[{j}]"), format!("unknown metric `{m}`"));
             }
+        }
+    }
+
+    for (i, m) in spec.report.sensitivity_log.iter().enumerate() {
+        if metric_def(m).is_none() {
+            err(&format!("report.sensitivity_log[{i}]"), format!("unknown metric `{m}`"));
+        } else if !spec.sweeps.iter().any(|b| b.kind.is_design()) {
+            err(&format!("report.sensitivity_log[{i}]"), "only a study with a morris or sobol sweep has sensitivity indices".into());
         }
     }
 

@@ -164,8 +164,10 @@ pub fn percentile_interval(value: f64, boot: &[f64]) -> Estimate {
 }
 
 /// S1 and ST from the model's outputs at a [`Saltelli`] design: `fa[k]`, `fb[k]`, `fab[i][k]`.
-/// S1ᵢ = mean(f_B (f_ABᵢ − f_A)) / V (Saltelli et al. 2010), STᵢ = mean((f_A − f_ABᵢ)²) / 2V
-/// (Jansen 1999), V the variance of f_A and f_B together. Intervals: `resamples` bootstrap
+/// S1ᵢ = mean((f_B − f̄) (f_ABᵢ − f_A)) / V (Saltelli et al. 2010, with f_B centred at the mean
+/// f̄ of f_A and f_B, as SALib 1.6 standardises its outputs first: uncentred, the estimate has
+/// the same expectation but a variance that grows with f̄²), STᵢ = mean((f_A − f_ABᵢ)²) / 2V (Jansen 1999), V the variance of f_A
+/// and f_B together. Intervals: `resamples` bootstrap
 /// resamples of the rows (seeded), 2.5 and 97.5 percentiles.
 pub fn sobol_indices(fa: &[f64], fb: &[f64], fab: &[Vec<f64>], resamples: usize, seed: u64) -> Indices {
     let n = fa.len();
@@ -173,7 +175,9 @@ pub fn sobol_indices(fa: &[f64], fb: &[f64], fab: &[Vec<f64>], resamples: usize,
         let m = rows.len() as f64;
         let mean = rows.iter().map(|&k| fa[k] + fb[k]).sum::<f64>() / (2.0 * m);
         let var = rows.iter().map(|&k| (fa[k] - mean).powi(2) + (fb[k] - mean).powi(2)).sum::<f64>() / (2.0 * m);
-        let s1 = fab.iter().map(|f| rows.iter().map(|&k| fb[k] * (f[k] - fa[k])).sum::<f64>() / m / var).collect();
+        // f_B centred: E[f_ABᵢ − f_A] = 0, so centring leaves the estimator unbiased and removes
+        // the variance a large output mean (ln of an error, a landmark count) would add
+        let s1 = fab.iter().map(|f| rows.iter().map(|&k| (fb[k] - mean) * (f[k] - fa[k])).sum::<f64>() / m / var).collect();
         let st = fab.iter().map(|f| rows.iter().map(|&k| (fa[k] - f[k]).powi(2)).sum::<f64>() / m / (2.0 * var)).collect();
         (s1, st)
     };
