@@ -296,7 +296,7 @@ pub fn morris_pgf(fig: &super::figure::MorrisFigure) -> String {
     let m = fig.max();
     let mut out = String::new();
     let unit = escape(&fig.unit);
-    let _ = writeln!(out, "\\begin{{tikzpicture}}\n\\begin{{axis}}[width=\\linewidth, height=7cm, xmin=0, ymin=0, xmax={0}, ymax={0}, xlabel={{$\\mu^*$ [{1}]}}, ylabel={{$\\sigma$ [{1}]}}]", num(m), unit);
+    let _ = writeln!(out, "\\begin{{tikzpicture}}\n\\begin{{axis}}[width=0.75\\linewidth, height=7cm, xmin=0, ymin=0, xmax={0}, ymax={0}, xlabel={{$\\mu^*$ [{1}]}}, ylabel={{$\\sigma$ [{1}]}}]", num(m), unit);
     let _ = writeln!(out, "\\addplot[gray, domain=0:{0}] {{x}};", num(m));
     if let Some(f) = fig.noise_floor.filter(|f| f.is_finite()) {
         let _ = writeln!(out, "\\addplot[dashed, slamlab3] coordinates {{({0}, 0) ({0}, {1})}};", num(f), num(m));
