@@ -14,8 +14,9 @@ use rand_chacha::ChaCha8Rng;
 const BITS: usize = 32;
 
 /// Primitive polynomials (degree s, coefficients a) and initial direction numbers m₁…m_s of the
-/// Sobol' dimensions after the first (which is the van der Corput sequence), in the order of
-/// Joe & Kuo's tables. Any odd mₖ < 2ᵏ gives a valid Sobol' sequence; these set its quality.
+/// Sobol' dimensions after the first (which is the van der Corput sequence): Joe & Kuo's
+/// new-joe-kuo-6.21201, checked against SciPy's sequence by `direction_numbers_are_joe_and_kuos`.
+/// Any odd mₖ < 2ᵏ gives a valid Sobol' sequence; these set its quality.
 const DIRECTIONS: [(u32, u32, &[u32]); 20] = [
     (1, 0, &[1]),
     (2, 1, &[1, 3]),
@@ -555,5 +556,30 @@ mod tests {
         assert_eq!((s[0].mu, s[0].effects, s[0].dropped), (5.0, 1, 0));
         assert_eq!((s[1].effects, s[1].dropped), (0, 1));
         assert!(s[1].mu_star.value.is_nan() && s[1].boot_mu_star.is_empty());
+    }
+
+    /// The direction numbers are Joe & Kuo's (new-joe-kuo-6.21201): the unscrambled sequence, in
+    /// Gray-code order, equals SciPy 1.17.1's `qmc.Sobol(d=21, scramble=False).random(1024)`
+    /// (which reads Joe & Kuo's file) at these rows, bit for bit (values × 2³²).
+    #[test]
+    fn direction_numbers_are_joe_and_kuos() {
+        let v: Vec<[u32; BITS]> = (0..MAX_DIMENSIONS).map(direction_numbers).collect();
+        let mut x = [0u32; MAX_DIMENSIONS];
+        let mut rows = std::collections::BTreeMap::new();
+        for i in 0u32..1024 {
+            rows.insert(i, x);
+            let c = (!i & (i + 1)).trailing_zeros() as usize;
+            for (xj, vj) in x.iter_mut().zip(&v) {
+                *xj ^= vj[c];
+            }
+        }
+        let scipy: [(u32, [u32; 21]); 3] = [
+            (5, [3758096384, 3758096384, 536870912, 1610612736, 3758096384, 2684354560, 3758096384, 1610612736, 1610612736, 536870912, 1610612736, 3758096384, 3758096384, 536870912, 3758096384, 1610612736, 3758096384, 1610612736, 1610612736, 2684354560, 2684354560]),
+            (700, [1203765248, 423624704, 591396864, 2025848832, 239075328, 1505755136, 339738624, 3015704576, 4022337536, 4013948928, 1799356416, 2361393152, 3015704576, 3200253952, 1363148800, 339738624, 448790528, 1589641216, 3544186880, 54525952, 1396703232]),
+            (1023, [4194304, 3233808384, 2629828608, 624951296, 801112064, 1883242496, 599785472, 2654994432, 1480589312, 3653238784, 2915041280, 155189248, 557842432, 2856321024, 1556086784, 1992294400, 1346371584, 3762290688, 2512388096, 1371537408, 3720347648]),
+        ];
+        for (i, expected) in scipy {
+            assert_eq!(rows[&i], expected, "row {i}");
+        }
     }
 }
