@@ -5,66 +5,15 @@
 
 use crate::util::run_and_report;
 
-const SPEC: &str = r#"
-id = "gsa"
-title = "Global sensitivity of dead reckoning"
-seed = 3
-replicates = 2
-maps = ["recinto_basico"]
-algorithms = ["odometry"]
-
-[base.odometry]
-model = "pose"
-var_x_m2 = 0.0001
-var_y_m2 = 0.0001
-var_theta_rad2 = 0.0001
-
-[[sweeps]]
-kind = "morris"
-trajectories = 6
-ranges = { "odometry.var_x_m2" = [0.000001, 0.0001], "odometry.var_y_m2" = [0.000001, 0.0001], "odometry.var_theta_rad2" = [0.000001, 0.0001] }
-
-[[sweeps]]
-kind = "sobol"
-samples = 32
-ranges = { "odometry.var_x_m2" = [0.000001, 0.0001], "odometry.var_y_m2" = [0.000001, 0.0001], "odometry.var_theta_rad2" = [0.000001, 0.0001] }
-
-[report]
-metrics = ["ate_rmse_m"]
-
-[[claims]]
-id = "heading-dominates"
-source = "slamlab"
-kind = "extension"
-text = "Heading noise drives the dead-reckoning error more than position noise"
-metric = "ate_rmse_m"
-index = "st"
-parameter = "odometry.var_theta_rad2"
-than_parameter = "odometry.var_x_m2"
-test = "greater"
-min_effect = 0.3
-why = "a difference of 0.3 in ST is a third of the variance: a clear ranking, not a tie"
-
-[[claims]]
-id = "heading-screens-first"
-source = "slamlab"
-kind = "extension"
-text = "Morris's μ* ranks heading noise above position noise"
-metric = "ate_rmse_m"
-index = "mu_star"
-parameter = "odometry.var_theta_rad2"
-than_parameter = "odometry.var_y_m2"
-test = "greater"
-"#;
+/// The study (a file: its name must match its id).
+const SPEC: &str = "tests/specs/gsa.toml";
 
 #[test]
 fn design_sweeps_end_to_end_and_thread_independent() {
     let dir = tempfile::tempdir().unwrap();
-    let spec = dir.path().join("gsa.toml");
-    std::fs::write(&spec, SPEC).unwrap();
     let (one, two) = (dir.path().join("one"), dir.path().join("two"));
-    run_and_report(spec.to_str().unwrap(), &one, "1");
-    run_and_report(spec.to_str().unwrap(), &two, "2");
+    run_and_report(SPEC, &one, "1");
+    run_and_report(SPEC, &two, "2");
     let report = |w: &std::path::Path, f: &str| std::fs::read(w.join("reports/gsa").join(f)).unwrap();
     for f in ["index.html", "gsa.tex", "sensitivity.csv", "claims.json"] {
         assert!(report(&one, f) == report(&two, f), "{f} differs between 1 and 2 threads");

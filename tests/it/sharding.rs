@@ -5,7 +5,8 @@
 use crate::util::{ok, s, slamlab, tree};
 use std::path::Path;
 
-const SPECS: [&str; 2] = ["experiments/smoke.toml", "experiments/odometry-rate.toml"];
+/// …and a study with morris and sobol sweeps (design points are sweep points like any other).
+const SPECS: [&str; 3] = ["experiments/smoke.toml", "experiments/odometry-rate.toml", "tests/specs/gsa.toml"];
 
 /// Every file of the results except the machine-dependent timings (and their line in the
 /// checksums), and every report file.
