@@ -507,7 +507,7 @@ fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, ma
         match (indices, kind) {
             (Indices::Sobol(x), IndexKind::S1) => (x.s1[j].value, x.boot_s1[j].clone()),
             (Indices::Sobol(x), IndexKind::St) => (x.st[j].value, x.boot_st[j].clone()),
-            (Indices::Sobol(x), IndexKind::Interaction) => (x.st[j].value - x.s1[j].value, x.boot_st[j].iter().zip(&x.boot_s1[j]).map(|(t, s)| t - s).collect()),
+            (Indices::Sobol(x), IndexKind::Interaction) => x.interaction(j),
             (Indices::Morris(m), IndexKind::MuStar) => (m[j].mu_star.value, m[j].boot_mu_star.clone()),
             _ => (f64::NAN, Vec::new()),
         }
@@ -556,27 +556,29 @@ fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, ma
     }
 }
 
+/// What an index claim tests, in words (`log`: its metric is analysed as ln).
+fn index_test_text(c: &ClaimSpec, kind: crate::spec::IndexKind, log: bool) -> String {
+    let v = |x: Option<f64>| x.map_or("?".into(), |x| sig(x, 3));
+    let name = kind.as_str();
+    let (parameter, metric) = (&c.parameter, if log { format!("ln {}", c.metric) } else { c.metric.clone() });
+    let floored = if matches!(kind, crate::spec::IndexKind::St | crate::spec::IndexKind::MuStar) { " plus the noise floor (the bias run-to-run noise adds to the estimate)" } else { "" };
+    match c.test {
+        ClaimTest::Above => format!("{name} of {parameter} for {metric}: 95 % bootstrap interval above {}{floored}", v(c.value)),
+        ClaimTest::Below => format!("{name} of {parameter} for {metric}: 95 % bootstrap interval below {}{floored}", v(c.value)),
+        ClaimTest::Between => format!("{name} of {parameter} for {metric}: 95 % bootstrap interval within [{}, {}]{floored}", v(c.value), v(c.upper)),
+        _ => format!(
+            "{name} of {parameter} for {metric} {} that of {} by more than {}: 95 % bootstrap interval of the difference (same resamples)",
+            if c.test == ClaimTest::Greater { "exceeds" } else { "is below" },
+            c.than_parameter,
+            v(Some(c.min_effect.unwrap_or(0.0)))
+        ),
+    }
+}
+
 /// `log`: an index claim's metric is analysed as ln (`[report] sensitivity_log`).
 fn test_text(c: &ClaimSpec, cells: &ClaimCells, log: bool) -> String {
     if let Some(kind) = c.index {
-        let v = |x: Option<f64>| x.map_or("?".into(), |x| sig(x, 3));
-        let name = kind.as_str();
-        let metric_text = if log { format!("ln {}", c.metric) } else { c.metric.clone() };
-        let c = &ClaimSpec { metric: metric_text, ..c.clone() };
-        let floored = if matches!(kind, crate::spec::IndexKind::St | crate::spec::IndexKind::MuStar) { " plus the noise floor (the bias run-to-run noise adds to the estimate)" } else { "" };
-        return match c.test {
-            ClaimTest::Above => format!("{name} of {} for {}: 95 % bootstrap interval above {}{floored}", c.parameter, c.metric, v(c.value)),
-            ClaimTest::Below => format!("{name} of {} for {}: 95 % bootstrap interval below {}{floored}", c.parameter, c.metric, v(c.value)),
-            ClaimTest::Between => format!("{name} of {} for {}: 95 % bootstrap interval within [{}, {}]{floored}", c.parameter, c.metric, v(c.value), v(c.upper)),
-            _ => format!(
-                "{name} of {} for {} {} that of {} by more than {}: 95 % bootstrap interval of the difference (same resamples)",
-                c.parameter,
-                c.metric,
-                if c.test == ClaimTest::Greater { "exceeds" } else { "is below" },
-                c.than_parameter,
-                v(Some(c.min_effect.unwrap_or(0.0)))
-            ),
-        };
+        return index_test_text(c, kind, log);
     }
     let at = cell_text(&c.at);
     let metric = &c.metric;
@@ -780,7 +782,6 @@ mod tests {
             size: 32,
             runs: 0,
             failed: 0,
-            variance: 1.0,
             rows: Vec::new(),
             note: String::new(),
         };

@@ -60,15 +60,13 @@ pub struct Analysis {
     /// Runs of the group's points on this map and algorithm, and how many failed.
     pub runs: usize,
     pub failed: usize,
-    /// Variance of the averaged outputs (sobol) — the scale of the indices.
-    pub variance: f64,
     /// Each design row's output (the mean of its point's successful replicates; NaN: none).
     pub rows: Vec<f64>,
     pub note: String,
 }
 
-/// Every design group's analyses, in (group, map, algorithm, metric) order; `metrics` are the
-/// report's.
+/// Every design group's analyses, in (group, map, algorithm, metric) order, of `metrics` (which
+/// may include [`FAILED`]).
 pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
     let spec = &data.resolved.spec;
     // (map, algorithm, point) → replicate → metrics
@@ -83,9 +81,7 @@ pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
             for algorithm in &spec.algorithms {
                 let alg = algorithm.name();
                 let of_cell = cells.get(&(map.as_str(), alg));
-                let any_failed = design.rows.iter().filter_map(|p| of_cell.and_then(|c| c.get(p.as_str()))).flatten().any(|r| r.status != RunStatus::Ok);
-                let failed = (any_failed && !metrics.iter().any(|m| m == FAILED)).then(|| FAILED.to_string());
-                for metric in metrics.iter().chain(failed.as_ref()) {
+                for metric in metrics {
                     let seed = crate::plan::derive_seed(spec.seed, map, gi as u32, &format!("bootstrap:{alg}:{metric}"));
                     let log = spec.report.sensitivity_log.contains(metric);
                     out.push(one(gi, group.kind, &group.params, design, |point| of_cell.and_then(|c| c.get(point)).map(Vec::as_slice).unwrap_or_default(), map, alg, metric, log, spec.replicates as usize, seed));
@@ -99,7 +95,17 @@ pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
 #[allow(clippy::too_many_arguments)]
 fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &DesignRecord, runs_of: impl Fn(&str) -> &'a [&'r crate::store::RunRow], map: &str, alg: &str, metric: &str, log: bool, replicates: usize, seed: u64) -> Analysis {
     let d = params.len();
-    // each distinct point once: its replicates' values (None: failed or not finite)
+    // what a run gives: [`FAILED`] is 1 for a failed run and 0 for a finished one; a metric is
+    // read from finished runs only (ln of it on a log scale), None when it is not finite
+    let value = |r: &crate::store::RunRow| -> Option<f64> {
+        let ok = r.status == RunStatus::Ok;
+        if metric == FAILED {
+            return Some(if ok { 0.0 } else { 1.0 });
+        }
+        let v = r.metric(metric).filter(|_| ok)?;
+        Some(if log { v.ln() } else { v }).filter(|v| v.is_finite())
+    };
+    // each distinct point once: its replicates' values
     let mut points: BTreeMap<&str, Vec<Option<f64>>> = BTreeMap::new();
     let (mut runs, mut failed) = (0, 0);
     for label in &design.rows {
@@ -109,27 +115,22 @@ fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &Desig
         let mut reps = vec![None; replicates];
         for r in runs_of(label) {
             runs += 1;
-            if metric == FAILED {
-                if let Some(slot) = reps.get_mut(r.replicate as usize) {
-                    *slot = Some(if r.status == RunStatus::Ok { 0.0 } else { 1.0 });
-                }
-            }
-            if r.status != RunStatus::Ok {
-                failed += 1;
-                continue;
-            }
-            if let (Some(slot), Some(v)) = (reps.get_mut(r.replicate as usize), r.metric(metric)) {
-                let v = if log { v.ln() } else { v };
-                *slot = v.is_finite().then_some(v);
+            failed += usize::from(r.status != RunStatus::Ok);
+            if let Some(slot) = reps.get_mut(r.replicate as usize) {
+                *slot = value(r);
             }
         }
         points.insert(label, reps);
     }
-    let row_value = |label: &str| -> f64 {
-        let vals: Vec<f64> = points.get(label).into_iter().flatten().flatten().copied().collect();
-        if vals.is_empty() { f64::NAN } else { vals.iter().sum::<f64>() / vals.len() as f64 }
-    };
-    let y: Vec<f64> = design.rows.iter().map(|l| row_value(l)).collect();
+    // a row's output: the mean of its point's values (NaN: none)
+    let y: Vec<f64> = design
+        .rows
+        .iter()
+        .map(|l| {
+            let (sum, n) = points[l.as_str()].iter().flatten().fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+            if n == 0 { f64::NAN } else { sum / n as f64 }
+        })
+        .collect();
     let complete: Vec<Vec<f64>> = points.values().filter(|r| r.iter().all(Option::is_some)).map(|r| r.iter().flatten().copied().collect()).collect();
     let shares = variance_shares(&complete);
     let mut a = Analysis {
@@ -147,11 +148,11 @@ fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &Desig
         size: design.size,
         runs,
         failed,
-        variance: f64::NAN,
-        rows: y.clone(),
+        rows: y,
         note: String::new(),
     };
     let r = replicates as f64;
+    let y = &a.rows;
     match kind {
         SweepKind::Sobol => {
             let n = design.size;
@@ -166,7 +167,6 @@ fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &Desig
             let fab: Vec<Vec<f64>> = (0..d).map(|i| keep.iter().map(|&k| y[(2 + i) * n + k]).collect()).collect();
             let mean = fa.iter().chain(&fb).sum::<f64>() / (2 * fa.len()) as f64;
             let v = fa.iter().chain(&fb).map(|x| (x - mean).powi(2)).sum::<f64>() / (2 * fa.len()) as f64;
-            a.variance = v;
             if v <= 0.0 {
                 a.note = "the metric takes the same value at every sampled point: no variance to apportion".into();
                 return a;

@@ -278,18 +278,10 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
         groups.push(SweepGroup { kind: SweepKind::OneAtATime, params: Vec::new(), named: false, design: None });
         candidates.push((Vec::new(), 0, None));
     }
-    // design groups: (group, realised unit rows)
-    let mut designs: Vec<(usize, Vec<Vec<f64>>)> = Vec::new();
     for (bi, block) in spec.sweeps.iter().enumerate() {
         if let Some(d) = &block.design {
             let unit = design::unit_rows(block.kind, d, derive_seed(spec.spec.seed, "sweeps", bi as u32, "design"));
             let kind = if block.kind == SweepKind::Morris { "morris" } else { "sobol" };
-            groups.push(SweepGroup {
-                kind: block.kind,
-                params: d.params.iter().map(|p| p.path.clone()).collect(),
-                named: false,
-                design: Some(design::DesignRecord { size: unit.size, rows: Vec::new(), moved: unit.moved.clone(), unit: Vec::new(), delta: unit.delta }),
-            });
             let mut realised = Vec::with_capacity(unit.rows.len());
             for (row, u) in unit.rows.iter().enumerate() {
                 let (values, coords): (Vec<toml::Value>, Vec<f64>) = d.params.iter().zip(u).map(|(p, &x)| design::realise(p, x)).unzip();
@@ -297,10 +289,17 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
                 for (path, j) in &d.tied {
                     assignments.push((path.clone(), values[*j].clone(), d.params[*j].key.clone()));
                 }
-                candidates.push((assignments, groups.len() - 1, Some(format!("{kind}{bi}-{row:04}"))));
+                candidates.push((assignments, groups.len(), Some(format!("{kind}{bi}-{row:04}"))));
                 realised.push(coords);
             }
-            designs.push((groups.len() - 1, realised));
+            // Morris divides by the realised steps: it keeps each row's realised coordinates
+            let unit_coords = if block.kind == SweepKind::Morris { realised } else { Vec::new() };
+            groups.push(SweepGroup {
+                kind: block.kind,
+                params: d.params.iter().map(|p| p.path.clone()).collect(),
+                named: false,
+                design: Some(design::DesignRecord { size: unit.size, rows: Vec::new(), moved: unit.moved, unit: unit_coords, delta: unit.delta }),
+            });
             continue;
         }
         let at = |p: &crate::spec::SweptParam, i: usize| (p.path.clone(), p.values[i].clone(), format!("{}[{i}]", p.key));
@@ -370,15 +369,6 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
             assignments.iter().map(|(p, v, _)| format!("{p}={}", format_value(v))).collect::<Vec<_>>().join(",")
         };
         points.push(SweepPoint { label, assignments: assignments.into_iter().map(|(p, v, _)| (p, v)).collect(), params, groups: vec![group] });
-    }
-    // Morris divides by the realised steps: keep each row's realised coordinates.
-    for (g, realised) in designs {
-        let morris = groups[g].kind == SweepKind::Morris;
-        if let Some(d) = &mut groups[g].design
-            && morris
-        {
-            d.unit = realised;
-        }
     }
     if !errors.is_empty() {
         // The same bad value can make several points invalid: report it once.

@@ -4,7 +4,7 @@
 
 use super::figure::{self, IndexBarsFigure, MorrisFigure};
 use super::view::{FigureView, TableView};
-use crate::judge::sensitivity::{analyse, Analysis, Indices};
+use crate::judge::sensitivity::{analyse, Analysis, Indices, FAILED};
 use crate::metrics::MetricDef;
 use crate::spec::{SweepKind, SweepSpec};
 use crate::stats::sig;
@@ -65,13 +65,11 @@ fn pct(x: f64) -> String {
 /// Every design row's output per metric, in design order, for re-analysis with any tool
 /// (`sensitivity.csv`; for a sobol group the rows are A₁…A_N, B₁…B_N, then each ABᵢ; SALib
 /// wants them per sample as A, AB₁…AB_d, B). Empty when the study has no design group.
-pub fn csv(data: &StudyData, metrics: &[&MetricDef]) -> String {
-    let mut names: Vec<String> = metrics.iter().map(|m| m.name.to_string()).collect();
-    names.push(crate::judge::sensitivity::FAILED.to_string());
-    let analyses = analyse(data, &names);
+pub fn csv(data: &StudyData, analyses: &[Analysis]) -> String {
     if analyses.is_empty() {
         return String::new();
     }
+    let names = metric_names(analyses);
     // a metric analysed on a log scale is exported as what was analysed: ln of the replicates' values, averaged
     let header: Vec<String> = names.iter().map(|m| if data.resolved.spec.report.sensitivity_log.contains(m) { format!("ln_{m}") } else { m.clone() }).collect();
     let mut out = format!("group,kind,map,algorithm,row,point,role,{}\n", header.join(","));
@@ -102,14 +100,31 @@ pub fn csv(data: &StudyData, metrics: &[&MetricDef]) -> String {
     out
 }
 
-pub fn build(data: &StudyData, metrics: &[&MetricDef]) -> Vec<SensitivitySection> {
-    let names: Vec<String> = metrics.iter().map(|m| m.name.to_string()).collect();
-    let analyses = analyse(data, &names);
+/// The analyses a report shows and exports: the report's metrics and [`FAILED`], once.
+pub fn analyses(data: &StudyData, metrics: &[&MetricDef]) -> Vec<Analysis> {
+    let mut names: Vec<String> = metrics.iter().map(|m| m.name.to_string()).collect();
+    names.push(FAILED.to_string());
+    analyse(data, &names)
+}
+
+/// The analysed metrics, in the order they were asked for.
+fn metric_names(analyses: &[Analysis]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for a in analyses {
+        if !names.contains(&a.metric) {
+            names.push(a.metric.clone());
+        }
+    }
+    names
+}
+
+/// The report section; [`FAILED`] is shown only where some run of the group failed.
+pub fn build(data: &StudyData, analyses: &[Analysis], metrics: &[&MetricDef]) -> Vec<SensitivitySection> {
     let spec = &data.resolved.spec;
     let mut sections = Vec::new();
     for (gi, group) in data.resolved.groups.iter().enumerate() {
         let Some(design) = &group.design else { continue };
-        let mine: Vec<&Analysis> = analyses.iter().filter(|a| a.group == gi).collect();
+        let mine: Vec<&Analysis> = analyses.iter().filter(|a| a.group == gi && (a.metric != FAILED || a.failed > 0)).collect();
         let kind = if group.kind == SweepKind::Morris { "Morris screening" } else { "Sobol' indices" };
         let distinct = design.rows.iter().collect::<std::collections::BTreeSet<_>>().len();
         let mut intro = vec![match group.kind {
@@ -132,10 +147,8 @@ pub fn build(data: &StudyData, metrics: &[&MetricDef]) -> Vec<SensitivitySection
         intro.push(
             "Noise floor: run-to-run noise independent between points adds to every parameter's estimate — to ST about σ²/(R·V), to μ* about √(2σ²/R)·√(2/π)/Δ, with σ² the residual mean square of the points × replicates ANOVA — so an index whose interval does not clear it cannot be told apart from simulation noise.".into(),
         );
-        let mut blocks = Vec::new();
-        for a in mine {
-            blocks.push(block(data, a, &short_names(&group.params), metrics, gi));
-        }
+        let short = short_names(&group.params);
+        let blocks = mine.into_iter().map(|a| block(data, a, &short, metrics, gi)).collect();
         sections.push(SensitivitySection { title: format!("{kind}: {}", group.params.join(", ")), intro, blocks });
     }
     sections
@@ -161,7 +174,12 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
     let (table, figure) = match indices {
         Indices::Sobol(x) => {
             let (s1, st) = (&x.s1, &x.st);
-            let inter: Vec<crate::stats::sensitivity::Estimate> = (0..short.len()).map(|i| crate::stats::sensitivity::percentile_interval(st[i].value - s1[i].value, &x.boot_st[i].iter().zip(&x.boot_s1[i]).map(|(t, s)| t - s).collect::<Vec<_>>())).collect();
+            let inter: Vec<crate::stats::sensitivity::Estimate> = (0..short.len())
+                .map(|i| {
+                    let (value, boot) = x.interaction(i);
+                    crate::stats::sensitivity::percentile_interval(value, &boot)
+                })
+                .collect();
             let mut order: Vec<usize> = (0..short.len()).collect();
             order.sort_by(|&i, &j| st[j].value.total_cmp(&st[i].value).then(i.cmp(&j)));
             let ranked: Vec<String> = order.iter().map(|&i| format!("{} {}", short[i], sig(st[i].value, 2))).collect();

@@ -218,7 +218,8 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
 
     // morris / sobol groups get the sensitivity section instead of error-vs-parameter plots
     let mut groups: Vec<GroupView> = data.resolved.groups.iter().enumerate().filter(|(_, g)| g.design.is_none()).map(|(gi, _)| group_view(&study, gi)).collect();
-    let sensitivity = super::sensitivity::build(data, &study.metrics);
+    let analyses = super::sensitivity::analyses(data, &study.metrics);
+    let sensitivity = super::sensitivity::build(data, &analyses, &study.metrics);
     // Two groups can sweep the same parameters (e.g. a one-at-a-time list and a zip): keep file
     // names (and HTML ids) unique, deterministically, in group order.
     let mut used: Vec<String> = Vec::new();
@@ -274,7 +275,7 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
         algorithms: spec.algorithms.iter().map(|a| a.name()).collect::<Vec<_>>().join(", "),
     };
     let csv = summary_csv(&study);
-    let sensitivity_csv = super::sensitivity::csv(data, &study.metrics);
+    let sensitivity_csv = super::sensitivity::csv(data, &analyses);
     StudyPages { view, index, csv, sensitivity_csv }
 }
 

@@ -945,8 +945,8 @@ fn check_design(i: usize, block: &SweepSpec, base_leaves: &[(String, toml::Value
         }
     }
     let d = params.len();
-    let positive = |v: Option<u32>, default: u32| v.unwrap_or(default) as usize;
-    let (levels, trajectories, samples) = (positive(block.levels, 4), positive(block.trajectories, 10), positive(block.samples, 64));
+    let or_default = |v: Option<u32>, default: u32| v.unwrap_or(default) as usize;
+    let (levels, trajectories, samples) = (or_default(block.levels, 4), or_default(block.trajectories, 10), or_default(block.samples, 64));
     match block.kind {
         SweepKind::Morris => {
             if block.samples.is_some() {

@@ -156,6 +156,13 @@ pub struct Indices {
     pub boot_st: Vec<Vec<f64>>,
 }
 
+impl Indices {
+    /// STᵢ − S1ᵢ (the share of variance in interactions) and its bootstrap replicates.
+    pub fn interaction(&self, i: usize) -> (f64, Vec<f64>) {
+        (self.st[i].value - self.s1[i].value, self.boot_st[i].iter().zip(&self.boot_s1[i]).map(|(t, s)| t - s).collect())
+    }
+}
+
 /// The 95 % percentile interval of bootstrap replicates (NaN when there are none).
 pub fn percentile_interval(value: f64, boot: &[f64]) -> Estimate {
     let mut b = boot.to_vec();
