@@ -28,11 +28,12 @@ run: build
 validate: build
 	$(BIN) validate $(SPECS)
 
-## Unit and integration tests (and the benchmarks must compile). The dependency features of the
+## Formatting (rustfmt.toml), unit and integration tests (and the benchmarks must compile). The dependency features of the
 ## test build equal the release build's (checked first), so after `make report` no dependency is
 ## compiled again.
 test:
 	tests/tools/build_tools.sh
+	$(CARGO) fmt --check
 	tests/tools/features_unified.sh
 	$(CARGO) test --release --locked
 	$(CARGO) build --release --locked --benches

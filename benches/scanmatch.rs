@@ -11,17 +11,19 @@
 //!   (scans prepared once, as Diosi's program does), to set beside the C program's own time on the
 //!   same matches (0.135 ms per match, README "Benchmarks"); skipped with a message when absent.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use slamlab::geom::Pose2;
-use slamlab::scanmatch::brute::{brute_force, BruteForceParams};
-use slamlab::scanmatch::epsm::{epsm, EpsmParams};
-use slamlab::scanmatch::objective::{Objective, ObjectiveParams};
-use slamlab::scanmatch::psm::{psm, PsmParams};
-use slamlab::scanmatch::scan::testing::{raw_pair, rect_room_with_column, Beams, MAX_RANGE_M, ROOM_REFERENCE_POSE};
-use slamlab::scanmatch::scan::PolarScan;
-use slamlab::scanmatch::search::{simultaneous, Optimizer, SearchParams};
-use slamlab::scanmatch::segment::{prepare, Segmentation, SegmentationParams};
 use slamlab::scanmatch::Cost;
+use slamlab::scanmatch::brute::{BruteForceParams, brute_force};
+use slamlab::scanmatch::epsm::{EpsmParams, epsm};
+use slamlab::scanmatch::objective::{Objective, ObjectiveParams};
+use slamlab::scanmatch::psm::{PsmParams, psm};
+use slamlab::scanmatch::scan::PolarScan;
+use slamlab::scanmatch::scan::testing::{
+    Beams, MAX_RANGE_M, ROOM_REFERENCE_POSE, raw_pair, rect_room_with_column,
+};
+use slamlab::scanmatch::search::{Optimizer, SearchParams, simultaneous};
+use slamlab::scanmatch::segment::{Segmentation, SegmentationParams, prepare};
 use std::hint::black_box;
 use std::path::Path;
 
@@ -32,19 +34,28 @@ const GUESS: Pose2 = Pose2::new(0.25, -0.1, 0.017_453_292_519_943_295);
 const MATCHERS: [&str; 6] = ["psm_original", "psm", "epsm", "epsm_table5", "crs2", "brute_force"];
 
 fn segmentation(matcher: &str) -> SegmentationParams {
-    let method = if matcher == "psm_original" { Segmentation::PsmHeuristics } else { Segmentation::Lines };
+    let method =
+        if matcher == "psm_original" { Segmentation::PsmHeuristics } else { Segmentation::Lines };
     SegmentationParams { method, ..SegmentationParams::default() }
 }
 
 /// Prepares both scans and runs one match; returns the final f (to keep the work alive).
-fn run(matcher: &str, raw: (&[Option<f64>], &[Option<f64>]), geometry: (f64, f64, f64), initial: Pose2) -> f64 {
+fn run(
+    matcher: &str,
+    raw: (&[Option<f64>], &[Option<f64>]),
+    geometry: (f64, f64, f64),
+    initial: Pose2,
+) -> f64 {
     let seg = segmentation(matcher);
     let (min, inc, max) = geometry;
-    let (r, c): (PolarScan, PolarScan) = (prepare(raw.0, min, inc, max, &seg), prepare(raw.1, min, inc, max, &seg));
+    let (r, c): (PolarScan, PolarScan) =
+        (prepare(raw.0, min, inc, max, &seg), prepare(raw.1, min, inc, max, &seg));
     let params = ObjectiveParams::default();
     let mut cost = Objective::new(&r, &c, &params);
     let m = match matcher {
-        "psm_original" | "psm" => psm(&r, &c, initial, &PsmParams::default(), &mut cost).expect("one laser"),
+        "psm_original" | "psm" => {
+            psm(&r, &c, initial, &PsmParams::default(), &mut cost).expect("one laser")
+        }
         "epsm" => epsm(&mut cost, initial, &EpsmParams::default()),
         "epsm_table5" => epsm(&mut cost, initial, &EpsmParams::table5()),
         "crs2" => simultaneous(&mut cost, initial, Optimizer::Crs2, &SearchParams::default(), 7),
@@ -57,11 +68,15 @@ fn objective(c: &mut Criterion) {
     let beams = Beams::lms200();
     let (r, cur) = raw_pair(&rect_room_with_column(), ROOM_REFERENCE_POSE, TRUTH, &beams);
     let seg = segmentation("epsm");
-    let prep = |raw: &[Option<f64>]| prepare(raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, &seg);
+    let prep = |raw: &[Option<f64>]| {
+        prepare(raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, &seg)
+    };
     let (r, cur) = (prep(&r), prep(&cur));
     let params = ObjectiveParams::default();
     let mut cost = Objective::new(&r, &cur, &params);
-    c.bench_function("scanmatch/objective_181_beams", |b| b.iter(|| black_box(cost.f(black_box(GUESS)))));
+    c.bench_function("scanmatch/objective_181_beams", |b| {
+        b.iter(|| black_box(cost.f(black_box(GUESS))))
+    });
 }
 
 fn synthetic(c: &mut Criterion) {
@@ -71,7 +86,9 @@ fn synthetic(c: &mut Criterion) {
     let mut group = c.benchmark_group("scanmatch/synthetic_match");
     group.sample_size(10);
     for matcher in MATCHERS {
-        group.bench_with_input(BenchmarkId::from_parameter(matcher), &matcher, |b, m| b.iter(|| black_box(run(m, (&r, &cur), geometry, GUESS))));
+        group.bench_with_input(BenchmarkId::from_parameter(matcher), &matcher, |b, m| {
+            b.iter(|| black_box(run(m, (&r, &cur), geometry, GUESS)))
+        });
     }
     group.finish();
 }
@@ -85,7 +102,13 @@ fn intel(c: &mut Criterion) {
         eprintln!("skipped: scanmatch/intel: {} is absent", folder.display());
         return;
     }
-    let world = slamlab::dataset::intel_lab::load(&folder, 100, INTEL_PAIRS + 1, slamlab::dataset::intel_lab::DEFAULT_MAX_RANGE_M).expect("the Intel log reads");
+    let world = slamlab::dataset::intel_lab::load(
+        &folder,
+        100,
+        INTEL_PAIRS + 1,
+        slamlab::dataset::intel_lab::DEFAULT_MAX_RANGE_M,
+    )
+    .expect("the Intel log reads");
     let g = world.laser.expect("laser");
     let geometry = (g.angle_min_rad, g.angle_increment_rad, g.max_range_m);
     let mut group = c.benchmark_group("scanmatch/intel_match");
@@ -96,7 +119,12 @@ fn intel(c: &mut Criterion) {
             b.iter(|| {
                 let mut total = 0.0;
                 for k in 0..INTEL_PAIRS {
-                    let f = run(m, (&world.scans[k].ranges_m, &world.scans[k + 1].ranges_m), geometry, world.odometry[k]);
+                    let f = run(
+                        m,
+                        (&world.scans[k].ranges_m, &world.scans[k + 1].ranges_m),
+                        geometry,
+                        world.odometry[k],
+                    );
                     total += if f.is_finite() { f } else { 0.0 };
                 }
                 black_box(total)
@@ -111,15 +139,30 @@ fn diosi_reference(c: &mut Criterion) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
     let (csv, folder) = (root.join("psm-reference/intel-pairs.csv"), root.join("intel-lab"));
     if !csv.is_file() || !folder.is_dir() {
-        eprintln!("skipped: scanmatch/diosi_reference: {} or {} is absent", csv.display(), folder.display());
+        eprintln!(
+            "skipped: scanmatch/diosi_reference: {} or {} is absent",
+            csv.display(),
+            folder.display()
+        );
         return;
     }
     let world = slamlab::dataset::intel_lab::load(&folder, 0, 0, 1e3).expect("the Intel log reads");
     let g = world.laser.expect("laser");
     let params = PsmParams::default();
     let heuristics = slamlab::scanmatch::segment::PsmHeuristicsParams::default();
-    let scans: Vec<PolarScan> =
-        world.scans.iter().map(|s| slamlab::scanmatch::segment::psm_heuristics(&s.ranges_m, g.angle_min_rad, g.angle_increment_rad, params.max_range_m, &heuristics)).collect();
+    let scans: Vec<PolarScan> = world
+        .scans
+        .iter()
+        .map(|s| {
+            slamlab::scanmatch::segment::psm_heuristics(
+                &s.ranges_m,
+                g.angle_min_rad,
+                g.angle_increment_rad,
+                params.max_range_m,
+                &heuristics,
+            )
+        })
+        .collect();
     let text = std::fs::read_to_string(&csv).expect("the reference reads");
     let rows: Vec<(usize, usize, Pose2)> = text
         .lines()

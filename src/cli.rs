@@ -6,13 +6,17 @@ use crate::plan::{self, ExperimentPlan};
 use crate::run::{self, Provenance, Reason, RunOptions};
 use crate::spec::{self, InputErrors};
 use crate::store::{self, tum};
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "slamlab", version, about = "Reproducible parameter studies of 2-D SLAM: TOML specs → seeded runs → Parquet → HTML/LaTeX reports")]
+#[command(
+    name = "slamlab",
+    version,
+    about = "Reproducible parameter studies of 2-D SLAM: TOML specs → seeded runs → Parquet → HTML/LaTeX reports"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -230,8 +234,12 @@ pub fn main() -> ExitCode {
 
 fn dispatch(command: Command) -> Result<()> {
     match command {
-        Command::Run { specs, dirs, threads, force, quiet, shard: None } => cmd_run(&specs, &dirs, threads, force, quiet),
-        Command::Run { specs, dirs, threads, force, quiet, shard: Some(shard) } => cmd_run_shard(&specs, &dirs, threads, force, quiet, shard),
+        Command::Run { specs, dirs, threads, force, quiet, shard: None } => {
+            cmd_run(&specs, &dirs, threads, force, quiet)
+        }
+        Command::Run { specs, dirs, threads, force, quiet, shard: Some(shard) } => {
+            cmd_run_shard(&specs, &dirs, threads, force, quiet, shard)
+        }
         Command::Slurm { specs, dirs, tasks, cpus, mem, time, partition, out, reports, submit } => {
             let resources = crate::report::slurm::Resources { tasks, cpus, mem, time, partition };
             cmd_slurm(&specs, &dirs, &resources, &out, &reports, submit)
@@ -240,11 +248,19 @@ fn dispatch(command: Command) -> Result<()> {
             let keep: Vec<String> = specs.as_deref().map(spec_ids).unwrap_or_default();
             let default = PathBuf::from(DEFAULT_PUBLISHED);
             let published = published.or_else(|| default.is_file().then_some(default));
-            let summary = crate::report::render_all(&results, &out, &keep, published.as_deref(), prune).context("rendering reports")?;
+            let summary =
+                crate::report::render_all(&results, &out, &keep, published.as_deref(), prune)
+                    .context("rendering reports")?;
             eprintln!("rendered {} studies into {}", summary.studies.len(), out.display());
-            let timed = crate::report::render_timings(&results).context("writing the timing pages")?;
+            let timed =
+                crate::report::render_timings(&results).context("writing the timing pages")?;
             if !timed.is_empty() {
-                eprintln!("timing pages (machine-dependent, not in the reports): {}/<study>/{} for {}", results.display(), crate::report::TIMINGS, timed.join(", "));
+                eprintln!(
+                    "timing pages (machine-dependent, not in the reports): {}/<study>/{} for {}",
+                    results.display(),
+                    crate::report::TIMINGS,
+                    timed.join(", ")
+                );
             }
             for id in &summary.kept {
                 eprintln!("{id}: no results here; its previous report is kept");
@@ -255,11 +271,17 @@ fn dispatch(command: Command) -> Result<()> {
             if !(alpha > 0.0 && alpha < 1.0) || !(min_effect >= 0.0) {
                 bail!("--alpha must be in (0, 1) and --min-effect ≥ 0");
             }
-            let opts = crate::diff::DiffOptions { alpha, min_effect_rel: min_effect, all_metrics, ..crate::diff::DiffOptions::default() };
+            let opts = crate::diff::DiffOptions {
+                alpha,
+                min_effect_rel: min_effect,
+                all_metrics,
+                ..crate::diff::DiffOptions::default()
+            };
             let d = crate::diff::diff(&base, &new, &opts)?;
             print!("{}", if md { crate::diff::to_markdown(&d) } else { crate::diff::to_text(&d) });
             if let Some(out) = report {
-                crate::report::diff_page::render_diff(&d, &out).context("writing the diff report")?;
+                crate::report::diff_page::render_diff(&d, &out)
+                    .context("writing the diff report")?;
                 eprintln!("diff report written to {}", out.display());
             }
             Ok(())
@@ -270,20 +292,43 @@ fn dispatch(command: Command) -> Result<()> {
                 match plan.maps.iter().find_map(|m| m.missing_data.as_ref()) {
                     // a valid spec whose real data is not on this machine: `run` would skip it
                     Some(why) => {
-                        eprintln!("{}: valid, but its data is absent, so `run` skips it: {why}", plan.spec.path.display());
+                        eprintln!(
+                            "{}: valid, but its data is absent, so `run` skips it: {why}",
+                            plan.spec.path.display()
+                        );
                         absent.push(plan.id().to_string());
                     }
-                    None => println!("ok: {} ({}: {} points, {} runs)", plan.spec.path.display(), plan.id(), plan.points.len(), plan.runs.len()),
+                    None => println!(
+                        "ok: {} ({}: {} points, {} runs)",
+                        plan.spec.path.display(),
+                        plan.id(),
+                        plan.points.len(),
+                        plan.runs.len()
+                    ),
                 }
             }
             if !absent.is_empty() {
-                bail!("the data of {} is absent on this machine ({})", if absent.len() == 1 { "one study".to_string() } else { format!("{} studies", absent.len()) }, absent.join(", "));
+                bail!(
+                    "the data of {} is absent on this machine ({})",
+                    if absent.len() == 1 {
+                        "one study".to_string()
+                    } else {
+                        format!("{} studies", absent.len())
+                    },
+                    absent.join(", ")
+                );
             }
             Ok(())
         }
-        Command::Plan { specs, dry_run: _, dirs, force, shards } => cmd_plan(&specs, &dirs, force, shards),
-        Command::ExportTum { results_dir, out_dir, runs } => cmd_export_tum(&results_dir, &out_dir, &runs),
-        Command::ExportScans { spec, run_id, out_dir, maps } => cmd_export_scans(&spec, &run_id, &out_dir, &maps),
+        Command::Plan { specs, dry_run: _, dirs, force, shards } => {
+            cmd_plan(&specs, &dirs, force, shards)
+        }
+        Command::ExportTum { results_dir, out_dir, runs } => {
+            cmd_export_tum(&results_dir, &out_dir, &runs)
+        }
+        Command::ExportScans { spec, run_id, out_dir, maps } => {
+            cmd_export_scans(&spec, &run_id, &out_dir, &maps)
+        }
     }
 }
 
@@ -292,14 +337,23 @@ fn load_plans(specs: &[PathBuf], maps: &Path, max_runs: u64) -> Result<Vec<Exper
     let mut plans = Vec::new();
     let mut errors = Vec::new();
     for path in specs {
-        match spec::load(path).map_err(InputErrors::from).and_then(|s| plan::build_limited(s, maps, max_runs)) {
+        match spec::load(path)
+            .map_err(InputErrors::from)
+            .and_then(|s| plan::build_limited(s, maps, max_runs))
+        {
             Ok(p) => plans.push(p),
             Err(e) => errors.extend(e.0),
         }
     }
     for (i, p) in plans.iter().enumerate() {
         if let Some(other) = plans[..i].iter().find(|o| o.id() == p.id()) {
-            errors.push(spec::SpecError::new(&p.spec.path, vec![p.spec.error_at("id", format!("study id `{}` is also used by {}", p.id(), other.spec.path.display()))]));
+            errors.push(spec::SpecError::new(
+                &p.spec.path,
+                vec![p.spec.error_at(
+                    "id",
+                    format!("study id `{}` is also used by {}", p.id(), other.spec.path.display()),
+                )],
+            ));
         }
     }
     if !errors.is_empty() {
@@ -314,23 +368,40 @@ const MAX_THREADS: usize = 1024;
 fn options(dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool) -> Result<RunOptions> {
     let threads = match threads {
         Some(0) => bail!("--threads must be at least 1"),
-        Some(n) if n > MAX_THREADS => bail!("--threads {n} is more than {MAX_THREADS}: each worker is an OS thread with its own stack; use at most the machine's cores (results do not depend on the count)"),
+        Some(n) if n > MAX_THREADS => bail!(
+            "--threads {n} is more than {MAX_THREADS}: each worker is an OS thread with its own stack; use at most the machine's cores (results do not depend on the count)"
+        ),
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
-    Ok(RunOptions { threads, force, results_dir: dirs.results.clone(), cache_dir: dirs.cache.clone(), progress: !quiet })
+    Ok(RunOptions {
+        threads,
+        force,
+        results_dir: dirs.results.clone(),
+        cache_dir: dirs.cache.clone(),
+        progress: !quiet,
+    })
 }
 
-fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool) -> Result<()> {
+fn cmd_run(
+    specs: &[PathBuf],
+    dirs: &Dirs,
+    threads: Option<usize>,
+    force: bool,
+    quiet: bool,
+) -> Result<()> {
     let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
     let opts = options(dirs, threads, force, quiet)?;
     let provenance = Provenance::collect(Path::new("."));
     if provenance.git_dirty && !quiet {
-        eprintln!("note: inputs have uncommitted changes; results are marked dirty (commit first for clean provenance)");
+        eprintln!(
+            "note: inputs have uncommitted changes; results are marked dirty (commit first for clean provenance)"
+        );
     }
     // A results folder that cannot be written is found now, not after hours of runs.
     let ids: Vec<&str> = plans.iter().map(|p| p.id()).collect();
-    store::check_writable(&opts.results_dir, &ids).map_err(|e| anyhow::anyhow!("cannot write results: {e}; nothing was run"))?;
+    store::check_writable(&opts.results_dir, &ids)
+        .map_err(|e| anyhow::anyhow!("cannot write results: {e}; nothing was run"))?;
     let mut problems = 0;
     let mut skipped = Vec::new();
     for plan in &plans {
@@ -340,7 +411,8 @@ fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, 
             skipped.push(plan.id().to_string());
             continue;
         }
-        let s = run::run_study(plan, &opts, &provenance).with_context(|| format!("running study {}", plan.id()))?;
+        let s = run::run_study(plan, &opts, &provenance)
+            .with_context(|| format!("running study {}", plan.id()))?;
         let bad = s.failed + s.diverged;
         problems += bad;
         eprintln!(
@@ -354,17 +426,28 @@ fn cmd_run(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, 
             s.dir.display()
         );
         if s.recomputed_corrupt > 0 {
-            eprintln!("{}: {} cache entries failed verification (a file changed after it was written) and were recomputed", s.study, s.recomputed_corrupt);
+            eprintln!(
+                "{}: {} cache entries failed verification (a file changed after it was written) and were recomputed",
+                s.study, s.recomputed_corrupt
+            );
         }
     }
     if problems > 0 {
-        eprintln!("warning: {problems} runs failed or diverged; they are recorded with their status and shown in the reports");
+        eprintln!(
+            "warning: {problems} runs failed or diverged; they are recorded with their status and shown in the reports"
+        );
     }
     if !skipped.is_empty() && skipped.len() == plans.len() {
-        bail!("every study was skipped (its data is absent): {}; nothing was run or written", skipped.join(", "));
+        bail!(
+            "every study was skipped (its data is absent): {}; nothing was run or written",
+            skipped.join(", ")
+        );
     }
     if !skipped.is_empty() {
-        eprintln!("skipped (data absent on this machine; their stored results and reports stay): {}", skipped.join(", "));
+        eprintln!(
+            "skipped (data absent on this machine; their stored results and reports stay): {}",
+            skipped.join(", ")
+        );
     }
     Ok(())
 }
@@ -393,9 +476,20 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
     let owner = shards.map(|n| run::shards(&plans, n));
     for plan in &plans {
         let reasons = run::reasons(plan, &opts);
-        println!("study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs", plan.id(), plan.points.len(), plan.maps.len(), plan.spec.spec.algorithms.len(), plan.spec.spec.replicates, plan.runs.len());
+        println!(
+            "study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs",
+            plan.id(),
+            plan.points.len(),
+            plan.maps.len(),
+            plan.spec.spec.algorithms.len(),
+            plan.spec.spec.replicates,
+            plan.runs.len()
+        );
         if run::skipped(plan) {
-            println!("(its data is absent on this machine: `run` skips it{})", if owner.is_some() { ", and no shard gets its runs" } else { "" });
+            println!(
+                "(its data is absent on this machine: `run` skips it{})",
+                if owner.is_some() { ", and no shard gets its runs" } else { "" }
+            );
         }
         let previous = store::read_runs(&opts.results_dir.join(plan.id())).unwrap_or_default();
         for (r, reason) in plan.runs.iter().zip(&reasons) {
@@ -411,7 +505,13 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
             match owner.as_ref().and_then(|o| o.get(r.hash.as_str())) {
                 Some(&k) => {
                     let n = shards.unwrap_or(1);
-                    println!("{:<36} {:<width$} {}{changed}", reason.as_str(), format!("{k}/{n}"), r.run_id, width = 2 * n.to_string().len() + 1);
+                    println!(
+                        "{:<36} {:<width$} {}{changed}",
+                        reason.as_str(),
+                        format!("{k}/{n}"),
+                        r.run_id,
+                        width = 2 * n.to_string().len() + 1
+                    );
                 }
                 None => println!("{:<36} {}{changed}", reason.as_str(), r.run_id),
             }
@@ -433,18 +533,45 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
         let cache = store::Cache::new(&opts.cache_dir);
         let table = run::shard_loads(&plans, owner, n, &|h| !force && cache.contains(h));
         let studies = plans.iter().filter(|p| !run::skipped(p)).count();
-        println!("\nshards of the runs of {studies} {} (`run --shard I/{n}`; runs that share a content hash are one run; expected cost in seconds of one core of the reference machine, README \"Running on a cluster\"):", if studies == 1 { "study" } else { "studies" });
-        println!("{:<12} {:>8} {:>12} {:>14} {:>22}", "shard", "runs", "to compute", "expected [s]", "to compute, exp. [s]");
+        println!(
+            "\nshards of the runs of {studies} {} (`run --shard I/{n}`; runs that share a content hash are one run; expected cost in seconds of one core of the reference machine, README \"Running on a cluster\"):",
+            if studies == 1 { "study" } else { "studies" }
+        );
+        println!(
+            "{:<12} {:>8} {:>12} {:>14} {:>22}",
+            "shard", "runs", "to compute", "expected [s]", "to compute, exp. [s]"
+        );
         for (k, t) in table.iter().enumerate() {
-            println!("{:<12} {:>8} {:>12} {:>14.1} {:>22.1}", format!("{}/{n}", k + 1), t.runs, t.to_compute, t.cost_s, t.to_compute_s);
+            println!(
+                "{:<12} {:>8} {:>12} {:>14.1} {:>22.1}",
+                format!("{}/{n}", k + 1),
+                t.runs,
+                t.to_compute,
+                t.cost_s,
+                t.to_compute_s
+            );
         }
         let total = |f: fn(&run::ShardLoad) -> f64| table.iter().map(f).sum::<f64>();
-        println!("{:<12} {:>8} {:>12} {:>14.1} {:>22.1}", "all", total(|t| t.runs as f64), total(|t| t.to_compute as f64), total(|t| t.cost_s), total(|t| t.to_compute_s));
+        println!(
+            "{:<12} {:>8} {:>12} {:>14.1} {:>22.1}",
+            "all",
+            total(|t| t.runs as f64),
+            total(|t| t.to_compute as f64),
+            total(|t| t.cost_s),
+            total(|t| t.to_compute_s)
+        );
     }
     Ok(())
 }
 
-fn cmd_run_shard(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool, shard: crate::plan::shard::Shard) -> Result<()> {
+fn cmd_run_shard(
+    specs: &[PathBuf],
+    dirs: &Dirs,
+    threads: Option<usize>,
+    force: bool,
+    quiet: bool,
+    shard: crate::plan::shard::Shard,
+) -> Result<()> {
     let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
     let opts = options(dirs, threads, force, quiet)?;
     for plan in plans.iter().filter(|p| run::skipped(p)) {
@@ -467,7 +594,14 @@ fn cmd_run_shard(specs: &[PathBuf], dirs: &Dirs, threads: Option<usize>, force: 
     Ok(())
 }
 
-fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::report::slurm::Resources, out: &Path, reports: &Path, submit: bool) -> Result<()> {
+fn cmd_slurm(
+    specs: &[PathBuf],
+    dirs: &Dirs,
+    resources: &crate::report::slurm::Resources,
+    out: &Path,
+    reports: &Path,
+    submit: bool,
+) -> Result<()> {
     crate::report::slurm::validate(resources).map_err(anyhow::Error::msg)?;
     let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
     let opts = options(dirs, Some(1), false, true)?;
@@ -483,8 +617,12 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::report::slurm::R
     let runs_path = out.join("runs.sbatch");
     let bin = std::env::current_exe().context("finding slamlab's own path")?;
     // `report --specs`: the specs' folder when they share one (studies without results keep their report)
-    let folders: std::collections::BTreeSet<PathBuf> = specs.iter().map(|s| s.parent().unwrap_or(Path::new("")).to_path_buf()).collect();
-    let keep_specs = (folders.len() == 1).then(|| folders.into_iter().next().unwrap_or_default()).filter(|f| !f.as_os_str().is_empty()).map(|f| text(&f));
+    let folders: std::collections::BTreeSet<PathBuf> =
+        specs.iter().map(|s| s.parent().unwrap_or(Path::new("")).to_path_buf()).collect();
+    let keep_specs = (folders.len() == 1)
+        .then(|| folders.into_iter().next().unwrap_or_default())
+        .filter(|f| !f.as_os_str().is_empty())
+        .map(|f| text(&f));
     let job = crate::report::slurm::Job {
         repo: text(&repo),
         bin: text(&bin),
@@ -505,7 +643,8 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::report::slurm::R
         cost_total_s: loads.iter().map(|l| l.cost_s).sum(),
         cost_max_s: loads.iter().map(|l| l.cost_s).fold(0.0, f64::max),
     };
-    let (runs_script, assemble_script) = crate::report::slurm::scripts(&job, resources, &summary).context("rendering the sbatch scripts")?;
+    let (runs_script, assemble_script) = crate::report::slurm::scripts(&job, resources, &summary)
+        .context("rendering the sbatch scripts")?;
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let assemble_path = out.join("assemble.sbatch");
     for (path, body) in [(&runs_path, &runs_script), (&assemble_path, &assemble_script)] {
@@ -525,16 +664,33 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::report::slurm::R
         assemble_path.display()
     );
     if !submit {
-        eprintln!("submit with:\n  jobid=$(sbatch --parsable {}) && sbatch --dependency=afterok:${{jobid%%;*}} {}", crate::report::slurm::shell_quote(&text(&runs_path)), crate::report::slurm::shell_quote(&text(&assemble_path)));
+        eprintln!(
+            "submit with:\n  jobid=$(sbatch --parsable {}) && sbatch --dependency=afterok:${{jobid%%;*}} {}",
+            crate::report::slurm::shell_quote(&text(&runs_path)),
+            crate::report::slurm::shell_quote(&text(&assemble_path))
+        );
         return Ok(());
     }
     let sbatch = |args: &[&str]| -> Result<String> {
-        let output = std::process::Command::new("sbatch").arg("--parsable").args(args).output().context("starting sbatch (is Slurm installed here?)")?;
+        let output = std::process::Command::new("sbatch")
+            .arg("--parsable")
+            .args(args)
+            .output()
+            .context("starting sbatch (is Slurm installed here?)")?;
         if !output.status.success() {
-            bail!("sbatch {} failed: {}", args.join(" "), String::from_utf8_lossy(&output.stderr).trim());
+            bail!(
+                "sbatch {} failed: {}",
+                args.join(" "),
+                String::from_utf8_lossy(&output.stderr).trim()
+            );
         }
         // --parsable prints `jobid` or `jobid;cluster`
-        let id = String::from_utf8_lossy(&output.stdout).trim().split(';').next().unwrap_or_default().to_string();
+        let id = String::from_utf8_lossy(&output.stdout)
+            .trim()
+            .split(';')
+            .next()
+            .unwrap_or_default()
+            .to_string();
         if id.is_empty() || !id.chars().all(|c| c.is_ascii_digit()) {
             bail!("sbatch printed no job id: {:?}", String::from_utf8_lossy(&output.stdout));
         }
@@ -543,25 +699,44 @@ fn cmd_slurm(specs: &[PathBuf], dirs: &Dirs, resources: &crate::report::slurm::R
     let runs_id = sbatch(&[&text(&runs_path)])?;
     let assemble_id = sbatch(&[&format!("--dependency=afterok:{runs_id}"), &text(&assemble_path)])?;
     println!("{runs_id} {assemble_id}");
-    eprintln!("submitted the runs as array job {runs_id} (tasks 1-{}) and the assembling job {assemble_id} (after all of them succeed); logs in {}", resources.tasks, logs.display());
+    eprintln!(
+        "submitted the runs as array job {runs_id} (tasks 1-{}) and the assembling job {assemble_id} (after all of them succeed); logs in {}",
+        resources.tasks,
+        logs.display()
+    );
     Ok(())
 }
 
 fn cmd_export_scans(spec_path: &Path, run_id: &str, out_dir: &Path, maps: &Path) -> Result<()> {
-    let plans = load_plans(std::slice::from_ref(&spec_path.to_path_buf()), maps, plan::DEFAULT_MAX_RUNS)?;
+    let plans =
+        load_plans(std::slice::from_ref(&spec_path.to_path_buf()), maps, plan::DEFAULT_MAX_RUNS)?;
     let plan = &plans[0];
     let Some(run) = plan.runs.iter().find(|r| r.run_id == run_id) else {
-        bail!("{}: no run `{run_id}` in study {} (`slamlab plan {}` lists its runs)", spec_path.display(), plan.id(), spec_path.display());
+        bail!(
+            "{}: no run `{run_id}` in study {} (`slamlab plan {}` lists its runs)",
+            spec_path.display(),
+            plan.id(),
+            spec_path.display()
+        );
     };
     if !run.algorithm.is_scan_matcher() {
-        bail!("run `{run_id}` is {}, not a scan matcher: it has no scan pairs", run.algorithm.name());
+        bail!(
+            "run `{run_id}` is {}, not a scan matcher: it has no scan pairs",
+            run.algorithm.name()
+        );
     }
     let world = run::world_of(plan, run).map_err(|e| anyhow::anyhow!("run `{run_id}`: {e}"))?;
     let geometry = world.laser.context("the run's world has no laser")?;
     let params = &plan.points[run.point].params;
     let mut clock = || 0.0;
-    let tracked = crate::scanmatch::track::track(&world, run::scan_matcher(run.algorithm, params), &params.scan_matching, run.filter_seed, &mut clock)
-        .map_err(|e| anyhow::anyhow!("run `{run_id}`: {e}"))?;
+    let tracked = crate::scanmatch::track::track(
+        &world,
+        run::scan_matcher(run.algorithm, params),
+        &params.scan_matching,
+        run.filter_seed,
+        &mut clock,
+    )
+    .map_err(|e| anyhow::anyhow!("run `{run_id}`: {e}"))?;
     std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
     let files = [
         ("scans.txt", store::scans::scans_text(&geometry, &world.scans)),
@@ -573,7 +748,12 @@ fn cmd_export_scans(spec_path: &Path, run_id: &str, out_dir: &Path, maps: &Path)
         std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
         std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
     }
-    eprintln!("wrote {} scans and {} pairs of {run_id} into {}", world.scans.len(), tracked.trace.matches.len(), out_dir.display());
+    eprintln!(
+        "wrote {} scans and {} pairs of {run_id} into {}",
+        world.scans.len(),
+        tracked.trace.matches.len(),
+        out_dir.display()
+    );
     Ok(())
 }
 
@@ -583,30 +763,48 @@ fn cmd_export_tum(results_dir: &Path, out_dir: &Path, only: &[String]) -> Result
     } else {
         let all = store::list_studies(results_dir)?;
         if all.is_empty() {
-            bail!("{}: no traces.parquet here and no study directories below", results_dir.display());
+            bail!(
+                "{}: no traces.parquet here and no study directories below",
+                results_dir.display()
+            );
         }
         all
     };
     let nested = studies.len() > 1 || !results_dir.join("traces.parquet").is_file();
     let mut written = 0;
     for dir in &studies {
-        let traces = store::read_traces(dir, &|id| only.is_empty() || only.iter().any(|o| o == id))?;
-        let target = if nested { out_dir.join(dir.file_name().unwrap_or_default()) } else { out_dir.to_path_buf() };
-        std::fs::create_dir_all(&target).with_context(|| format!("creating {}", target.display()))?;
+        let traces =
+            store::read_traces(dir, &|id| only.is_empty() || only.iter().any(|o| o == id))?;
+        let target = if nested {
+            out_dir.join(dir.file_name().unwrap_or_default())
+        } else {
+            out_dir.to_path_buf()
+        };
+        std::fs::create_dir_all(&target)
+            .with_context(|| format!("creating {}", target.display()))?;
         for t in traces.iter().filter(|t| !t.truth.is_empty()) {
             // both files at the steps with truth (and an estimate): evo rejects NaN lines
-            let known = |k: usize| t.truth.get(k).is_some_and(|p| p.is_finite()) && t.estimate.get(k).is_some_and(|p| p.is_finite());
+            let known = |k: usize| {
+                t.truth.get(k).is_some_and(|p| p.is_finite())
+                    && t.estimate.get(k).is_some_and(|p| p.is_finite())
+            };
             let skipped = (0..t.truth.len()).filter(|&k| !known(k)).count();
             if skipped > 0 {
-                eprintln!("{}: {skipped} of {} steps have no truth or no finite estimate; both files leave them out", t.run_id, t.truth.len());
+                eprintln!(
+                    "{}: {skipped} of {} steps have no truth or no finite estimate; both files leave them out",
+                    t.run_id,
+                    t.truth.len()
+                );
             }
             for (suffix, poses) in [("gt", &t.truth), ("est", &t.estimate)] {
                 // a long run id (a many-parameter sweep point) gets a short, stable file name
                 let name = store::short_name(&t.run_id);
                 let path = target.join(format!("{name}.{suffix}.tum"));
                 let tmp = target.join(format!(".{name}.{suffix}.tum.tmp"));
-                std::fs::write(&tmp, tum::tum_text(t.dt_s, poses, &known)).with_context(|| format!("writing {}", tmp.display()))?;
-                std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
+                std::fs::write(&tmp, tum::tum_text(t.dt_s, poses, &known))
+                    .with_context(|| format!("writing {}", tmp.display()))?;
+                std::fs::rename(&tmp, &path)
+                    .with_context(|| format!("writing {}", path.display()))?;
                 written += 1;
             }
         }

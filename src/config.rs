@@ -16,7 +16,8 @@ impl Violation {
 
     /// The same violation seen from the parent table `prefix`.
     pub fn under(self, prefix: &str) -> Self {
-        let key = if self.key.is_empty() { prefix.to_string() } else { format!("{prefix}.{}", self.key) };
+        let key =
+            if self.key.is_empty() { prefix.to_string() } else { format!("{prefix}.{}", self.key) };
         Self { key, message: self.message }
     }
 }
@@ -61,7 +62,9 @@ impl Checks {
 
     pub fn in_range(&mut self, key: &str, v: f64, lo: f64, hi: f64) {
         if self.finite(key, v) {
-            self.require((lo..=hi).contains(&v), key, || format!("must be in [{lo}, {hi}], got {v}"));
+            self.require((lo..=hi).contains(&v), key, || {
+                format!("must be in [{lo}, {hi}], got {v}")
+            });
         }
     }
 

@@ -98,9 +98,12 @@ impl SourceError {
                 let mut offset = span.start;
                 // Serde sometimes places an unknown field at its whole table (internally tagged
                 // enums buffer their content): point at the field itself when the table has it.
-                if let Some(field) = message.strip_prefix("unknown field `").and_then(|m| m.split('`').next()) {
+                if let Some(field) =
+                    message.strip_prefix("unknown field `").and_then(|m| m.split('`').next())
+                {
                     let candidate = join_key(&key, field);
-                    if !key.ends_with(&format!(".{field}")) && key != field
+                    if !key.ends_with(&format!(".{field}"))
+                        && key != field
                         && let Some(s) = loc.key_span(&candidate)
                     {
                         key = candidate;
@@ -129,7 +132,9 @@ impl std::fmt::Display for SourceError {
 
 /// Joins a key to a path the way [`Locator`] names paths: keys that are not bare are quoted.
 pub fn join_key(prefix: &str, key: &str) -> String {
-    let key = if !key.is_empty() && key.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+    let key = if !key.is_empty()
+        && key.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
         key.to_string()
     } else {
         format!("\"{key}\"")
@@ -137,7 +142,11 @@ pub fn join_key(prefix: &str, key: &str) -> String {
     if prefix.is_empty() { key } else { format!("{prefix}.{key}") }
 }
 
-fn walk_table(table: &DeTable<'_>, prefix: &str, out: &mut Vec<(String, Range<usize>, Range<usize>)>) {
+fn walk_table(
+    table: &DeTable<'_>,
+    prefix: &str,
+    out: &mut Vec<(String, Range<usize>, Range<usize>)>,
+) {
     for (key, value) in table {
         let path = join_key(prefix, key.get_ref());
         out.push((path.clone(), key.span(), value.span()));
@@ -145,7 +154,11 @@ fn walk_table(table: &DeTable<'_>, prefix: &str, out: &mut Vec<(String, Range<us
     }
 }
 
-fn walk_value(value: &DeValue<'_>, path: &str, out: &mut Vec<(String, Range<usize>, Range<usize>)>) {
+fn walk_value(
+    value: &DeValue<'_>,
+    path: &str,
+    out: &mut Vec<(String, Range<usize>, Range<usize>)>,
+) {
     match value {
         DeValue::Table(t) => walk_table(t, path, out),
         DeValue::Array(items) => {

@@ -57,8 +57,11 @@ pub fn parse(text: &str) -> Result<Vec<LaserRecord>, LineError> {
         }
         let fields: Vec<&str> = tokens.collect();
         let number = |k: usize, what: &str| -> Result<f64, LineError> {
-            let t = fields.get(k).ok_or_else(|| LineError::new(line, format!("FLASER: missing {what} (field {})", k + 2)))?;
-            t.parse::<f64>().map_err(|_| LineError::new(line, format!("FLASER: {what} `{t}` is not a number")))
+            let t = fields.get(k).ok_or_else(|| {
+                LineError::new(line, format!("FLASER: missing {what} (field {})", k + 2))
+            })?;
+            t.parse::<f64>()
+                .map_err(|_| LineError::new(line, format!("FLASER: {what} `{t}` is not a number")))
         };
         let n = number(0, "beam count")?;
         if n != BEAMS as f64 {
@@ -78,14 +81,27 @@ pub fn parse(text: &str) -> Result<Vec<LaserRecord>, LineError> {
 
 /// The beams of a `FLASER 180` scan.
 pub fn geometry(max_range_m: f64) -> LaserGeometry {
-    LaserGeometry { angle_min_rad: -std::f64::consts::FRAC_PI_2, angle_increment_rad: 1f64.to_radians(), beams: BEAMS, max_range_m }
+    LaserGeometry {
+        angle_min_rad: -std::f64::consts::FRAC_PI_2,
+        angle_increment_rad: 1f64.to_radians(),
+        beams: BEAMS,
+        max_range_m,
+    }
 }
 
 /// Builds the world of scans `first_scan .. first_scan + scans` (see the module doc).
-pub fn assemble(records: &[LaserRecord], first_scan: usize, scans: usize, max_range_m: f64) -> Result<World, String> {
+pub fn assemble(
+    records: &[LaserRecord],
+    first_scan: usize,
+    scans: usize,
+    max_range_m: f64,
+) -> Result<World, String> {
     let end = if scans == 0 { records.len() } else { (first_scan + scans).min(records.len()) };
     if end < first_scan + 2 {
-        return Err(format!("the window of scans {first_scan}.. holds fewer than two scans (the log has {})", records.len()));
+        return Err(format!(
+            "the window of scans {first_scan}.. holds fewer than two scans (the log has {})",
+            records.len()
+        ));
     }
     let window = &records[first_scan..end];
     let truth: Vec<Pose2> = window.iter().map(|r| r.pose).collect();
@@ -96,7 +112,14 @@ pub fn assemble(records: &[LaserRecord], first_scan: usize, scans: usize, max_ra
     let scans = window
         .iter()
         .enumerate()
-        .map(|(k, r)| Scan { step: k, ranges_m: r.ranges_m.iter().map(|&z| (z.is_finite() && z > 0.0 && z < max_range_m).then_some(z)).collect() })
+        .map(|(k, r)| Scan {
+            step: k,
+            ranges_m: r
+                .ranges_m
+                .iter()
+                .map(|&z| (z.is_finite() && z > 0.0 && z < max_range_m).then_some(z))
+                .collect(),
+        })
         .collect();
     Ok(World {
         dt_s,
@@ -113,10 +136,16 @@ pub fn assemble(records: &[LaserRecord], first_scan: usize, scans: usize, max_ra
 }
 
 /// Reads and assembles the log in `folder`.
-pub fn load(folder: &Path, first_scan: usize, scans: usize, max_range_m: f64) -> Result<World, DatasetError> {
+pub fn load(
+    folder: &Path,
+    first_scan: usize,
+    scans: usize,
+    max_range_m: f64,
+) -> Result<World, DatasetError> {
     let path = folder.join(FILE_NAME);
     let records = parse(&read_gz_text(&path)?).map_err(|e| e.in_file(&path))?;
-    assemble(&records, first_scan, scans, max_range_m).map_err(|message| DatasetError::Empty { path, message })
+    assemble(&records, first_scan, scans, max_range_m)
+        .map_err(|message| DatasetError::Empty { path, message })
 }
 
 #[cfg(test)]
@@ -124,13 +153,22 @@ mod tests {
     use super::*;
 
     fn line(x: f64, t: f64) -> String {
-        let ranges: Vec<String> = (0..BEAMS).map(|b| if b == 5 { "81.83".to_string() } else { format!("{}", 1.0 + b as f64 * 0.01) }).collect();
+        let ranges: Vec<String> = (0..BEAMS)
+            .map(
+                |b| if b == 5 { "81.83".to_string() } else { format!("{}", 1.0 + b as f64 * 0.01) },
+            )
+            .collect();
         format!("FLASER 180 {} {x} 0 0.1 {x} 0 0.1 {t} pippo {t}", ranges.join(" "))
     }
 
     #[test]
     fn parses_flaser_and_skips_other_messages() {
-        let text = format!("# comment\nPARAM a b\nODOM 0 0 0 0 0 0 1 pippo 1\n{}\nNEFF 1\n{}\n{}\n", line(0.0, 1.0), line(0.5, 3.0), line(1.0, 4.0));
+        let text = format!(
+            "# comment\nPARAM a b\nODOM 0 0 0 0 0 0 1 pippo 1\n{}\nNEFF 1\n{}\n{}\n",
+            line(0.0, 1.0),
+            line(0.5, 3.0),
+            line(1.0, 4.0)
+        );
         let records = parse(&text).unwrap();
         assert_eq!(records.len(), 3);
         assert_eq!(records[1].line, 6);
@@ -161,13 +199,21 @@ mod tests {
 
     #[test]
     fn real_log_reads_when_present() {
-        if !super::super::test_data::available("intel-lab", "intel_lab::real_log_reads_when_present") {
+        if !super::super::test_data::available(
+            "intel-lab",
+            "intel_lab::real_log_reads_when_present",
+        ) {
             return;
         }
         let folder = super::super::test_data::repository_root().join("../shared/data/intel-lab");
         let world = load(&folder, 0, 0, DEFAULT_MAX_RANGE_M).unwrap();
         assert_eq!(world.scans.len(), 910);
-        let mean_step: f64 = world.odometry.iter().map(|d| d.position().distance(crate::geom::Point2::new(0.0, 0.0))).sum::<f64>() / 909.0;
+        let mean_step: f64 = world
+            .odometry
+            .iter()
+            .map(|d| d.position().distance(crate::geom::Point2::new(0.0, 0.0)))
+            .sum::<f64>()
+            / 909.0;
         assert!((0.4..0.7).contains(&mean_step), "mean step {mean_step} m (README: 0.55 m)");
     }
 }

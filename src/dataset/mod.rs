@@ -177,7 +177,9 @@ impl DatasetSpec {
     /// The dataset folder, resolved against the repository root.
     pub fn folder(&self, root: &Path) -> PathBuf {
         match self {
-            DatasetSpec::Mrclam { path, .. } | DatasetSpec::VictoriaPark { path, .. } | DatasetSpec::IntelLab { path, .. } => root.join(path),
+            DatasetSpec::Mrclam { path, .. }
+            | DatasetSpec::VictoriaPark { path, .. }
+            | DatasetSpec::IntelLab { path, .. } => root.join(path),
         }
     }
 
@@ -185,8 +187,12 @@ impl DatasetSpec {
     pub fn files(&self, root: &Path) -> Vec<PathBuf> {
         let folder = self.folder(root);
         match self {
-            DatasetSpec::Mrclam { robot, .. } => mrclam::file_names(*robot).into_iter().map(|f| folder.join(f)).collect(),
-            DatasetSpec::VictoriaPark { .. } => victoria_park::FILE_NAMES.iter().map(|f| folder.join(f)).collect(),
+            DatasetSpec::Mrclam { robot, .. } => {
+                mrclam::file_names(*robot).into_iter().map(|f| folder.join(f)).collect()
+            }
+            DatasetSpec::VictoriaPark { .. } => {
+                victoria_park::FILE_NAMES.iter().map(|f| folder.join(f)).collect()
+            }
             DatasetSpec::IntelLab { .. } => vec![folder.join(intel_lab::FILE_NAME)],
         }
     }
@@ -207,24 +213,47 @@ impl DatasetSpec {
     pub fn world_kind(&self) -> crate::world::WorldKind {
         match self {
             DatasetSpec::IntelLab { .. } => crate::world::WorldKind::Laser,
-            DatasetSpec::Mrclam { .. } | DatasetSpec::VictoriaPark { .. } => crate::world::WorldKind::Points,
+            DatasetSpec::Mrclam { .. } | DatasetSpec::VictoriaPark { .. } => {
+                crate::world::WorldKind::Points
+            }
         }
     }
 
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         match self {
-            DatasetSpec::Mrclam { path, robot, start_s, duration_s, range_sigma_m, bearing_sigma_rad, step_s } => {
-                c.require(!path.trim().is_empty(), "path", || "must name the dataset folder".to_string());
-                c.require(MRCLAM_ROBOTS.contains(robot), "robot", || format!("must be one of the MRCLAM robots 1–5, got {robot}"));
+            DatasetSpec::Mrclam {
+                path,
+                robot,
+                start_s,
+                duration_s,
+                range_sigma_m,
+                bearing_sigma_rad,
+                step_s,
+            } => {
+                c.require(!path.trim().is_empty(), "path", || {
+                    "must name the dataset folder".to_string()
+                });
+                c.require(MRCLAM_ROBOTS.contains(robot), "robot", || {
+                    format!("must be one of the MRCLAM robots 1–5, got {robot}")
+                });
                 c.non_negative("start_s", *start_s);
                 c.non_negative("duration_s", *duration_s);
                 c.positive("range_sigma_m", *range_sigma_m);
                 c.positive("bearing_sigma_rad", *bearing_sigma_rad);
                 c.in_range("step_s", *step_s, MIN_DT_S, MAX_DT_S);
             }
-            DatasetSpec::VictoriaPark { path, start_s, duration_s, range_sigma_m, bearing_sigma_rad, max_range_m } => {
-                c.require(!path.trim().is_empty(), "path", || "must name the dataset folder".to_string());
+            DatasetSpec::VictoriaPark {
+                path,
+                start_s,
+                duration_s,
+                range_sigma_m,
+                bearing_sigma_rad,
+                max_range_m,
+            } => {
+                c.require(!path.trim().is_empty(), "path", || {
+                    "must name the dataset folder".to_string()
+                });
                 c.non_negative("start_s", *start_s);
                 c.non_negative("duration_s", *duration_s);
                 c.positive("range_sigma_m", *range_sigma_m);
@@ -232,7 +261,9 @@ impl DatasetSpec {
                 c.positive("max_range_m", *max_range_m);
             }
             DatasetSpec::IntelLab { path, max_range_m, .. } => {
-                c.require(!path.trim().is_empty(), "path", || "must name the dataset folder".to_string());
+                c.require(!path.trim().is_empty(), "path", || {
+                    "must name the dataset folder".to_string()
+                });
                 c.positive("max_range_m", *max_range_m);
             }
         }
@@ -288,7 +319,10 @@ pub fn load(spec: &DatasetSpec, root: &Path) -> Result<World, DatasetError> {
 }
 
 /// [`load`], also returning what was kept and dropped.
-pub fn load_with_stats(spec: &DatasetSpec, root: &Path) -> Result<(World, LoadStats), DatasetError> {
+pub fn load_with_stats(
+    spec: &DatasetSpec,
+    root: &Path,
+) -> Result<(World, LoadStats), DatasetError> {
     let violations = spec.validate();
     if !violations.is_empty() {
         return Err(DatasetError::Invalid(violations));
@@ -298,25 +332,48 @@ pub fn load_with_stats(spec: &DatasetSpec, root: &Path) -> Result<(World, LoadSt
         return Err(missing(folder));
     }
     match *spec {
-        DatasetSpec::Mrclam { robot, start_s, duration_s, range_sigma_m, bearing_sigma_rad, step_s, .. } => {
+        DatasetSpec::Mrclam {
+            robot,
+            start_s,
+            duration_s,
+            range_sigma_m,
+            bearing_sigma_rad,
+            step_s,
+            ..
+        } => {
             let window = mrclam::Window { start_s, duration_s, step_s };
             let noise = noise(range_sigma_m, bearing_sigma_rad);
             mrclam::load(&folder, robot, &window, noise)
         }
-        DatasetSpec::VictoriaPark { start_s, duration_s, range_sigma_m, bearing_sigma_rad, max_range_m, .. } => {
+        DatasetSpec::VictoriaPark {
+            start_s,
+            duration_s,
+            range_sigma_m,
+            bearing_sigma_rad,
+            max_range_m,
+            ..
+        } => {
             let window = victoria_park::Window { start_s, duration_s, max_range_m };
             victoria_park::load(&folder, &window, noise(range_sigma_m, bearing_sigma_rad))
         }
         DatasetSpec::IntelLab { first_scan, scans, max_range_m, .. } => {
             let world = intel_lab::load(&folder, first_scan, scans, max_range_m)?;
-            let stats = LoadStats { steps: world.odometry.len(), truth_known: world.truth.len(), ..LoadStats::default() };
+            let stats = LoadStats {
+                steps: world.odometry.len(),
+                truth_known: world.truth.len(),
+                ..LoadStats::default()
+            };
             Ok((world, stats))
         }
     }
 }
 
 fn noise(range_sigma_m: f64, bearing_sigma_rad: f64) -> crate::world::point_sensor::PointNoise {
-    crate::world::point_sensor::PointNoise { range_noise: crate::world::RangeNoise::Constant, range_sigma_m, bearing_sigma_rad }
+    crate::world::point_sensor::PointNoise {
+        range_noise: crate::world::RangeNoise::Constant,
+        range_sigma_m,
+        bearing_sigma_rad,
+    }
 }
 
 fn missing(path: PathBuf) -> DatasetError {
@@ -344,7 +401,9 @@ fn read_gz_text(path: &Path) -> Result<String, DatasetError> {
         _ => DatasetError::Io { path: path.to_path_buf(), source },
     })?;
     let mut text = String::new();
-    flate2::read::GzDecoder::new(std::io::BufReader::new(file)).read_to_string(&mut text).map_err(|source| DatasetError::Io { path: path.to_path_buf(), source })?;
+    flate2::read::GzDecoder::new(std::io::BufReader::new(file))
+        .read_to_string(&mut text)
+        .map_err(|source| DatasetError::Io { path: path.to_path_buf(), source })?;
     Ok(text)
 }
 
@@ -389,7 +448,9 @@ pub fn parse_table<const N: usize>(text: &str) -> Result<Vec<Row<N>>, LineError>
         let mut n = 0;
         for token in content.split_whitespace() {
             if n < N {
-                values[n] = token.parse().map_err(|_| LineError::new(line, format!("column {}: `{token}` is not a number", n + 1)))?;
+                values[n] = token.parse().map_err(|_| {
+                    LineError::new(line, format!("column {}: `{token}` is not a number", n + 1))
+                })?;
             }
             n += 1;
         }
@@ -410,7 +471,10 @@ fn check_times<const N: usize>(rows: &[Row<N>]) -> Result<(), LineError> {
             return Err(LineError::new(r.line, format!("time `{t}` is not finite")));
         }
         if t < previous {
-            return Err(LineError::new(r.line, format!("time {t} is before the previous record's {previous}")));
+            return Err(LineError::new(
+                r.line,
+                format!("time {t} is before the previous record's {previous}"),
+            ));
         }
         previous = t;
     }
@@ -423,7 +487,10 @@ fn whole<const N: usize>(row: &Row<N>, col: usize) -> Result<u32, LineError> {
     if v.fract() == 0.0 && (0.0..=u32::MAX as f64).contains(&v) {
         Ok(v as u32)
     } else {
-        Err(LineError::new(row.line, format!("column {}: expected a whole number, found {v}", col + 1)))
+        Err(LineError::new(
+            row.line,
+            format!("column {}: expected a whole number, found {v}", col + 1),
+        ))
     }
 }
 
@@ -462,33 +529,66 @@ mod tests {
         let spec: DatasetSpec = toml::from_str("kind = \"mrclam\"").unwrap();
         assert_eq!(spec, DatasetSpec::mrclam_default());
         assert!(spec.validate().is_empty());
-        let spec: DatasetSpec = toml::from_str("kind = \"victoria_park\"\nduration_s = 100.0").unwrap();
+        let spec: DatasetSpec =
+            toml::from_str("kind = \"victoria_park\"\nduration_s = 100.0").unwrap();
         let DatasetSpec::VictoriaPark { duration_s, max_range_m, .. } = spec else { panic!() };
         assert_eq!((duration_s, max_range_m), (100.0, 30.0));
         let err = toml::from_str::<DatasetSpec>("kind = \"mrclam\"\nrobbot = 2").unwrap_err();
         assert!(err.to_string().contains("robbot"), "{err}");
-        let err = toml::from_str::<DatasetSpec>("kind = \"victoria_park\"\nstep_s = 0.1").unwrap_err();
+        let err =
+            toml::from_str::<DatasetSpec>("kind = \"victoria_park\"\nstep_s = 0.1").unwrap_err();
         assert!(err.to_string().contains("step_s"), "{err}");
     }
 
     #[test]
     fn validation_names_each_bad_key() {
-        let DatasetSpec::Mrclam { path, range_sigma_m, bearing_sigma_rad, .. } = DatasetSpec::mrclam_default() else { panic!() };
-        let spec = DatasetSpec::Mrclam { path, robot: 6, start_s: -1.0, duration_s: f64::NAN, range_sigma_m, bearing_sigma_rad, step_s: 0.0 };
+        let DatasetSpec::Mrclam { path, range_sigma_m, bearing_sigma_rad, .. } =
+            DatasetSpec::mrclam_default()
+        else {
+            panic!()
+        };
+        let spec = DatasetSpec::Mrclam {
+            path,
+            robot: 6,
+            start_s: -1.0,
+            duration_s: f64::NAN,
+            range_sigma_m,
+            bearing_sigma_rad,
+            step_s: 0.0,
+        };
         let keys: Vec<String> = spec.validate().into_iter().map(|v| v.key).collect();
         assert_eq!(keys, ["robot", "start_s", "duration_s", "step_s"]);
-        let spec = DatasetSpec::VictoriaPark { path: " ".into(), start_s: 0.0, duration_s: 0.0, range_sigma_m: 0.0, bearing_sigma_rad: 0.1, max_range_m: -3.0 };
+        let spec = DatasetSpec::VictoriaPark {
+            path: " ".into(),
+            start_s: 0.0,
+            duration_s: 0.0,
+            range_sigma_m: 0.0,
+            bearing_sigma_rad: 0.1,
+            max_range_m: -3.0,
+        };
         let keys: Vec<String> = spec.validate().into_iter().map(|v| v.key).collect();
         assert_eq!(keys, ["path", "range_sigma_m", "max_range_m"]);
-        assert!(matches!(load(&spec, Path::new(".")), Err(DatasetError::Invalid(v)) if v.len() == 3));
+        assert!(
+            matches!(load(&spec, Path::new(".")), Err(DatasetError::Invalid(v)) if v.len() == 3)
+        );
     }
 
     #[test]
     fn files_are_listed_for_hashing() {
         let root = Path::new("/repo");
         let files = DatasetSpec::mrclam_default().files(root);
-        let names: Vec<_> = files.iter().map(|f| f.file_name().unwrap().to_str().unwrap()).collect();
-        assert_eq!(names, ["Barcodes.dat", "Landmark_Groundtruth.dat", "Robot3_Odometry.dat", "Robot3_Groundtruth.dat", "Robot3_Measurement.dat"]);
+        let names: Vec<_> =
+            files.iter().map(|f| f.file_name().unwrap().to_str().unwrap()).collect();
+        assert_eq!(
+            names,
+            [
+                "Barcodes.dat",
+                "Landmark_Groundtruth.dat",
+                "Robot3_Odometry.dat",
+                "Robot3_Groundtruth.dat",
+                "Robot3_Measurement.dat"
+            ]
+        );
         assert!(files[0].starts_with("/repo/../shared/data/utias-mrclam/MRCLAM_Dataset6"));
         let files = DatasetSpec::victoria_park_default().files(root);
         assert_eq!(files.len(), 3);
@@ -508,7 +608,11 @@ mod tests {
         let err = load(&spec, Path::new("/nonexistent-root")).unwrap_err();
         let message = err.to_string();
         assert!(matches!(err, DatasetError::Missing { .. }));
-        assert!(message.contains("/nonexistent-root/no/such/folder") && message.contains("../shared/data"), "{message}");
+        assert!(
+            message.contains("/nonexistent-root/no/such/folder")
+                && message.contains("../shared/data"),
+            "{message}"
+        );
     }
 }
 

@@ -150,7 +150,10 @@ pub fn parse_ground_truth(text: &str) -> Result<Vec<GroundTruthRecord>, LineErro
     check_times(&rows)?;
     Ok(rows
         .iter()
-        .map(|r| GroundTruthRecord { time_s: r.values[0], pose: Pose2::new(r.values[1], r.values[2], r.values[3]) })
+        .map(|r| GroundTruthRecord {
+            time_s: r.values[0],
+            pose: Pose2::new(r.values[1], r.values[2], r.values[3]),
+        })
         .filter(|g| g.pose.is_finite())
         .collect())
 }
@@ -161,7 +164,14 @@ pub fn parse_measurements(text: &str) -> Result<Vec<MeasurementRecord>, LineErro
     let rows = parse_table::<4>(text)?;
     check_times(&rows)?;
     rows.iter()
-        .map(|r| Ok(MeasurementRecord { time_s: r.values[0], barcode: whole(r, 1)?, range_m: r.values[2], bearing_rad: r.values[3] }))
+        .map(|r| {
+            Ok(MeasurementRecord {
+                time_s: r.values[0],
+                barcode: whole(r, 1)?,
+                range_m: r.values[2],
+                bearing_rad: r.values[3],
+            })
+        })
         .collect()
 }
 
@@ -214,21 +224,34 @@ pub fn subject_of_landmark(landmarks: &[LandmarkRecord], index: usize) -> Option
 }
 
 /// Reads and assembles robot `robot`'s log from the dataset folder `folder`.
-pub fn load(folder: &Path, robot: u32, window: &Window, noise: PointNoise) -> Result<(World, LoadStats), DatasetError> {
-    let [barcodes, landmarks, odometry, ground_truth, measurements] = file_names(robot).map(|name| folder.join(name));
+pub fn load(
+    folder: &Path,
+    robot: u32,
+    window: &Window,
+    noise: PointNoise,
+) -> Result<(World, LoadStats), DatasetError> {
+    let [barcodes, landmarks, odometry, ground_truth, measurements] =
+        file_names(robot).map(|name| folder.join(name));
     let log = Log {
         barcodes: parse_barcodes(&read_text(&barcodes)?).map_err(|e| e.in_file(&barcodes))?,
         landmarks: parse_landmarks(&read_text(&landmarks)?).map_err(|e| e.in_file(&landmarks))?,
         odometry: parse_odometry(&read_text(&odometry)?).map_err(|e| e.in_file(&odometry))?,
-        ground_truth: parse_ground_truth(&read_text(&ground_truth)?).map_err(|e| e.in_file(&ground_truth))?,
-        measurements: parse_measurements(&read_text(&measurements)?).map_err(|e| e.in_file(&measurements))?,
+        ground_truth: parse_ground_truth(&read_text(&ground_truth)?)
+            .map_err(|e| e.in_file(&ground_truth))?,
+        measurements: parse_measurements(&read_text(&measurements)?)
+            .map_err(|e| e.in_file(&measurements))?,
     };
-    assemble(&log, window, noise).map_err(|message| DatasetError::Empty { path: folder.to_path_buf(), message })
+    assemble(&log, window, noise)
+        .map_err(|message| DatasetError::Empty { path: folder.to_path_buf(), message })
 }
 
 /// Builds the [`World`] of `window` from a parsed log (see the module doc for every choice).
 /// Fails, with a message, only when the window holds no whole step or no start pose.
-pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World, LoadStats), String> {
+pub fn assemble(
+    log: &Log,
+    window: &Window,
+    noise: PointNoise,
+) -> Result<(World, LoadStats), String> {
     let dt = window.step_s;
     let (Some(first), Some(last)) = (log.odometry.first(), log.odometry.last()) else {
         return Err("the odometry file holds no record".to_string());
@@ -236,7 +259,8 @@ pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World,
     let t0 = first.time_s;
     let t_start = t0 + window.start_s;
     let log_end = last.time_s;
-    let t_end = if window.duration_s > 0.0 { (t_start + window.duration_s).min(log_end) } else { log_end };
+    let t_end =
+        if window.duration_s > 0.0 { (t_start + window.duration_s).min(log_end) } else { log_end };
     let steps = ((t_end - t_start) / dt + STEP_COUNT_SLACK).floor();
     if !(steps >= 1.0) {
         return Err(format!(
@@ -250,12 +274,17 @@ pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World,
     let step_time = |k: usize| t_start + k as f64 * dt;
 
     let odometry = integrate_commands(&log.odometry, t_start, dt, steps);
-    let truth: Vec<Pose2> = (0..=steps).map(|k| interpolate_truth(&log.ground_truth, step_time(k))).collect();
+    let truth: Vec<Pose2> =
+        (0..=steps).map(|k| interpolate_truth(&log.ground_truth, step_time(k))).collect();
     if !truth[0].is_finite() {
-        return Err(format!("no Vicon ground truth at the window start ({:.3} s after the first odometry record)", window.start_s));
+        return Err(format!(
+            "no Vicon ground truth at the window start ({:.3} s after the first odometry record)",
+            window.start_s
+        ));
     }
 
-    let mut stats = LoadStats { steps, measurements_read: log.measurements.len(), ..LoadStats::default() };
+    let mut stats =
+        LoadStats { steps, measurements_read: log.measurements.len(), ..LoadStats::default() };
     stats.truth_known = truth.iter().filter(|p| p.x.is_finite() && p.y.is_finite()).count();
     let landmark_of_barcode = |barcode: u32| -> Option<Option<usize>> {
         let subject = log.barcodes.iter().find(|b| b.barcode == barcode)?.subject;
@@ -283,7 +312,11 @@ pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World,
             stats.dropped_outside_window += 1;
             continue;
         }
-        by_step.entry(k as usize).or_default().push(PointObservation { landmark, range_m: m.range_m, bearing_rad: wrap_angle(m.bearing_rad) });
+        by_step.entry(k as usize).or_default().push(PointObservation {
+            landmark,
+            range_m: m.range_m,
+            bearing_rad: wrap_angle(m.bearing_rad),
+        });
     }
     stats.measurements_kept = by_step.values().map(Vec::len).sum();
 
@@ -293,7 +326,10 @@ pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World,
         odometry,
         laser: None,
         scans: Vec::new(),
-        point_scans: by_step.into_iter().map(|(step, observations)| PointScan { step, observations }).collect(),
+        point_scans: by_step
+            .into_iter()
+            .map(|(step, observations)| PointScan { step, observations })
+            .collect(),
         truth_lines: Vec::new(),
         truth_corners: Vec::new(),
         truth_points: log.landmarks.iter().map(|l| l.position).collect(),
@@ -308,7 +344,12 @@ const STEP_COUNT_SLACK: f64 = 1e-9;
 
 /// `odometry[k]`: the zero-order-hold commands integrated exactly over [t_k, t_k + Δt], t_k =
 /// `t_start` + k·Δt; `t_start` must not precede the first command.
-fn integrate_commands(commands: &[OdometryRecord], t_start: f64, dt: f64, steps: usize) -> Vec<Pose2> {
+fn integrate_commands(
+    commands: &[OdometryRecord],
+    t_start: f64,
+    dt: f64,
+    steps: usize,
+) -> Vec<Pose2> {
     // i: the command in force at time t (the last one stamped at or before t).
     let mut i = commands.partition_point(|c| c.time_s <= t_start).saturating_sub(1);
     (0..steps)
@@ -322,7 +363,11 @@ fn integrate_commands(commands: &[OdometryRecord], t_start: f64, dt: f64, steps:
                     continue;
                 }
                 let piece_end = next.min(end);
-                increment = increment.compose(unicycle_increment(commands[i].v_mps, commands[i].omega_radps, piece_end - t));
+                increment = increment.compose(unicycle_increment(
+                    commands[i].v_mps,
+                    commands[i].omega_radps,
+                    piece_end - t,
+                ));
                 t = piece_end;
             }
             increment
@@ -362,15 +407,26 @@ mod tests {
     use crate::dataset::{DatasetSpec, load_with_stats};
     use crate::world::RangeNoise;
 
-    const NOISE: PointNoise = PointNoise { range_noise: RangeNoise::Constant, range_sigma_m: 0.1, bearing_sigma_rad: 0.05 };
+    const NOISE: PointNoise = PointNoise {
+        range_noise: RangeNoise::Constant,
+        range_sigma_m: 0.1,
+        bearing_sigma_rad: 0.05,
+    };
 
-    const HEADER: &str = "# UTIAS Multi-Robot Cooperative Localization and Mapping Dataset\n# Time [s]    x [m]\n";
+    const HEADER: &str =
+        "# UTIAS Multi-Robot Cooperative Localization and Mapping Dataset\n# Time [s]    x [m]\n";
 
     fn tiny_log() -> Log {
         // A robot driving at 0.1 m/s, turning at 0.2 rad/s for the first second, then straight.
-        let odometry = format!("{HEADER}1000.000 \t 0.1 \t 0.2\n1000.500 \t 0.1 \t 0.2\n1001.000 \t 0.1 \t 0.0\n1003.000 \t 0.0 \t 0.0\n");
-        let truth = format!("{HEADER}999.9 0 0 3.1\n1000.1 1 2 -3.1\n1000.25 1 2 -3.1\n1000.63 1 2 -3.1\n1001.55 2 2 0\n1002.55 3 2 0\n");
-        let measurements = format!("{HEADER}1000.04 63 2.0 0.1\n1000.04 14 1.0 0.0\n1000.06 81 3.0 -0.2\n1000.06 34 3.0 -0.2\n1001.0 63 nan 0.0\n1010.0 63 1.0 0.0\n");
+        let odometry = format!(
+            "{HEADER}1000.000 \t 0.1 \t 0.2\n1000.500 \t 0.1 \t 0.2\n1001.000 \t 0.1 \t 0.0\n1003.000 \t 0.0 \t 0.0\n"
+        );
+        let truth = format!(
+            "{HEADER}999.9 0 0 3.1\n1000.1 1 2 -3.1\n1000.25 1 2 -3.1\n1000.63 1 2 -3.1\n1001.55 2 2 0\n1002.55 3 2 0\n"
+        );
+        let measurements = format!(
+            "{HEADER}1000.04 63 2.0 0.1\n1000.04 14 1.0 0.0\n1000.06 81 3.0 -0.2\n1000.06 34 3.0 -0.2\n1001.0 63 nan 0.0\n1010.0 63 1.0 0.0\n"
+        );
         let barcodes = "# Subject # Barcode #\n 1 5\n 2 14\n 6 63\n 7 81\n";
         let landmarks = "# Subject # x y sx sy\n 6 1.0 2.0 0.0 0.0\n 7 3.0 4.0 0.0 0.0\n";
         Log {
@@ -385,11 +441,20 @@ mod tests {
     #[test]
     fn parsers_read_the_columns_and_name_bad_lines() {
         let log = tiny_log();
-        assert_eq!(log.odometry[1], OdometryRecord { time_s: 1000.5, v_mps: 0.1, omega_radps: 0.2 });
+        assert_eq!(
+            log.odometry[1],
+            OdometryRecord { time_s: 1000.5, v_mps: 0.1, omega_radps: 0.2 }
+        );
         assert_eq!(log.ground_truth[1].pose, Pose2::new(1.0, 2.0, -3.1));
-        assert_eq!(log.measurements[2], MeasurementRecord { time_s: 1000.06, barcode: 81, range_m: 3.0, bearing_rad: -0.2 });
+        assert_eq!(
+            log.measurements[2],
+            MeasurementRecord { time_s: 1000.06, barcode: 81, range_m: 3.0, bearing_rad: -0.2 }
+        );
         assert!(log.measurements[4].range_m.is_nan());
-        assert_eq!(log.landmarks[1], LandmarkRecord { subject: 7, position: Point2::new(3.0, 4.0) });
+        assert_eq!(
+            log.landmarks[1],
+            LandmarkRecord { subject: 7, position: Point2::new(3.0, 4.0) }
+        );
         assert_eq!(log.barcodes[2], BarcodeRecord { subject: 6, barcode: 63 });
 
         let err = parse_odometry(&format!("{HEADER}1 0.1 0.0\n2 0.1\n")).unwrap_err();
@@ -414,20 +479,31 @@ mod tests {
         // Composing the steps equals the exact path: 1 s of arc, then 2 s straight at 0.1 m/s.
         let end = world.odometry.iter().fold(Pose2::IDENTITY, |p, d| p.compose(*d));
         let exact = unicycle_increment(0.1, 0.2, 1.0).compose(unicycle_increment(0.1, 0.0, 2.0));
-        assert!((end.x - exact.x).abs() < 1e-12 && (end.y - exact.y).abs() < 1e-12 && (end.theta - exact.theta).abs() < 1e-12);
+        assert!(
+            (end.x - exact.x).abs() < 1e-12
+                && (end.y - exact.y).abs() < 1e-12
+                && (end.theta - exact.theta).abs() < 1e-12
+        );
         // Step 3 = [0.9, 1.2] s straddles the command change at 1.0 s.
         let split = unicycle_increment(0.1, 0.2, 0.1).compose(unicycle_increment(0.1, 0.0, 0.2));
-        assert!((world.odometry[3].x - split.x).abs() < 1e-12 && (world.odometry[3].theta - 0.02).abs() < 1e-12);
+        assert!(
+            (world.odometry[3].x - split.x).abs() < 1e-12
+                && (world.odometry[3].theta - 0.02).abs() < 1e-12
+        );
         // A window from 0.5 s for 1 s: 3 steps of 0.3 s.
-        let (w, _) = assemble(&log, &Window { start_s: 0.5, duration_s: 1.0, step_s: 0.3 }, NOISE).unwrap();
+        let (w, _) =
+            assemble(&log, &Window { start_s: 0.5, duration_s: 1.0, step_s: 0.3 }, NOISE).unwrap();
         assert_eq!(w.odometry.len(), 3);
-        assert!((w.odometry[0].theta - 0.06).abs() < 1e-12 && (w.odometry[2].theta - 0.0).abs() < 1e-12);
+        assert!(
+            (w.odometry[0].theta - 0.06).abs() < 1e-12 && (w.odometry[2].theta - 0.0).abs() < 1e-12
+        );
     }
 
     #[test]
     fn truth_is_interpolated_with_wrapping_and_unknown_across_gaps() {
         let log = tiny_log();
-        let (world, stats) = assemble(&log, &Window { start_s: 0.0, duration_s: 0.0, step_s: 0.1 }, NOISE).unwrap();
+        let (world, stats) =
+            assemble(&log, &Window { start_s: 0.0, duration_s: 0.0, step_s: 0.1 }, NOISE).unwrap();
         // t = 0 is halfway between 999.9 (θ 3.1) and 1000.1 (θ −3.1): heading crosses ±π.
         let p = world.truth[0];
         assert!((p.x - 0.5).abs() < 1e-9 && (p.y - 1.0).abs() < 1e-9);
@@ -435,28 +511,55 @@ mod tests {
         // Samples up to 1000.63 are ≤ 0.38 s apart: steps 0–6 known. 1000.63 → 1001.55 (0.92 s)
         // and 1001.55 → 1002.55 (1 s) are gaps: unknown; after 1002.55: outside the log.
         assert!(world.truth[..=6].iter().all(|p| p.is_finite()));
-        assert!(world.truth[7].x.is_nan() && world.truth[20].x.is_nan() && world.truth[30].theta.is_nan());
+        assert!(
+            world.truth[7].x.is_nan()
+                && world.truth[20].x.is_nan()
+                && world.truth[30].theta.is_nan()
+        );
         assert_eq!(stats.truth_known, 7);
         // The start pose must be known.
-        let err = assemble(&log, &Window { start_s: 1.0, duration_s: 0.0, step_s: 0.1 }, NOISE).unwrap_err();
+        let err = assemble(&log, &Window { start_s: 1.0, duration_s: 0.0, step_s: 0.1 }, NOISE)
+            .unwrap_err();
         assert!(err.contains("no Vicon ground truth"), "{err}");
-        let err = assemble(&log, &Window { start_s: 5.0, duration_s: 0.0, step_s: 0.1 }, NOISE).unwrap_err();
+        let err = assemble(&log, &Window { start_s: 5.0, duration_s: 0.0, step_s: 0.1 }, NOISE)
+            .unwrap_err();
         assert!(err.contains("no whole step"), "{err}");
     }
 
     #[test]
     fn measurements_map_barcodes_to_landmarks_and_attach_to_the_nearest_step() {
         let log = tiny_log();
-        let (world, stats) = assemble(&log, &Window { start_s: 0.0, duration_s: 0.0, step_s: 0.1 }, NOISE).unwrap();
+        let (world, stats) =
+            assemble(&log, &Window { start_s: 0.0, duration_s: 0.0, step_s: 0.1 }, NOISE).unwrap();
         assert_eq!(world.truth_points, vec![Point2::new(1.0, 2.0), Point2::new(3.0, 4.0)]);
         assert_eq!(subject_of_landmark(&log.landmarks, 1), Some(7));
         // 1000.04 → step 0 (0.04 from t_0), 1000.06 → step 1 (0.04 from t_1).
         assert_eq!(world.point_scans.len(), 2);
-        assert_eq!(world.point_scans[0], PointScan { step: 0, observations: vec![PointObservation { landmark: 0, range_m: 2.0, bearing_rad: 0.1 }] });
-        assert_eq!(world.point_scans[1].step, 1);
-        assert_eq!(world.point_scans[1].observations, vec![PointObservation { landmark: 1, range_m: 3.0, bearing_rad: -0.2 }]);
         assert_eq!(
-            (stats.measurements_read, stats.measurements_kept, stats.dropped_robot, stats.dropped_unknown_barcode, stats.dropped_non_finite, stats.dropped_outside_window),
+            world.point_scans[0],
+            PointScan {
+                step: 0,
+                observations: vec![PointObservation {
+                    landmark: 0,
+                    range_m: 2.0,
+                    bearing_rad: 0.1
+                }]
+            }
+        );
+        assert_eq!(world.point_scans[1].step, 1);
+        assert_eq!(
+            world.point_scans[1].observations,
+            vec![PointObservation { landmark: 1, range_m: 3.0, bearing_rad: -0.2 }]
+        );
+        assert_eq!(
+            (
+                stats.measurements_read,
+                stats.measurements_kept,
+                stats.dropped_robot,
+                stats.dropped_unknown_barcode,
+                stats.dropped_non_finite,
+                stats.dropped_outside_window
+            ),
             (6, 2, 1, 1, 1, 1)
         );
         assert_eq!(world.point_noise, Some(NOISE));
@@ -476,7 +579,15 @@ mod tests {
         for (name, text) in files {
             std::fs::write(dir.path().join(name), text).unwrap();
         }
-        let spec = DatasetSpec::Mrclam { path: ".".into(), robot: 2, start_s: 0.0, duration_s: 0.0, range_sigma_m: 0.1, bearing_sigma_rad: 0.1, step_s: 0.1 };
+        let spec = DatasetSpec::Mrclam {
+            path: ".".into(),
+            robot: 2,
+            start_s: 0.0,
+            duration_s: 0.0,
+            range_sigma_m: 0.1,
+            bearing_sigma_rad: 0.1,
+            step_s: 0.1,
+        };
         match load_with_stats(&spec, dir.path()) {
             Err(DatasetError::Malformed { path, line, .. }) => {
                 assert!(path.ends_with("Robot2_Odometry.dat"));
@@ -489,7 +600,10 @@ mod tests {
         assert_eq!(world.odometry.len(), 10);
         std::fs::remove_file(dir.path().join("Robot2_Measurement.dat")).unwrap();
         let err = load_with_stats(&spec, dir.path()).unwrap_err();
-        assert!(matches!(&err, DatasetError::Missing { path, .. } if path.ends_with("Robot2_Measurement.dat")), "{err}");
+        assert!(
+            matches!(&err, DatasetError::Missing { path, .. } if path.ends_with("Robot2_Measurement.dat")),
+            "{err}"
+        );
     }
 
     /// Loads Robot 3 of the shared Dataset6 (the whole log, or the first `duration_s`).
@@ -497,8 +611,20 @@ mod tests {
         if !test_data::available("utias-mrclam/MRCLAM_Dataset6", "MRCLAM real-data test") {
             return None;
         }
-        let DatasetSpec::Mrclam { path, robot, range_sigma_m, bearing_sigma_rad, step_s, .. } = DatasetSpec::mrclam_default() else { unreachable!() };
-        let spec = DatasetSpec::Mrclam { path, robot, start_s: 0.0, duration_s, range_sigma_m, bearing_sigma_rad, step_s };
+        let DatasetSpec::Mrclam { path, robot, range_sigma_m, bearing_sigma_rad, step_s, .. } =
+            DatasetSpec::mrclam_default()
+        else {
+            unreachable!()
+        };
+        let spec = DatasetSpec::Mrclam {
+            path,
+            robot,
+            start_s: 0.0,
+            duration_s,
+            range_sigma_m,
+            bearing_sigma_rad,
+            step_s,
+        };
         Some(load_with_stats(&spec, &test_data::repository_root()).unwrap())
     }
 
@@ -514,7 +640,9 @@ mod tests {
             worst = worst.max(pose.position().distance(world.truth[k + 1].position()));
         }
         let end = pose.position().distance(world.truth.last().unwrap().position());
-        eprintln!("MRCLAM Robot3, first 60 s: dead-reckoning drift at 60 s = {end:.3} m, worst = {worst:.3} m");
+        eprintln!(
+            "MRCLAM Robot3, first 60 s: dead-reckoning drift at 60 s = {end:.3} m, worst = {worst:.3} m"
+        );
         assert!(worst < 3.0, "dead reckoning drifted {worst} m from Vicon within 60 s");
     }
 
@@ -524,14 +652,25 @@ mod tests {
         let Some((world, stats)) = real(0.0) else { return };
         eprintln!("MRCLAM Robot3, whole log loaded in {:.2?}", t.elapsed());
         let known = stats.truth_known as f64 / world.truth.len() as f64;
-        eprintln!("MRCLAM Robot3, whole log: {} steps, truth known on {:.2} %, {stats:?}", stats.steps, 100.0 * known);
+        eprintln!(
+            "MRCLAM Robot3, whole log: {} steps, truth known on {:.2} %, {stats:?}",
+            stats.steps,
+            100.0 * known
+        );
         assert!(known > 0.95);
         assert_eq!(world.truth_points.len(), 15, "subjects 6–20 are the landmarks");
         // Subjects 1–5 are robots (barcodes 5, 14, 41, 32, 23); barcode 34 is in no table.
         assert_eq!(stats.dropped_unknown_barcode, 2);
         assert_eq!(stats.dropped_robot, 1277);
         assert_eq!(stats.measurements_read, 5627);
-        assert_eq!(stats.measurements_kept + stats.dropped_robot + stats.dropped_unknown_barcode + stats.dropped_non_finite + stats.dropped_outside_window, 5627);
+        assert_eq!(
+            stats.measurements_kept
+                + stats.dropped_robot
+                + stats.dropped_unknown_barcode
+                + stats.dropped_non_finite
+                + stats.dropped_outside_window,
+            5627
+        );
 
         let (mut n, mut near) = (0usize, 0usize);
         let (mut range_residuals, mut bearing_residuals) = (Vec::new(), Vec::new());
@@ -542,11 +681,16 @@ mod tests {
             }
             for o in &scan.observations {
                 let m = world.truth_points[o.landmark];
-                let seen = pose.transform_point(Point2::new(o.range_m * o.bearing_rad.cos(), o.range_m * o.bearing_rad.sin()));
+                let seen = pose.transform_point(Point2::new(
+                    o.range_m * o.bearing_rad.cos(),
+                    o.range_m * o.bearing_rad.sin(),
+                ));
                 n += 1;
                 near += usize::from(seen.distance(m) < 0.5);
                 range_residuals.push(o.range_m - pose.position().distance(m));
-                bearing_residuals.push(wrap_angle(o.bearing_rad - ((m.y - pose.y).atan2(m.x - pose.x) - pose.theta)));
+                bearing_residuals.push(wrap_angle(
+                    o.bearing_rad - ((m.y - pose.y).atan2(m.x - pose.x) - pose.theta),
+                ));
             }
         }
         let share = near as f64 / n as f64;

@@ -45,13 +45,28 @@ pub fn parse(text: &str) -> Result<Vec<SampleScan>, LineError> {
         let values: Vec<f64> = raw
             .split_whitespace()
             .enumerate()
-            .map(|(k, t)| t.parse::<f64>().map_err(|_| LineError::new(line, format!("field {}: `{t}` is not a number", k + 1))))
+            .map(|(k, t)| {
+                t.parse::<f64>().map_err(|_| {
+                    LineError::new(line, format!("field {}: `{t}` is not a number", k + 1))
+                })
+            })
             .collect::<Result<_, _>>()?;
         if values.len() != 4 + BEAMS {
-            return Err(LineError::new(line, format!("expected {} fields (time, x, y, θ, {BEAMS} ranges), found {}", 4 + BEAMS, values.len())));
+            return Err(LineError::new(
+                line,
+                format!(
+                    "expected {} fields (time, x, y, θ, {BEAMS} ranges), found {}",
+                    4 + BEAMS,
+                    values.len()
+                ),
+            ));
         }
         let odometry = Pose2::new(values[1] / 100.0, values[2] / 100.0, values[3].to_radians());
-        let ranges_m = values[4..].iter().map(|&mm| mm / 1000.0).map(|r| (r.is_finite() && r > 0.0 && r < MAX_RANGE_M).then_some(r)).collect();
+        let ranges_m = values[4..]
+            .iter()
+            .map(|&mm| mm / 1000.0)
+            .map(|r| (r.is_finite() && r > 0.0 && r < MAX_RANGE_M).then_some(r))
+            .collect();
         out.push(SampleScan { line, time_ms: values[0], odometry, ranges_m });
     }
     Ok(out)
@@ -68,7 +83,9 @@ mod tests {
     use super::*;
 
     fn line(t: u32, x: f64) -> String {
-        let ranges: Vec<String> = (0..BEAMS).map(|b| if b == 3 { "327630".into() } else { format!("{}", 1000 + b) }).collect();
+        let ranges: Vec<String> = (0..BEAMS)
+            .map(|b| if b == 3 { "327630".into() } else { format!("{}", 1000 + b) })
+            .collect();
         format!("{t} {x} 15.7 90.0 {}", ranges.join(" "))
     }
 
@@ -78,7 +95,10 @@ mod tests {
         let scans = parse(&text).unwrap();
         assert_eq!(scans.len(), 2);
         assert_eq!(scans[0].line, 2);
-        assert!((scans[0].odometry.x + 6.776).abs() < 1e-12 && (scans[0].odometry.theta - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert!(
+            (scans[0].odometry.x + 6.776).abs() < 1e-12
+                && (scans[0].odometry.theta - std::f64::consts::FRAC_PI_2).abs() < 1e-12
+        );
         assert_eq!(scans[0].ranges_m[3], None);
         assert_eq!(scans[0].ranges_m[4], Some(1.004));
         let err = parse("h\n1 2 3\n").unwrap_err();
@@ -89,10 +109,16 @@ mod tests {
 
     #[test]
     fn real_samples_read_when_present() {
-        if !super::super::test_data::available("psm-sample-scans", "psm_samples::real_samples_read_when_present") {
+        if !super::super::test_data::available(
+            "psm-sample-scans",
+            "psm_samples::real_samples_read_when_present",
+        ) {
             return;
         }
-        let scans = load(&super::super::test_data::repository_root().join("../shared/data/psm-sample-scans")).unwrap();
+        let scans = load(
+            &super::super::test_data::repository_root().join("../shared/data/psm-sample-scans"),
+        )
+        .unwrap();
         assert_eq!(scans.len(), 126);
         assert!(scans.iter().all(|s| s.ranges_m.iter().filter(|r| r.is_some()).count() > 100));
     }

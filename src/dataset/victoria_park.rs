@@ -45,7 +45,9 @@
 //!   `landmark` is [`UNKNOWN_LANDMARK`], so known data association is impossible, and
 //!   `truth_points` is empty.
 
-use super::{DatasetError, LineError, LoadStats, UNKNOWN_LANDMARK, check_times, parse_table, read_text};
+use super::{
+    DatasetError, LineError, LoadStats, UNKNOWN_LANDMARK, check_times, parse_table, read_text,
+};
 use crate::geom::{Point2, Pose2, unicycle_increment, wrap_angle};
 use crate::world::World;
 use crate::world::point_sensor::{PointNoise, PointObservation, PointScan};
@@ -91,7 +93,12 @@ pub struct CarGeometry {
 
 /// The Victoria Park utility car: L = 2.83 m, H = 0.76 m, a = 3.78 m, b = 0.50 m (ACFR
 /// `info.txt`, quoted in the dataset README; RFS-SLAM's configuration uses the same values).
-pub const VICTORIA_PARK_CAR: CarGeometry = CarGeometry { wheelbase_m: 2.83, encoder_offset_m: 0.76, laser_ahead_m: 3.78, laser_left_m: 0.50 };
+pub const VICTORIA_PARK_CAR: CarGeometry = CarGeometry {
+    wheelbase_m: 2.83,
+    encoder_offset_m: 0.76,
+    laser_ahead_m: 3.78,
+    laser_left_m: 0.50,
+};
 
 impl CarGeometry {
     /// The rear-axle centre's speed v_c = vₑ / (1 − tan α · H/L) and turn rate v_c tan α / L.
@@ -103,7 +110,8 @@ impl CarGeometry {
 
     /// Whether the model is defined at steering α: |α| < π/2 and 1 − tan α · H/L > 0.
     pub fn steering_is_valid(&self, steering_rad: f64) -> bool {
-        steering_rad.abs() < FRAC_PI_2 && 1.0 - steering_rad.tan() * self.encoder_offset_m / self.wheelbase_m > 0.0
+        steering_rad.abs() < FRAC_PI_2
+            && 1.0 - steering_rad.tan() * self.encoder_offset_m / self.wheelbase_m > 0.0
     }
 }
 
@@ -111,7 +119,12 @@ impl CarGeometry {
 /// centre follows the exact arc `unicycle_increment(v_c, ω, Δt)`, and the laser frame is that
 /// frame moved by T = (a, b, 0), so the laser's increment is T⁻¹ ⊕ Δ_axle ⊕ T. Its Euler
 /// approximation is Guivant & Nebot's discrete model (see the module doc).
-pub fn ackermann_increment(car: &CarGeometry, speed_mps: f64, steering_rad: f64, dt_s: f64) -> Pose2 {
+pub fn ackermann_increment(
+    car: &CarGeometry,
+    speed_mps: f64,
+    steering_rad: f64,
+    dt_s: f64,
+) -> Pose2 {
     let (v_c, omega) = car.axle_velocity(speed_mps, steering_rad);
     let laser = Pose2::new(car.laser_ahead_m, car.laser_left_m, 0.0);
     let laser_inverse = Pose2::new(-car.laser_ahead_m, -car.laser_left_m, 0.0);
@@ -156,7 +169,10 @@ pub fn parse_inputs(text: &str) -> Result<Vec<InputRecord>, LineError> {
                 return Err(LineError::new(r.line, "speed is not finite"));
             }
             if !VICTORIA_PARK_CAR.steering_is_valid(steering_rad) {
-                return Err(LineError::new(r.line, format!("steering {steering_rad} rad is outside the car model's domain")));
+                return Err(LineError::new(
+                    r.line,
+                    format!("steering {steering_rad} rad is outside the car model's domain"),
+                ));
             }
             Ok(InputRecord { time_s, speed_mps, steering_rad })
         })
@@ -208,14 +224,20 @@ pub struct Window {
 }
 
 /// Reads and assembles the log in the dataset folder `folder`.
-pub fn load(folder: &Path, window: &Window, noise: PointNoise) -> Result<(World, LoadStats), DatasetError> {
+pub fn load(
+    folder: &Path,
+    window: &Window,
+    noise: PointNoise,
+) -> Result<(World, LoadStats), DatasetError> {
     let [inputs, detections, gps] = FILE_NAMES.map(|name| folder.join(name));
     let log = Log {
         inputs: parse_inputs(&read_text(&inputs)?).map_err(|e| e.in_file(&inputs))?,
-        detections: parse_detections(&read_text(&detections)?).map_err(|e| e.in_file(&detections))?,
+        detections: parse_detections(&read_text(&detections)?)
+            .map_err(|e| e.in_file(&detections))?,
         gps: parse_gps(&read_text(&gps)?).map_err(|e| e.in_file(&gps))?,
     };
-    assemble(&log, window, noise).map_err(|message| DatasetError::Empty { path: folder.to_path_buf(), message })
+    assemble(&log, window, noise)
+        .map_err(|message| DatasetError::Empty { path: folder.to_path_buf(), message })
 }
 
 /// Slack [s] on the window's ends: time stamps are printed to the millisecond, so a record
@@ -224,7 +246,11 @@ const TIME_SLACK_S: f64 = 1e-6;
 
 /// Builds the [`World`] of `window` from a parsed log (see the module doc for every choice).
 /// Fails, with a message, only when the window holds fewer than two input records.
-pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World, LoadStats), String> {
+pub fn assemble(
+    log: &Log,
+    window: &Window,
+    noise: PointNoise,
+) -> Result<(World, LoadStats), String> {
     let (Some(first), Some(last)) = (log.inputs.first(), log.inputs.last()) else {
         return Err("inputs.dat holds no record".to_string());
     };
@@ -245,7 +271,14 @@ pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World,
     let steps = records.len() - 1;
     let odometry: Vec<Pose2> = records
         .windows(2)
-        .map(|w| ackermann_increment(&VICTORIA_PARK_CAR, w[0].speed_mps, w[0].steering_rad, w[1].time_s - w[0].time_s))
+        .map(|w| {
+            ackermann_increment(
+                &VICTORIA_PARK_CAR,
+                w[0].speed_mps,
+                w[0].steering_rad,
+                w[1].time_s - w[0].time_s,
+            )
+        })
         .collect();
     let mut periods: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
     periods.sort_by(f64::total_cmp);
@@ -266,7 +299,8 @@ pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World,
     }
     truth[0] = START_POSE;
 
-    let mut stats = LoadStats { steps, measurements_read: log.detections.len(), ..LoadStats::default() };
+    let mut stats =
+        LoadStats { steps, measurements_read: log.detections.len(), ..LoadStats::default() };
     stats.truth_known = truth.iter().filter(|p| p.x.is_finite() && p.y.is_finite()).count();
     let mut by_step: BTreeMap<usize, Vec<PointObservation>> = BTreeMap::new();
     for d in &log.detections {
@@ -283,7 +317,11 @@ pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World,
             continue;
         }
         let bearing_rad = wrap_angle(d.laser_bearing_rad - LASER_BEARING_OFFSET_RAD);
-        by_step.entry(k).or_default().push(PointObservation { landmark: UNKNOWN_LANDMARK, range_m: d.range_m, bearing_rad });
+        by_step.entry(k).or_default().push(PointObservation {
+            landmark: UNKNOWN_LANDMARK,
+            range_m: d.range_m,
+            bearing_rad,
+        });
     }
     stats.measurements_kept = by_step.values().map(Vec::len).sum();
 
@@ -293,7 +331,10 @@ pub fn assemble(log: &Log, window: &Window, noise: PointNoise) -> Result<(World,
         odometry,
         laser: None,
         scans: Vec::new(),
-        point_scans: by_step.into_iter().map(|(step, observations)| PointScan { step, observations }).collect(),
+        point_scans: by_step
+            .into_iter()
+            .map(|(step, observations)| PointScan { step, observations })
+            .collect(),
         truth_lines: Vec::new(),
         truth_corners: Vec::new(),
         truth_points: Vec::new(),
@@ -330,7 +371,11 @@ mod tests {
     use crate::dataset::{DatasetSpec, load_with_stats};
     use crate::world::RangeNoise;
 
-    const NOISE: PointNoise = PointNoise { range_noise: RangeNoise::Constant, range_sigma_m: 1.0, bearing_sigma_rad: 0.05 };
+    const NOISE: PointNoise = PointNoise {
+        range_noise: RangeNoise::Constant,
+        range_sigma_m: 1.0,
+        bearing_sigma_rad: 0.05,
+    };
 
     /// Guivant & Nebot's discrete model, one Euler step, from pose `p` (the laser's).
     fn guivant_nebot(car: &CarGeometry, p: Pose2, speed: f64, steering: f64, dt: f64) -> Pose2 {
@@ -354,32 +399,53 @@ mod tests {
             for &dt in &[0.02, 0.01] {
                 let exact = start.compose(ackermann_increment(&car, speed, steering, dt));
                 let euler = guivant_nebot(&car, start, speed, steering, dt);
-                errors.push(exact.position().distance(euler.position()) + (exact.theta - euler.theta).abs());
+                errors.push(
+                    exact.position().distance(euler.position()) + (exact.theta - euler.theta).abs(),
+                );
             }
             // Halving Δt quarters the difference (O(Δt²)), and it is tiny at 25 ms.
             assert!(errors[0] < 2e-3, "{speed} {steering}: {errors:?}");
-            assert!(errors[1] <= errors[0] / 3.5 || errors[0] < 1e-12, "{speed} {steering}: {errors:?}");
+            assert!(
+                errors[1] <= errors[0] / 3.5 || errors[0] < 1e-12,
+                "{speed} {steering}: {errors:?}"
+            );
         }
         // Exact: two half steps are one whole step.
         let half = ackermann_increment(&car, 4.0, 0.35, 0.5);
         let whole = ackermann_increment(&car, 4.0, 0.35, 1.0);
         let twice = half.compose(half);
-        assert!((twice.x - whole.x).abs() < 1e-12 && (twice.y - whole.y).abs() < 1e-12 && (twice.theta - whole.theta).abs() < 1e-12);
+        assert!(
+            (twice.x - whole.x).abs() < 1e-12
+                && (twice.y - whole.y).abs() < 1e-12
+                && (twice.theta - whole.theta).abs() < 1e-12
+        );
         // Straight ahead the laser moves like the axle.
         let straight = ackermann_increment(&car, 5.0, 0.0, 0.1);
-        assert!((straight.x - 0.5).abs() < 1e-12 && straight.y.abs() < 1e-12 && straight.theta == 0.0);
+        assert!(
+            (straight.x - 0.5).abs() < 1e-12 && straight.y.abs() < 1e-12 && straight.theta == 0.0
+        );
     }
 
     #[test]
     fn parsers_read_the_columns_and_name_bad_lines() {
-        let inputs = parse_inputs("     0.973      0.000    -0.0035\n     0.998      1.500    0.1\n").unwrap();
+        let inputs =
+            parse_inputs("     0.973      0.000    -0.0035\n     0.998      1.500    0.1\n")
+                .unwrap();
         assert_eq!(inputs[1], InputRecord { time_s: 0.998, speed_mps: 1.5, steering_rad: 0.1 });
         let err = parse_inputs("0.973 0.0 0.0\n0.998 0.0\n").unwrap_err();
         assert_eq!(err.line, 2);
         let err = parse_inputs("0.973 0.0 0.0\n0.998 0.0 1.4\n").unwrap_err();
         assert!(err.line == 2 && err.message.contains("steering"), "{err:?}");
         let d = parse_detections("     0.852   20.46202    0.88575    0.35404\n").unwrap();
-        assert_eq!(d[0], DetectionRecord { time_s: 0.852, range_m: 20.46202, laser_bearing_rad: 0.88575, diameter_m: 0.35404 });
+        assert_eq!(
+            d[0],
+            DetectionRecord {
+                time_s: 0.852,
+                range_m: 20.46202,
+                laser_bearing_rad: 0.88575,
+                diameter_m: 0.35404
+            }
+        );
         assert_eq!(parse_detections("0.8 1 2 3\n0.7 1 2 3\n").unwrap_err().line, 2);
         let g = parse_gps("     0.000     -2.023     -1.923\n 1.0 nan 0\n").unwrap();
         assert_eq!(g, vec![GpsRecord { time_s: 0.0, position: Point2::new(-2.023, -1.923) }]);
@@ -388,16 +454,24 @@ mod tests {
 
     fn tiny_log() -> Log {
         // 11 records 25 ms apart, driving straight at 4 m/s.
-        let inputs = (0..=10).map(|i| format!("{:.3} 4.0 0.0\n", 1.0 + 0.025 * i as f64)).collect::<String>();
+        let inputs = (0..=10)
+            .map(|i| format!("{:.3} 4.0 0.0\n", 1.0 + 0.025 * i as f64))
+            .collect::<String>();
         let detections = "0.95 10.0 1.5707963 0.3\n1.011 10.0 0.0 0.3\n1.011 40.0 3.14 0.3\n1.030 nan 1.0 0.3\n1.30 5.0 1.0 0.3\n";
         let gps = "0.9 -1 -1\n1.048 5 6\n1.051 7 8\n1.1 9 9\n";
-        Log { inputs: parse_inputs(&inputs).unwrap(), detections: parse_detections(detections).unwrap(), gps: parse_gps(gps).unwrap() }
+        Log {
+            inputs: parse_inputs(&inputs).unwrap(),
+            detections: parse_detections(detections).unwrap(),
+            gps: parse_gps(gps).unwrap(),
+        }
     }
 
     #[test]
     fn steps_truth_and_detections() {
         let log = tiny_log();
-        let (world, stats) = assemble(&log, &Window { start_s: 0.0, duration_s: 0.0, max_range_m: 30.0 }, NOISE).unwrap();
+        let (world, stats) =
+            assemble(&log, &Window { start_s: 0.0, duration_s: 0.0, max_range_m: 30.0 }, NOISE)
+                .unwrap();
         assert_eq!(world.odometry.len(), 10);
         assert!((world.dt_s - 0.025).abs() < 1e-9);
         assert!((world.odometry[0].x - 0.1).abs() < 1e-9 && world.odometry[0].y.abs() < 1e-12);
@@ -419,14 +493,25 @@ mod tests {
         assert_eq!(o.landmark, UNKNOWN_LANDMARK);
         assert!((o.range_m - 10.0).abs() < 1e-12 && (o.bearing_rad + FRAC_PI_2).abs() < 1e-12);
         assert_eq!(
-            (stats.measurements_read, stats.measurements_kept, stats.dropped_outside_window, stats.dropped_beyond_max_range, stats.dropped_non_finite),
+            (
+                stats.measurements_read,
+                stats.measurements_kept,
+                stats.dropped_outside_window,
+                stats.dropped_beyond_max_range,
+                stats.dropped_non_finite
+            ),
             (5, 1, 2, 1, 1)
         );
         assert!(world.truth_points.is_empty());
         // A later window restarts at the start pose.
-        let (w, _) = assemble(&log, &Window { start_s: 0.1, duration_s: 0.1, max_range_m: 30.0 }, NOISE).unwrap();
+        let (w, _) =
+            assemble(&log, &Window { start_s: 0.1, duration_s: 0.1, max_range_m: 30.0 }, NOISE)
+                .unwrap();
         assert_eq!((w.odometry.len(), w.truth[0]), (4, START_POSE));
-        assert!(assemble(&log, &Window { start_s: 0.25, duration_s: 0.0, max_range_m: 30.0 }, NOISE).is_err());
+        assert!(
+            assemble(&log, &Window { start_s: 0.25, duration_s: 0.0, max_range_m: 30.0 }, NOISE)
+                .is_err()
+        );
     }
 
     #[test]
@@ -445,8 +530,20 @@ mod tests {
         if !test_data::available("victoria-park", "Victoria Park real-data test") {
             return None;
         }
-        let DatasetSpec::VictoriaPark { path, range_sigma_m, bearing_sigma_rad, max_range_m, .. } = DatasetSpec::victoria_park_default() else { unreachable!() };
-        let spec = DatasetSpec::VictoriaPark { path, start_s: 0.0, duration_s, range_sigma_m, bearing_sigma_rad, max_range_m };
+        let DatasetSpec::VictoriaPark {
+            path, range_sigma_m, bearing_sigma_rad, max_range_m, ..
+        } = DatasetSpec::victoria_park_default()
+        else {
+            unreachable!()
+        };
+        let spec = DatasetSpec::VictoriaPark {
+            path,
+            start_s: 0.0,
+            duration_s,
+            range_sigma_m,
+            bearing_sigma_rad,
+            max_range_m,
+        };
         Some(load_with_stats(&spec, &test_data::repository_root()).unwrap())
     }
 
@@ -456,9 +553,16 @@ mod tests {
         assert!((world.dt_s - 0.025).abs() < 1e-9);
         assert_eq!(world.odometry.len(), 4000);
         // Path length of the laser vs ∫vₑ dt from the raw file.
-        let text = std::fs::read_to_string(test_data::repository_root().join("../shared/data/victoria-park/inputs.dat")).unwrap();
+        let text = std::fs::read_to_string(
+            test_data::repository_root().join("../shared/data/victoria-park/inputs.dat"),
+        )
+        .unwrap();
         let inputs = parse_inputs(&text).unwrap();
-        let odometer: f64 = inputs.windows(2).take(4000).map(|w| w[0].speed_mps.abs() * (w[1].time_s - w[0].time_s)).sum();
+        let odometer: f64 = inputs
+            .windows(2)
+            .take(4000)
+            .map(|w| w[0].speed_mps.abs() * (w[1].time_s - w[0].time_s))
+            .sum();
         let path: f64 = world.odometry.iter().map(|d| d.x.hypot(d.y)).sum();
         // Dead reckoning vs GPS over the first 80 s (no alignment: the frames coincide).
         let mut pose = world.truth[0];
@@ -477,7 +581,10 @@ mod tests {
             path / odometer
         );
         assert!(odometer > 100.0, "the car drives in the first 100 s");
-        assert!((0.97..1.15).contains(&(path / odometer)), "laser path {path} m vs odometer {odometer} m");
+        assert!(
+            (0.97..1.15).contains(&(path / odometer)),
+            "laser path {path} m vs odometer {odometer} m"
+        );
         assert!(fixes > 100 && worst < 6.0, "{fixes} fixes, worst {worst} m");
     }
 
@@ -486,7 +593,8 @@ mod tests {
         let t = std::time::Instant::now();
         let Some((world, stats)) = real(0.0) else { return };
         let elapsed = t.elapsed();
-        let all: Vec<&PointObservation> = world.point_scans.iter().flat_map(|s| &s.observations).collect();
+        let all: Vec<&PointObservation> =
+            world.point_scans.iter().flat_map(|s| &s.observations).collect();
         eprintln!(
             "Victoria Park, whole log ({elapsed:.2?} to load): {} steps, {} scans, {} detections kept; {stats:?}",
             world.odometry.len(),
@@ -494,11 +602,19 @@ mod tests {
             all.len()
         );
         assert!(all.len() > 10_000);
-        assert!(all.iter().all(|o| o.range_m > 0.0 && o.range_m <= 30.0 && o.bearing_rad.abs() <= FRAC_PI_2 && o.landmark == UNKNOWN_LANDMARK));
+        assert!(all.iter().all(|o| o.range_m > 0.0
+            && o.range_m <= 30.0
+            && o.bearing_rad.abs() <= FRAC_PI_2
+            && o.landmark == UNKNOWN_LANDMARK));
         assert!(world.truth.iter().skip(1).all(|p| p.theta.is_nan()));
         assert_eq!(stats.measurements_read, 52974);
         // And with the laser's full reach every range is within (0, 80] m.
-        let text = std::fs::read_to_string(test_data::repository_root().join("../shared/data/victoria-park/measurements.dat")).unwrap();
-        assert!(parse_detections(&text).unwrap().iter().all(|d| d.range_m > 0.0 && d.range_m <= 80.0));
+        let text = std::fs::read_to_string(
+            test_data::repository_root().join("../shared/data/victoria-park/measurements.dat"),
+        )
+        .unwrap();
+        assert!(
+            parse_detections(&text).unwrap().iter().all(|d| d.range_m > 0.0 && d.range_m <= 80.0)
+        );
     }
 }

@@ -11,12 +11,11 @@
 //! are "identical" without a test; failure rates are compared as k/n (Fisher's exact test); p-values
 //! are Holm-adjusted over every test of the diff. Reads the store only.
 
-
+use crate::judge::change::{self, Verdict};
 use crate::metrics::metric_def;
 use crate::spec::params::flatten;
-use crate::store::{self, RunRow, RunStatus, StudyData};
-use crate::judge::change::{self, Verdict};
 use crate::stats::{compare, hypothesis as stats};
+use crate::store::{self, RunRow, RunStatus, StudyData};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -111,8 +110,10 @@ fn studies(dir: &Path) -> Result<BTreeMap<String, PathBuf>, DiffError> {
         let id = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         return Ok(BTreeMap::from([(id, dir.to_path_buf())]));
     }
-    let found: BTreeMap<String, PathBuf> =
-        store::list_studies(dir)?.into_iter().map(|p| (p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(), p)).collect();
+    let found: BTreeMap<String, PathBuf> = store::list_studies(dir)?
+        .into_iter()
+        .map(|p| (p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(), p))
+        .collect();
     if found.is_empty() {
         return Err(DiffError::NotResults(dir.to_path_buf()));
     }
@@ -123,7 +124,11 @@ fn studies(dir: &Path) -> Result<BTreeMap<String, PathBuf>, DiffError> {
 pub fn diff(base: &Path, new: &Path, opts: &DiffOptions) -> Result<Diff, DiffError> {
     let (a, b) = (studies(base)?, studies(new)?);
     let mut judging: BTreeMap<String, crate::spec::DiffSpec> = BTreeMap::new();
-    let mut out = Diff { only_base: a.keys().filter(|k| !b.contains_key(*k)).cloned().collect(), only_new: b.keys().filter(|k| !a.contains_key(*k)).cloned().collect(), ..Diff::default() };
+    let mut out = Diff {
+        only_base: a.keys().filter(|k| !b.contains_key(*k)).cloned().collect(),
+        only_new: b.keys().filter(|k| !a.contains_key(*k)).cloned().collect(),
+        ..Diff::default()
+    };
     for (id, dir_a) in &a {
         let Some(dir_b) = b.get(id) else { continue };
         let (sa, sb) = (store::read_study(dir_a)?, store::read_study(dir_b)?);
@@ -136,7 +141,13 @@ pub fn diff(base: &Path, new: &Path, opts: &DiffOptions) -> Result<Diff, DiffErr
         compare_study(id, &sa, &sb, opts, &mut out);
     }
     // Holm over every test of the diff.
-    let tested: Vec<usize> = out.rows.iter().enumerate().filter(|(_, r)| r.verdict != Verdict::Identical).map(|(i, _)| i).collect();
+    let tested: Vec<usize> = out
+        .rows
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| r.verdict != Verdict::Identical)
+        .map(|(i, _)| i)
+        .collect();
     let adjusted = stats::holm(&tested.iter().map(|&i| out.rows[i].p).collect::<Vec<_>>());
     out.tests = tested.len();
     for (&i, &p) in tested.iter().zip(&adjusted) {
@@ -144,8 +155,12 @@ pub fn diff(base: &Path, new: &Path, opts: &DiffOptions) -> Result<Diff, DiffErr
         r.p_holm = p;
         let lower = metric_def(&r.metric).is_none_or(|m| m.lower_is_better);
         // the NEW side's `[report.diff]` decides (a change of criteria is listed with the specs)
-        let (alpha, min_effect_rel) = judging.get(&r.study).map_or((opts.alpha, opts.min_effect_rel), |d| d.for_metric(&r.metric, (opts.alpha, opts.min_effect_rel)));
-        r.verdict = change::verdict(false, p, alpha, r.delta_ci, min_effect_rel * r.base.mean.abs(), lower);
+        let (alpha, min_effect_rel) =
+            judging.get(&r.study).map_or((opts.alpha, opts.min_effect_rel), |d| {
+                d.for_metric(&r.metric, (opts.alpha, opts.min_effect_rel))
+            });
+        r.verdict =
+            change::verdict(false, p, alpha, r.delta_ci, min_effect_rel * r.base.mean.abs(), lower);
     }
     Ok(out)
 }
@@ -156,7 +171,9 @@ fn spec_changes(a: &StudyData, b: &StudyData) -> Vec<String> {
     let leaves = |s: &StudyData| {
         let mut v = Vec::new();
         flatten("", &toml::Value::Table(s.resolved.spec.base.to_table()), &mut v);
-        v.into_iter().map(|(k, v)| (k, crate::plan::format_value(&v))).collect::<BTreeMap<String, String>>()
+        v.into_iter()
+            .map(|(k, v)| (k, crate::plan::format_value(&v)))
+            .collect::<BTreeMap<String, String>>()
     };
     let (la, lb) = (leaves(a), leaves(b));
     let mut out = Vec::new();
@@ -169,7 +186,9 @@ fn spec_changes(a: &StudyData, b: &StudyData) -> Vec<String> {
         }
     }
     let (sa, sb) = (&a.resolved.spec, &b.resolved.spec);
-    let names = |s: &crate::spec::ExperimentSpec| s.algorithms.iter().map(|x| x.name()).collect::<Vec<_>>().join(", ");
+    let names = |s: &crate::spec::ExperimentSpec| {
+        s.algorithms.iter().map(|x| x.name()).collect::<Vec<_>>().join(", ")
+    };
     if sa.algorithms != sb.algorithms {
         out.push(format!("algorithms: [{}] → [{}]", names(sa), names(sb)));
     }
@@ -177,14 +196,25 @@ fn spec_changes(a: &StudyData, b: &StudyData) -> Vec<String> {
         out.push(format!("maps: [{}] → [{}]", sa.maps.join(", "), sb.maps.join(", ")));
     }
     if sa.replicates != sb.replicates || sa.seed != sb.seed {
-        out.push(format!("replicates/seed: {}/{} → {}/{}", sa.replicates, sa.seed, sb.replicates, sb.seed));
+        out.push(format!(
+            "replicates/seed: {}/{} → {}/{}",
+            sa.replicates, sa.seed, sb.replicates, sb.seed
+        ));
     }
-    let points = |s: &StudyData| s.resolved.points.iter().map(|p| p.label.clone()).collect::<Vec<_>>();
+    let points =
+        |s: &StudyData| s.resolved.points.iter().map(|p| p.label.clone()).collect::<Vec<_>>();
     if points(a) != points(b) {
         out.push(format!("sweep points: {} → {}", points(a).len(), points(b).len()));
     }
     if a.manifest.code_versions != b.manifest.code_versions {
-        let v = |s: &StudyData| s.manifest.code_versions.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" ");
+        let v = |s: &StudyData| {
+            s.manifest
+                .code_versions
+                .iter()
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
         out.push(format!("code versions: {} → {}", v(a), v(b)));
     }
     out
@@ -211,7 +241,8 @@ fn side(values: &[f64]) -> Side {
 
 fn compare_study(id: &str, a: &StudyData, b: &StudyData, opts: &DiffOptions, out: &mut Diff) {
     let metrics: Vec<String> = if opts.all_metrics {
-        let mut names: Vec<String> = a.runs.iter().flat_map(|r| r.metrics.iter().map(|(k, _)| k.clone())).collect();
+        let mut names: Vec<String> =
+            a.runs.iter().flat_map(|r| r.metrics.iter().map(|(k, _)| k.clone())).collect();
         names.sort();
         names.dedup();
         names
@@ -234,13 +265,26 @@ fn compare_study(id: &str, a: &StudyData, b: &StudyData, opts: &DiffOptions, out
             });
         }
         for metric in &metrics {
-            let value = |r: &RunRow| if r.status == RunStatus::Ok { r.metric(metric).filter(|v| v.is_finite()) } else { None };
+            let value = |r: &RunRow| {
+                if r.status == RunStatus::Ok {
+                    r.metric(metric).filter(|v| v.is_finite())
+                } else {
+                    None
+                }
+            };
             let va: Vec<f64> = runs_a.iter().filter_map(|r| value(r)).collect();
             let vb: Vec<f64> = runs_b.iter().filter_map(|r| value(r)).collect();
             if va.is_empty() && vb.is_empty() {
                 continue;
             }
-            let row = |base: Side, new: Side, delta: f64, ci: (f64, f64), p: f64, p_perm: f64, test: String, verdict: Verdict| DiffRow {
+            let row = |base: Side,
+                       new: Side,
+                       delta: f64,
+                       ci: (f64, f64),
+                       p: f64,
+                       p_perm: f64,
+                       test: String,
+                       verdict: Verdict| DiffRow {
                 study: id.to_string(),
                 map: map.clone(),
                 algorithm: algorithm.clone(),
@@ -250,7 +294,11 @@ fn compare_study(id: &str, a: &StudyData, b: &StudyData, opts: &DiffOptions, out
                 new,
                 delta,
                 delta_ci: ci,
-                delta_pct: if base.mean != 0.0 { 100.0 * delta / base.mean.abs() } else { f64::NAN },
+                delta_pct: if base.mean != 0.0 {
+                    100.0 * delta / base.mean.abs()
+                } else {
+                    f64::NAN
+                },
                 p,
                 p_holm: p,
                 p_perm,
@@ -259,24 +307,68 @@ fn compare_study(id: &str, a: &StudyData, b: &StudyData, opts: &DiffOptions, out
             };
             let (sa, sb) = (side(&va), side(&vb));
             // Identical per-run values (bit for bit, replicate by replicate): no test.
-            let same = |ra: &&RunRow, rb: &&RunRow| ra.replicate == rb.replicate && ra.status == rb.status && ra.metric(metric).map(f64::to_bits) == rb.metric(metric).map(f64::to_bits);
+            let same = |ra: &&RunRow, rb: &&RunRow| {
+                ra.replicate == rb.replicate
+                    && ra.status == rb.status
+                    && ra.metric(metric).map(f64::to_bits) == rb.metric(metric).map(f64::to_bits)
+            };
             if runs_a.len() == runs_b.len() && runs_a.iter().zip(runs_b).all(|(x, y)| same(x, y)) {
-                out.rows.push(row(sa, sb, 0.0, (0.0, 0.0), f64::NAN, f64::NAN, "identical".into(), Verdict::Identical));
+                out.rows.push(row(
+                    sa,
+                    sb,
+                    0.0,
+                    (0.0, 0.0),
+                    f64::NAN,
+                    f64::NAN,
+                    "identical".into(),
+                    Verdict::Identical,
+                ));
                 continue;
             }
             // Pairs: the replicates successful on both sides.
-            let by_rep = |rs: &[&RunRow]| rs.iter().filter_map(|r| value(r).map(|v| (r.replicate, v))).collect::<BTreeMap<u32, f64>>();
+            let by_rep = |rs: &[&RunRow]| {
+                rs.iter()
+                    .filter_map(|r| value(r).map(|v| (r.replicate, v)))
+                    .collect::<BTreeMap<u32, f64>>()
+            };
             let (pa, pb) = (by_rep(runs_a), by_rep(runs_b));
             let same_sets = pa.len() == pb.len() && pa.keys().eq(pb.keys());
             if same_sets && pa.len() >= 2 {
                 let d = compare::paired_differences(&pb, &pa);
                 let ci = paired_ci(&d);
-                out.rows.push(row(sa, sb, stats::mean(&d), ci, stats::paired_t_p(&d), stats::sign_flip_p(&d), format!("paired t ({})", d.len()), Verdict::NoChange));
+                out.rows.push(row(
+                    sa,
+                    sb,
+                    stats::mean(&d),
+                    ci,
+                    stats::paired_t_p(&d),
+                    stats::sign_flip_p(&d),
+                    format!("paired t ({})", d.len()),
+                    Verdict::NoChange,
+                ));
             } else if va.len() >= 2 && vb.len() >= 2 {
                 let (delta, lo, hi, p) = stats::welch_p(&va, &vb);
-                out.rows.push(row(sa, sb, delta, (lo, hi), p, stats::mann_whitney_p(&va, &vb), "unpaired (Welch)".into(), Verdict::NoChange));
+                out.rows.push(row(
+                    sa,
+                    sb,
+                    delta,
+                    (lo, hi),
+                    p,
+                    stats::mann_whitney_p(&va, &vb),
+                    "unpaired (Welch)".into(),
+                    Verdict::NoChange,
+                ));
             } else {
-                out.rows.push(row(sa, sb, sb.mean - sa.mean, (f64::NAN, f64::NAN), 1.0, f64::NAN, "too few runs".into(), Verdict::NoChange));
+                out.rows.push(row(
+                    sa,
+                    sb,
+                    sb.mean - sa.mean,
+                    (f64::NAN, f64::NAN),
+                    1.0,
+                    f64::NAN,
+                    "too few runs".into(),
+                    Verdict::NoChange,
+                ));
             }
         }
     }
@@ -298,7 +390,11 @@ fn num(v: f64) -> String {
 }
 
 fn side_text(s: &Side) -> String {
-    if s.ci.0.is_finite() { format!("{} [{}, {}] ({})", num(s.mean), num(s.ci.0), num(s.ci.1), s.n) } else { format!("{} ({})", num(s.mean), s.n) }
+    if s.ci.0.is_finite() {
+        format!("{} [{}, {}] ({})", num(s.mean), num(s.ci.0), num(s.ci.1), s.n)
+    } else {
+        format!("{} ({})", num(s.mean), s.n)
+    }
 }
 
 /// Header and cells of the changed rows (identical ones are only counted), for the reports.
@@ -308,7 +404,19 @@ pub fn table_cells(d: &Diff) -> (Vec<&'static str>, Vec<Vec<String>>) {
 
 /// Header and cells of the table (shared by the terminal and Markdown renderings).
 fn table(d: &Diff, show_identical: bool) -> (Vec<&'static str>, Vec<Vec<String>>) {
-    let header = vec!["study", "cell", "metric", "BASE mean [95 % CI] (n)", "NEW mean [95 % CI] (n)", "Δ [95 % CI]", "Δ %", "p (Holm)", "p dist-free", "test", "verdict"];
+    let header = vec![
+        "study",
+        "cell",
+        "metric",
+        "BASE mean [95 % CI] (n)",
+        "NEW mean [95 % CI] (n)",
+        "Δ [95 % CI]",
+        "Δ %",
+        "p (Holm)",
+        "p dist-free",
+        "test",
+        "verdict",
+    ];
     let rows = d
         .rows
         .iter()
@@ -320,9 +428,21 @@ fn table(d: &Diff, show_identical: bool) -> (Vec<&'static str>, Vec<Vec<String>>
                 r.metric.clone(),
                 side_text(&r.base),
                 side_text(&r.new),
-                if r.delta_ci.0.is_finite() { format!("{} [{}, {}]", num(r.delta), num(r.delta_ci.0), num(r.delta_ci.1)) } else { num(r.delta) },
-                if r.delta_pct.is_finite() { format!("{:+.1} %", r.delta_pct) } else { String::new() },
-                if r.p_holm.is_finite() { format!("{} ({})", num(r.p), num(r.p_holm)) } else { String::new() },
+                if r.delta_ci.0.is_finite() {
+                    format!("{} [{}, {}]", num(r.delta), num(r.delta_ci.0), num(r.delta_ci.1))
+                } else {
+                    num(r.delta)
+                },
+                if r.delta_pct.is_finite() {
+                    format!("{:+.1} %", r.delta_pct)
+                } else {
+                    String::new()
+                },
+                if r.p_holm.is_finite() {
+                    format!("{} ({})", num(r.p), num(r.p_holm))
+                } else {
+                    String::new()
+                },
                 if r.p_perm.is_finite() { num(r.p_perm) } else { String::new() },
                 r.test.clone(),
                 r.verdict.as_str().to_string(),
@@ -339,7 +459,12 @@ pub fn summary(d: &Diff) -> String {
         *counts.entry(r.verdict.as_str()).or_default() += 1;
     }
     let parts: Vec<String> = counts.iter().map(|(k, v)| format!("{v} {k}")).collect();
-    format!("{} comparisons: {}; {} tests, p-values Holm-adjusted over all of them.", d.rows.len(), parts.join(", "), d.tests)
+    format!(
+        "{} comparisons: {}; {} tests, p-values Holm-adjusted over all of them.",
+        d.rows.len(),
+        parts.join(", "),
+        d.tests
+    )
 }
 
 /// Plain-text rendering for the terminal (identical rows summarised, not listed).
@@ -358,15 +483,42 @@ pub fn to_text(d: &Diff) -> String {
     }
     let (header, rows) = table(d, false);
     if !rows.is_empty() {
-        let widths: Vec<usize> = (0..header.len()).map(|c| rows.iter().map(|r| r[c].chars().count()).chain([header[c].chars().count()]).max().unwrap_or(0)).collect();
-        let line = |cells: Vec<String>| cells.iter().zip(&widths).map(|(c, w)| format!("{c:<w$}")).collect::<Vec<_>>().join("  ").trim_end().to_string();
+        let widths: Vec<usize> = (0..header.len())
+            .map(|c| {
+                rows.iter()
+                    .map(|r| r[c].chars().count())
+                    .chain([header[c].chars().count()])
+                    .max()
+                    .unwrap_or(0)
+            })
+            .collect();
+        let line = |cells: Vec<String>| {
+            cells
+                .iter()
+                .zip(&widths)
+                .map(|(c, w)| format!("{c:<w$}"))
+                .collect::<Vec<_>>()
+                .join("  ")
+                .trim_end()
+                .to_string()
+        };
         let _ = writeln!(s, "{}", line(header.iter().map(|h| h.to_string()).collect()));
         for r in rows {
             let _ = writeln!(s, "{}", line(r));
         }
     }
     for r in &d.rates {
-        let _ = writeln!(s, "{} / {}: failures {}/{} → {}/{} (Fisher p = {})", r.study, r.cell, r.base.0, r.base.1, r.new.0, r.new.1, num(r.p));
+        let _ = writeln!(
+            s,
+            "{} / {}: failures {}/{} → {}/{} (Fisher p = {})",
+            r.study,
+            r.cell,
+            r.base.0,
+            r.base.1,
+            r.new.0,
+            r.new.1,
+            num(r.p)
+        );
     }
     let _ = writeln!(s, "{}", summary(d));
     s
@@ -379,7 +531,11 @@ pub fn to_markdown(d: &Diff) -> String {
     if !d.spec_changes.is_empty() {
         s.push_str("**Parameter differences**\n\n");
         for (study, changes) in &d.spec_changes {
-            let _ = writeln!(s, "- `{study}`: {}", changes.iter().map(|c| format!("`{}`", esc(c))).collect::<Vec<_>>().join(", "));
+            let _ = writeln!(
+                s,
+                "- `{study}`: {}",
+                changes.iter().map(|c| format!("`{}`", esc(c))).collect::<Vec<_>>().join(", ")
+            );
         }
         s.push('\n');
     }
@@ -395,7 +551,17 @@ pub fn to_markdown(d: &Diff) -> String {
         s.push('\n');
     }
     for r in &d.rates {
-        let _ = writeln!(s, "- `{}` {}: failures {}/{} → {}/{} (Fisher p = {})", r.study, esc(&r.cell), r.base.0, r.base.1, r.new.0, r.new.1, num(r.p));
+        let _ = writeln!(
+            s,
+            "- `{}` {}: failures {}/{} → {}/{} (Fisher p = {})",
+            r.study,
+            esc(&r.cell),
+            r.base.0,
+            r.base.1,
+            r.new.0,
+            r.new.1,
+            num(r.p)
+        );
     }
     let _ = writeln!(s, "{}", summary(d));
     s

@@ -12,7 +12,7 @@
 //! Pure: points in, features out.
 
 use crate::config::{Checks, Violation};
-use crate::geom::{wrap_angle, Line, Point2};
+use crate::geom::{Line, Point2, wrap_angle};
 use crate::world::laser::{LaserGeometry, Scan};
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
@@ -83,7 +83,11 @@ impl FeatureParams {
             self.rho_max_m,
             self.theta_max_rad,
             self.emax_m,
-            if self.breakpoints { "the scan is first split at breakpoints (missed returns, adaptive distance)" } else { "no breakpoint detection, as in [FT]" }
+            if self.breakpoints {
+                "the scan is first split at breakpoints (missed returns, adaptive distance)"
+            } else {
+                "no breakpoint detection, as in [FT]"
+            }
         )
     }
 }
@@ -113,11 +117,18 @@ impl FeatureParams {
         let mut c = Checks::new();
         c.non_negative("dmax_m", self.dmax_m);
         c.non_negative("lmin_m", self.lmin_m);
-        c.require(self.pmin >= 2, "pmin", || format!("a line needs at least 2 points, got {}", self.pmin));
+        c.require(self.pmin >= 2, "pmin", || {
+            format!("a line needs at least 2 points, got {}", self.pmin)
+        });
         c.non_negative("rho_max_m", self.rho_max_m);
         c.in_range("theta_max_rad", self.theta_max_rad, 0.0, std::f64::consts::PI);
         c.non_negative("emax_m", self.emax_m);
-        c.in_range("corner_min_angle_rad", self.corner_min_angle_rad, 0.0, std::f64::consts::FRAC_PI_2);
+        c.in_range(
+            "corner_min_angle_rad",
+            self.corner_min_angle_rad,
+            0.0,
+            std::f64::consts::FRAC_PI_2,
+        );
         c.in_range("breakpoint_lambda_deg", self.breakpoint_lambda_deg, f64::MIN_POSITIVE, 90.0);
         c.non_negative("breakpoint_margin_m", self.breakpoint_margin_m);
         c.finish()
@@ -162,7 +173,11 @@ pub fn scan_points(scan: &Scan, geometry: &LaserGeometry) -> Vec<ScanPoint> {
         .iter()
         .enumerate()
         .filter_map(|(i, r)| r.map(|r| (i, r, geometry.bearing(i))))
-        .map(|(beam, r, phi)| ScanPoint { p: Point2::new(r * phi.cos(), r * phi.sin()), range_m: r, beam })
+        .map(|(beam, r, phi)| ScanPoint {
+            p: Point2::new(r * phi.cos(), r * phi.sin()),
+            range_m: r,
+            beam,
+        })
         .collect()
 }
 
@@ -173,7 +188,11 @@ pub fn extract(scan: &Scan, geometry: &LaserGeometry, params: &FeatureParams) ->
 
 /// Extracts features from ordered scan points (robot frame) of a laser with the given angle
 /// between beams.
-pub fn extract_points(scan: &[ScanPoint], increment_rad: f64, params: &FeatureParams) -> ScanFeatures {
+pub fn extract_points(
+    scan: &[ScanPoint],
+    increment_rad: f64,
+    params: &FeatureParams,
+) -> ScanFeatures {
     let points: Vec<Point2> = scan.iter().map(|s| s.p).collect();
     let points = points.as_slice();
     let mut segments = Vec::new();
@@ -181,7 +200,11 @@ pub fn extract_points(scan: &[ScanPoint], increment_rad: f64, params: &FeaturePa
         split_and_merge(points, set, params, &mut segments);
     }
     let lines = merge_collinear(points, segments, params);
-    let corners = if params.kind == FeatureKind::Lines { Vec::new() } else { corners(points, &lines, params) };
+    let corners = if params.kind == FeatureKind::Lines {
+        Vec::new()
+    } else {
+        corners(points, &lines, params)
+    };
     let lines = if params.kind == FeatureKind::Corners {
         Vec::new()
     } else {
@@ -190,7 +213,12 @@ pub fn extract_points(scan: &[ScanPoint], increment_rad: f64, params: &FeaturePa
             .map(|s| {
                 let first = points[s.ranges[0].start];
                 let last = points[s.ranges.last().expect("a segment has points").end - 1];
-                LineFeature { line: s.line, first, last, points: s.ranges.iter().map(|r| r.len()).sum() }
+                LineFeature {
+                    line: s.line,
+                    first,
+                    last,
+                    points: s.ranges.iter().map(|r| r.len()).sum(),
+                }
             })
             .collect()
     };
@@ -230,7 +258,12 @@ struct Segment {
 }
 
 /// [FT] Table 4.3, recursive: appends the accepted segments of `set` in scan order.
-fn split_and_merge(points: &[Point2], set: Range<usize>, params: &FeatureParams, out: &mut Vec<Segment>) {
+fn split_and_merge(
+    points: &[Point2],
+    set: Range<usize>,
+    params: &FeatureParams,
+    out: &mut Vec<Segment>,
+) {
     let n = set.len();
     if n == 0 || n < params.pmin as usize {
         return; // |S| < Pmin
@@ -241,19 +274,28 @@ fn split_and_merge(points: &[Point2], set: Range<usize>, params: &FeatureParams,
     }
     // Pmax = argmax dist(P, R) over the interior points (the end points lie on the chord).
     let chord = Line::through(a, b);
-    let farthest = (set.start + 1..set.end - 1).map(|i| (i, chord.distance(points[i]))).max_by(|x, y| x.1.total_cmp(&y.1));
+    let farthest = (set.start + 1..set.end - 1)
+        .map(|i| (i, chord.distance(points[i])))
+        .max_by(|x, y| x.1.total_cmp(&y.1));
     match farthest {
         Some((i, d)) if d >= params.dmax_m => {
             // Split at Pmax; it belongs to both halves (the usual IEPF convention).
             split_and_merge(points, set.start..i + 1, params, out);
             split_and_merge(points, i..set.end, params, out);
         }
-        _ => out.push(Segment { line: fit(points, std::slice::from_ref(&set), params.split_fit), ranges: vec![set] }),
+        _ => out.push(Segment {
+            line: fit(points, std::slice::from_ref(&set), params.split_fit),
+            ranges: vec![set],
+        }),
     }
 }
 
 /// [FT] Table 4.4: each line in turn absorbs every later line within (ρmax, θmax) of it.
-fn merge_collinear(points: &[Point2], segments: Vec<Segment>, params: &FeatureParams) -> Vec<Segment> {
+fn merge_collinear(
+    points: &[Point2],
+    segments: Vec<Segment>,
+    params: &FeatureParams,
+) -> Vec<Segment> {
     let mut remaining: Vec<Option<Segment>> = segments.into_iter().map(Some).collect();
     let mut out = Vec::new();
     for i in 0..remaining.len() {
@@ -261,7 +303,9 @@ fn merge_collinear(points: &[Point2], segments: Vec<Segment>, params: &FeaturePa
         let reference = ri.line;
         let mut merged = false;
         for slot in remaining.iter_mut().skip(i + 1) {
-            if slot.as_ref().is_some_and(|rj| reference.coincides(&rj.line, params.rho_max_m, params.theta_max_rad)) {
+            if slot.as_ref().is_some_and(|rj| {
+                reference.coincides(&rj.line, params.rho_max_m, params.theta_max_rad)
+            }) {
                 ri.ranges.extend(slot.take().expect("checked").ranges);
                 merged = true;
             }
@@ -278,7 +322,10 @@ fn merge_collinear(points: &[Point2], segments: Vec<Segment>, params: &FeaturePa
 /// Fits a normalised line to the points in `ranges`.
 fn fit(points: &[Point2], ranges: &[Range<usize>], how: LineFit) -> Line {
     match how {
-        LineFit::Endpoints => Line::through(points[ranges[0].start], points[ranges.last().expect("non-empty").end - 1]),
+        LineFit::Endpoints => Line::through(
+            points[ranges[0].start],
+            points[ranges.last().expect("non-empty").end - 1],
+        ),
         LineFit::LeastSquares => {
             let pts = || ranges.iter().flat_map(|r| &points[r.clone()]);
             let n = pts().count() as f64;
@@ -305,7 +352,12 @@ fn corners(points: &[Point2], lines: &[Segment], params: &FeatureParams) -> Vec<
                 continue;
             }
             let Some(p) = a.line.intersection(&b.line) else { continue };
-            let near = |s: &Segment| s.ranges.iter().flat_map(|r| &points[r.clone()]).any(|q| q.distance(p) <= params.emax_m);
+            let near = |s: &Segment| {
+                s.ranges
+                    .iter()
+                    .flat_map(|r| &points[r.clone()])
+                    .any(|q| q.distance(p) <= params.emax_m)
+            };
             if near(a) && near(b) {
                 out.push(p);
             }
@@ -329,12 +381,19 @@ mod tests {
     fn wall(a: (f64, f64), b: (f64, f64), step: f64) -> Vec<Point2> {
         let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
         let n = (len / step).round() as usize;
-        (0..=n).map(|i| i as f64 / n as f64).map(|t| Point2::new(a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1))).collect()
+        (0..=n)
+            .map(|i| i as f64 / n as f64)
+            .map(|t| Point2::new(a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1)))
+            .collect()
     }
 
     /// Test points as consecutive beams of a 1° laser.
     fn beams(points: &[Point2]) -> Vec<ScanPoint> {
-        points.iter().enumerate().map(|(beam, p)| ScanPoint { p: *p, range_m: p.x.hypot(p.y), beam }).collect()
+        points
+            .iter()
+            .enumerate()
+            .map(|(beam, p)| ScanPoint { p: *p, range_m: p.x.hypot(p.y), beam })
+            .collect()
     }
 
     fn extract_points(points: &[Point2], params: &FeatureParams) -> ScanFeatures {
@@ -356,7 +415,10 @@ mod tests {
         let l0 = f.lines[0].line;
         assert!((l0.rho - 3.0).abs() < 1e-9 && l0.theta.abs() < 1e-9, "{l0:?}");
         let l1 = f.lines[1].line;
-        assert!((l1.rho - 2.0).abs() < 1e-9 && (l1.theta - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "{l1:?}");
+        assert!(
+            (l1.rho - 2.0).abs() < 1e-9 && (l1.theta - std::f64::consts::FRAC_PI_2).abs() < 1e-9,
+            "{l1:?}"
+        );
         assert_eq!(f.corners.len(), 1);
         assert!(f.corners[0].distance(Point2::new(3.0, 2.0)) < 1e-9);
     }
@@ -364,13 +426,26 @@ mod tests {
     #[test]
     fn pmin_and_lmin_drop_short_sets_before_splitting() {
         let pts = wall((2.0, -0.3), (2.0, 0.3), 0.1); // 7 points, 0.6 m
-        assert_eq!(extract_points(&pts, &FeatureParams { pmin: 8, lmin_m: 0.1, ..params() }).lines.len(), 0);
-        assert_eq!(extract_points(&pts, &FeatureParams { pmin: 3, lmin_m: 0.7, ..params() }).lines.len(), 0);
-        assert_eq!(extract_points(&pts, &FeatureParams { pmin: 3, lmin_m: 0.5, ..params() }).lines.len(), 1);
+        assert_eq!(
+            extract_points(&pts, &FeatureParams { pmin: 8, lmin_m: 0.1, ..params() }).lines.len(),
+            0
+        );
+        assert_eq!(
+            extract_points(&pts, &FeatureParams { pmin: 3, lmin_m: 0.7, ..params() }).lines.len(),
+            0
+        );
+        assert_eq!(
+            extract_points(&pts, &FeatureParams { pmin: 3, lmin_m: 0.5, ..params() }).lines.len(),
+            1
+        );
         // Lmin is checked before the split test: a short *bent* set is dropped, not split
         let mut bent = wall((2.0, -0.2), (2.2, 0.0), 0.05);
         bent.extend(wall((2.2, 0.0), (2.0, 0.2), 0.05).into_iter().skip(1));
-        assert!(extract_points(&bent, &FeatureParams { pmin: 3, lmin_m: 0.5, ..params() }).lines.is_empty());
+        assert!(
+            extract_points(&bent, &FeatureParams { pmin: 3, lmin_m: 0.5, ..params() })
+                .lines
+                .is_empty()
+        );
     }
 
     #[test]
@@ -379,7 +454,10 @@ mod tests {
         let mut pts = wall((2.0, -2.0), (2.03, 0.0), 0.05);
         pts.extend(wall((2.03, 0.0), (2.0, 2.0), 0.05).into_iter().skip(1));
         let coarse = extract_points(&pts, &FeatureParams { dmax_m: 0.05, ..params() });
-        let fine = extract_points(&pts, &FeatureParams { dmax_m: 0.01, theta_max_rad: 0.001, rho_max_m: 0.001, ..params() });
+        let fine = extract_points(
+            &pts,
+            &FeatureParams { dmax_m: 0.01, theta_max_rad: 0.001, rho_max_m: 0.001, ..params() },
+        );
         assert_eq!(coarse.lines.len(), 1);
         assert_eq!(fine.lines.len(), 2);
     }
@@ -406,7 +484,10 @@ mod tests {
         let mut pts = wall((3.0, -2.0), (3.0, 1.0), 0.05);
         pts.extend(wall((2.0, 2.0), (-1.0, 2.0), 0.05));
         assert!(extract_points(&pts, &params()).corners.is_empty());
-        assert_eq!(extract_points(&pts, &FeatureParams { emax_m: 1.5, ..params() }).corners.len(), 1);
+        assert_eq!(
+            extract_points(&pts, &FeatureParams { emax_m: 1.5, ..params() }).corners.len(),
+            1
+        );
     }
 
     #[test]
@@ -414,7 +495,8 @@ mod tests {
         let mut pts = wall((3.0, -2.0), (3.0, 2.0), 0.05);
         pts.extend(wall((3.0, 2.0), (0.0, 2.0), 0.05).into_iter().skip(1));
         let lines = extract_points(&pts, &FeatureParams { kind: FeatureKind::Lines, ..params() });
-        let corners = extract_points(&pts, &FeatureParams { kind: FeatureKind::Corners, ..params() });
+        let corners =
+            extract_points(&pts, &FeatureParams { kind: FeatureKind::Corners, ..params() });
         assert_eq!((lines.lines.len(), lines.corners.len()), (2, 0));
         assert_eq!((corners.lines.len(), corners.corners.len()), (0, 1));
     }
@@ -427,7 +509,10 @@ mod tests {
             .map(|i| {
                 let t = -1.0 + i as f64 * 0.05;
                 let off = if i % 2 == 0 { 0.01 } else { -0.01 };
-                Point2::new((2.0 + off) * th.cos() - t * th.sin(), (2.0 + off) * th.sin() + t * th.cos())
+                Point2::new(
+                    (2.0 + off) * th.cos() - t * th.sin(),
+                    (2.0 + off) * th.sin() + t * th.cos(),
+                )
             })
             .collect();
         let l = fit(&pts, &[0..pts.len()], LineFit::LeastSquares);
@@ -441,10 +526,16 @@ mod tests {
         // 8 to 4), seen after eight beams without return. Without breakpoints the far point joins
         // the near wall's line, whose intersection with x = 12 then passes the Emax test as a
         // fictitious corner (what Lineamedia and Bigloop2 showed).
-        let far: Vec<ScanPoint> = (0..=18).map(|b| {
-            let p = if b == 18 { Point2::new(12.0, 4.02) } else { Point2::new(12.0, 12.0 * (b as f64).to_radians().tan()) };
-            ScanPoint { p, range_m: p.x.hypot(p.y), beam: b }
-        }).collect();
+        let far: Vec<ScanPoint> = (0..=18)
+            .map(|b| {
+                let p = if b == 18 {
+                    Point2::new(12.0, 4.02)
+                } else {
+                    Point2::new(12.0, 12.0 * (b as f64).to_radians().tan())
+                };
+                ScanPoint { p, range_m: p.x.hypot(p.y), beam: b }
+            })
+            .collect();
         let near = (27..=45).map(|b| {
             let p = Point2::new(4.0 / (b as f64).to_radians().tan(), 4.0);
             ScanPoint { p, range_m: p.x.hypot(p.y), beam: b }
@@ -452,7 +543,11 @@ mod tests {
         let pts: Vec<ScanPoint> = far.into_iter().chain(near).collect();
         let faithful = super::extract_points(&pts, 1f64.to_radians(), &params());
         assert_eq!(faithful.corners.len(), 1, "the artefact exists without breakpoints");
-        let with = super::extract_points(&pts, 1f64.to_radians(), &FeatureParams { breakpoints: true, ..params() });
+        let with = super::extract_points(
+            &pts,
+            1f64.to_radians(),
+            &FeatureParams { breakpoints: true, ..params() },
+        );
         assert!(with.corners.is_empty(), "{:?}", with.corners);
         assert_eq!(with.lines.len(), 2);
     }
@@ -460,11 +555,18 @@ mod tests {
     #[test]
     fn breakpoints_do_not_cut_a_continuous_wall_but_do_cut_a_jump() {
         // a wall at 5 m sampled every degree is one point set
-        let wall_5m: Vec<Point2> = (-30..=30).map(|d| Point2::new(5.0, 5.0 * (d as f64).to_radians().tan())).collect();
-        assert_eq!(point_sets(&beams(&wall_5m), 1f64.to_radians(), &FeatureParams::default()).len(), 1);
+        let wall_5m: Vec<Point2> =
+            (-30..=30).map(|d| Point2::new(5.0, 5.0 * (d as f64).to_radians().tan())).collect();
+        assert_eq!(
+            point_sets(&beams(&wall_5m), 1f64.to_radians(), &FeatureParams::default()).len(),
+            1
+        );
         // adjacent beams that land 1 m apart in depth are on different surfaces
         let mut jump = wall_5m.clone();
         jump.extend((31..=40).map(|d| Point2::new(6.0, 6.0 * (d as f64).to_radians().tan())));
-        assert_eq!(point_sets(&beams(&jump), 1f64.to_radians(), &FeatureParams::default()).len(), 2);
+        assert_eq!(
+            point_sets(&beams(&jump), 1f64.to_radians(), &FeatureParams::default()).len(),
+            2
+        );
     }
 }

@@ -10,7 +10,13 @@ pub fn wrap_angle(a: f64) -> f64 {
         return a;
     }
     let w = a - TAU * (a / TAU).round(); // now in [−π, π]
-    if w <= -PI { w + TAU } else if w > PI { w - TAU } else { w }
+    if w <= -PI {
+        w + TAU
+    } else if w > PI {
+        w - TAU
+    } else {
+        w
+    }
 }
 
 /// A 2-D point [m].
@@ -200,7 +206,12 @@ impl Line {
         let (s1, c1) = self.theta.sin_cos();
         let (s2, c2) = other.theta.sin_cos();
         let det = c1 * s2 - s1 * c2; // sin(θ2 − θ1)
-        (det.abs() > PARALLEL_EPS).then(|| Point2::new((self.rho * s2 - other.rho * s1) / det, (c1 * other.rho - c2 * self.rho) / det))
+        (det.abs() > PARALLEL_EPS).then(|| {
+            Point2::new(
+                (self.rho * s2 - other.rho * s1) / det,
+                (c1 * other.rho - c2 * self.rho) / det,
+            )
+        })
     }
 
     /// Whether two normalised lines coincide within the given tolerances.
@@ -233,7 +244,10 @@ mod tests {
             let a = k as f64 * 0.37;
             let w = wrap_angle(a);
             assert!(w > -PI && w <= PI, "{a} → {w}");
-            assert!(((a - w) / (2.0 * PI)).fract().abs() < 1e-9 || ((a - w) / (2.0 * PI)).fract().abs() > 1.0 - 1e-9);
+            assert!(
+                ((a - w) / (2.0 * PI)).fract().abs() < 1e-9
+                    || ((a - w) / (2.0 * PI)).fract().abs() > 1.0 - 1e-9
+            );
         }
         assert_eq!(wrap_angle(PI), PI);
         assert_eq!(wrap_angle(-PI), PI);
@@ -271,7 +285,10 @@ mod tests {
         let below = unicycle_increment(0.5, 0.999 * STRAIGHT_LINE_OMEGA_RADPS, 0.1);
         let above = unicycle_increment(0.5, 1.001 * STRAIGHT_LINE_OMEGA_RADPS, 0.1);
         // (y differs by the 0.2 % change of ω itself, ≈ 5e-12 m)
-        assert!((below.x - above.x).abs() < 1e-15 && (below.y - above.y).abs() < 1e-11, "{below:?} {above:?}");
+        assert!(
+            (below.x - above.x).abs() < 1e-15 && (below.y - above.y).abs() < 1e-11,
+            "{below:?} {above:?}"
+        );
         // and a small turn is accurate: y = r(1 − cos Δθ) without cancellation
         let small = unicycle_increment(0.5, 1e-3, 0.1);
         let r = 0.5 / 1e-3;
@@ -296,7 +313,10 @@ mod tests {
             ] {
                 let l = seg.line();
                 assert!((l.rho - rho).abs() < 1e-12, "{seg:?} → {l:?}");
-                assert!(wrap_angle(l.theta - theta_deg.to_radians()).abs() < 1e-12, "{seg:?} → {l:?}");
+                assert!(
+                    wrap_angle(l.theta - theta_deg.to_radians()).abs() < 1e-12,
+                    "{seg:?} → {l:?}"
+                );
             }
         }
     }

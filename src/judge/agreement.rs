@@ -53,14 +53,25 @@ pub fn judge(published: Published, ours: &[f64]) -> Agreement {
     }
     match published.var {
         Some(var) if published.runs >= 2 => {
-            let p = welch_summary_p(mean(ours), sample_variance(ours), ours.len(), published.mean, var, published.runs as usize);
+            let p = welch_summary_p(
+                mean(ours),
+                sample_variance(ours),
+                ours.len(),
+                published.mean,
+                var,
+                published.runs as usize,
+            );
             Agreement { compatible: Some(p >= ALPHA), p: Some(p), interval: None }
         }
         _ => {
             let (lo, hi) = prediction_interval(ours, 1.0 - ALPHA, published.runs.max(1));
             // A constant sample gives a point interval: equal up to rounding is compatible.
             let tol = 1e-9 * published.mean.abs().max(1e-12);
-            Agreement { compatible: Some(published.mean >= lo - tol && published.mean <= hi + tol), p: None, interval: Some((lo, hi)) }
+            Agreement {
+                compatible: Some(published.mean >= lo - tol && published.mean <= hi + tol),
+                p: None,
+                interval: Some((lo, hi)),
+            }
         }
     }
 }
@@ -85,10 +96,19 @@ mod tests {
     fn single_runs_use_a_prediction_interval() {
         let ours = [1.0, 1.2, 0.8, 1.1, 0.9];
         // 95 % PI for one run: 1 ± t_{0.975,4}·s·√(1 + 1/5) = 1 ± 0.481
-        assert_eq!(judge(Published { mean: 1.6, var: None, runs: 1 }, &ours).compatible, Some(false));
-        assert_eq!(judge(Published { mean: 1.4, var: None, runs: 1 }, &ours).compatible, Some(true));
+        assert_eq!(
+            judge(Published { mean: 1.6, var: None, runs: 1 }, &ours).compatible,
+            Some(false)
+        );
+        assert_eq!(
+            judge(Published { mean: 1.4, var: None, runs: 1 }, &ours).compatible,
+            Some(true)
+        );
         // the mean of 5 published runs must be closer: 1.4 is outside that narrower interval
-        assert_eq!(judge(Published { mean: 1.4, var: None, runs: 5 }, &ours).compatible, Some(false));
+        assert_eq!(
+            judge(Published { mean: 1.4, var: None, runs: 5 }, &ours).compatible,
+            Some(false)
+        );
         let (lo, hi) = prediction_interval(&ours, 1.0 - ALPHA, 1);
         let half = 2.7764451051977934 * 0.15811388300841897 * (1.2f64).sqrt();
         assert!((lo - (1.0 - half)).abs() < 1e-9 && (hi - (1.0 + half)).abs() < 1e-9);
@@ -97,11 +117,24 @@ mod tests {
     #[test]
     fn infinities_and_small_samples() {
         let inf = [f64::INFINITY; 3];
-        assert_eq!(judge(Published { mean: f64::INFINITY, var: Some(0.0), runs: 5 }, &inf).compatible, Some(true));
-        assert_eq!(judge(Published { mean: f64::INFINITY, var: Some(0.0), runs: 5 }, &[1.0, 2.0]).compatible, Some(false));
-        assert_eq!(judge(Published { mean: 1.0, var: None, runs: 1 }, &[1.0, f64::INFINITY]).compatible, Some(false));
+        assert_eq!(
+            judge(Published { mean: f64::INFINITY, var: Some(0.0), runs: 5 }, &inf).compatible,
+            Some(true)
+        );
+        assert_eq!(
+            judge(Published { mean: f64::INFINITY, var: Some(0.0), runs: 5 }, &[1.0, 2.0])
+                .compatible,
+            Some(false)
+        );
+        assert_eq!(
+            judge(Published { mean: 1.0, var: None, runs: 1 }, &[1.0, f64::INFINITY]).compatible,
+            Some(false)
+        );
         assert_eq!(judge(Published { mean: 1.0, var: None, runs: 1 }, &[1.0]).compatible, None);
         // a constant sample equal to the published value
-        assert_eq!(judge(Published { mean: 9.0, var: None, runs: 5 }, &[9.0, 9.0, 9.0]).compatible, Some(true));
+        assert_eq!(
+            judge(Published { mean: 9.0, var: None, runs: 5 }, &[9.0, 9.0, 9.0]).compatible,
+            Some(true)
+        );
     }
 }

@@ -81,7 +81,11 @@ mod tests {
             (false, 0.01, (-2.0, -0.2), false, Regressed),
         ];
         for (identical, p, ci, lib, want) in rows {
-            assert_eq!(verdict(identical, p, 0.05, ci, 0.1, lib), want, "{identical} {p} {ci:?} {lib}");
+            assert_eq!(
+                verdict(identical, p, 0.05, ci, 0.1, lib),
+                want,
+                "{identical} {p} {ci:?} {lib}"
+            );
         }
         assert_eq!(Regressed.as_str(), "regressed");
         assert_eq!(WithinNoise.as_str(), "within_noise");

@@ -35,7 +35,7 @@
 use crate::spec::{ClaimSpec, ClaimTest, FlatDirection, Require};
 use crate::stats::compare::{paired_differences as paired, stouffer, t_interval, t_one_sided_p};
 use crate::stats::hypothesis::{holm, mean};
-use crate::stats::{self, sig, Summary};
+use crate::stats::{self, Summary, sig};
 use crate::store::{ClaimCells, RunRow, RunStatus, StudyData};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -59,7 +59,8 @@ pub enum Verdict {
 }
 
 impl Verdict {
-    pub const ALL: [Verdict; 4] = [Verdict::Confirmed, Verdict::Refuted, Verdict::Inconclusive, Verdict::Untestable];
+    pub const ALL: [Verdict; 4] =
+        [Verdict::Confirmed, Verdict::Refuted, Verdict::Inconclusive, Verdict::Untestable];
 
     pub fn as_str(self) -> &'static str {
         match self {
@@ -111,14 +112,21 @@ fn summarize(m: &BTreeMap<u32, f64>) -> Summary {
 }
 
 /// Why a comparison of these cells cannot test anything (too few pairs, ∞ or NaN), if it cannot.
-fn untestable_cells(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>, names: (&str, &str)) -> Option<String> {
+fn untestable_cells(
+    a: &BTreeMap<u32, f64>,
+    b: &BTreeMap<u32, f64>,
+    names: (&str, &str),
+) -> Option<String> {
     let n = a.keys().filter(|k| b.contains_key(k)).count();
     if n < MIN_REPLICATES {
         return Some(format!("{n} paired replicates (a test needs {MIN_REPLICATES})"));
     }
     for (m, name) in [(a, names.0), (b, names.1)] {
         if let Some(v) = m.values().find(|v| !v.is_finite()) {
-            return Some(format!("{name} has {} values (e.g. nothing detected), which no difference test can compare", sig(*v, 3)));
+            return Some(format!(
+                "{name} has {} values (e.g. nothing detected), which no difference test can compare",
+                sig(*v, 3)
+            ));
         }
     }
     None
@@ -131,7 +139,11 @@ fn identical(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>) -> bool {
 
 /// Why a comparison of two cells cannot test a difference claim, if it cannot: the cell checks,
 /// or identical values in every replicate (the compared settings do not change the metric).
-fn untestable_pair(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>, names: (&str, &str)) -> Option<String> {
+fn untestable_pair(
+    a: &BTreeMap<u32, f64>,
+    b: &BTreeMap<u32, f64>,
+    names: (&str, &str),
+) -> Option<String> {
     untestable_cells(a, b, names).or_else(|| {
         identical(a, b).then(|| format!("{} and {} give identical values in every replicate: the compared settings do not change this metric here", names.0, names.1))
     })
@@ -150,7 +162,13 @@ struct MapOutcome {
 
 impl MapOutcome {
     fn untestable(reason: String) -> Self {
-        MapOutcome { verdict: Verdict::Untestable, text: reason, direction: None, p_claim: f64::NAN, p_against: f64::NAN }
+        MapOutcome {
+            verdict: Verdict::Untestable,
+            text: reason,
+            direction: None,
+            p_claim: f64::NAN,
+            p_against: f64::NAN,
+        }
     }
 }
 
@@ -158,7 +176,11 @@ impl MapOutcome {
 /// it lies wholly outside. `strict` (above / below a threshold) excludes the bounds, so a CI that
 /// touches the threshold — a constant count equal to it — is not above it; `between` includes them.
 pub fn decide_range((lo, hi): (f64, f64), (a, b): (f64, f64), strict: bool) -> Verdict {
-    let (inside, outside) = if strict { (lo > a && hi < b, hi <= a || lo >= b) } else { (lo >= a && hi <= b, hi < a || lo > b) };
+    let (inside, outside) = if strict {
+        (lo > a && hi < b, hi <= a || lo >= b)
+    } else {
+        (lo >= a && hi <= b, hi < a || lo > b)
+    };
     if inside {
         Verdict::Confirmed
     } else if outside {
@@ -193,13 +215,20 @@ pub fn decide_flat(pairs: &[Vec<f64>], tol: f64) -> Verdict {
     if equivalent {
         return Verdict::Confirmed;
     }
-    if beyond_p(pairs, tol) < (1.0 - CONFIDENCE) / 2.0 { Verdict::Refuted } else { Verdict::Inconclusive }
+    if beyond_p(pairs, tol) < (1.0 - CONFIDENCE) / 2.0 {
+        Verdict::Refuted
+    } else {
+        Verdict::Inconclusive
+    }
 }
 
 /// The smallest Holm-adjusted one-sided p that a pair's difference lies beyond ±tol (what refutes
 /// a two-sided flat claim when below 2.5 %).
 pub fn beyond_p(pairs: &[Vec<f64>], tol: f64) -> f64 {
-    let p: Vec<f64> = pairs.iter().map(|d| t_one_sided_p(d, tol, true).min(t_one_sided_p(d, -tol, false))).collect();
+    let p: Vec<f64> = pairs
+        .iter()
+        .map(|d| t_one_sided_p(d, tol, true).min(t_one_sided_p(d, -tol, false)))
+        .collect();
     holm(&p).into_iter().fold(f64::INFINITY, f64::min)
 }
 
@@ -219,22 +248,49 @@ pub fn decide_no_decrease(diffs: &[Vec<f64>], tol: f64) -> Verdict {
     if diffs.iter().all(|d| t_one_sided_p(d, -tol, true) < TOST_ALPHA) {
         return Verdict::Confirmed;
     }
-    if below_p(diffs, tol) < (1.0 - CONFIDENCE) / 2.0 { Verdict::Refuted } else { Verdict::Inconclusive }
+    if below_p(diffs, tol) < (1.0 - CONFIDENCE) / 2.0 {
+        Verdict::Refuted
+    } else {
+        Verdict::Inconclusive
+    }
 }
 
 /// Evaluates one claim on one map.
-fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, algorithm: &str) -> MapOutcome {
-    let values = |point: &Option<String>, alg: &str| point.as_deref().map(|p| data.replicate_values(map, alg, p, &claim.metric)).unwrap_or_default();
+fn on_map(
+    data: &StudyData,
+    claim: &ClaimSpec,
+    cells: &ClaimCells,
+    map: &str,
+    algorithm: &str,
+) -> MapOutcome {
+    let values = |point: &Option<String>, alg: &str| {
+        point
+            .as_deref()
+            .map(|p| data.replicate_values(map, alg, p, &claim.metric))
+            .unwrap_or_default()
+    };
     let than_algorithm = claim.than_algorithm.map_or(algorithm, |a| a.name());
     let at = values(&cells.at, algorithm);
     let s_at = summarize(&at);
     if let Some(pre) = &claim.precondition {
         // on the claim's own cell: `at`, or the first `over` value
         let (point, label) = match claim.test {
-            ClaimTest::Flat => (cells.over.first().map(|(_, p)| p.clone()), cells.over.first().map_or(String::new(), |(v, _)| format!("{} = {v}", claim.over_param()))),
+            ClaimTest::Flat => (
+                cells.over.first().map(|(_, p)| p.clone()),
+                cells
+                    .over
+                    .first()
+                    .map_or(String::new(), |(v, _)| format!("{} = {v}", claim.over_param())),
+            ),
             _ => (cells.at.clone(), cell_text(&claim.at)),
         };
-        let m = summarize(&point.as_deref().map(|p| data.replicate_values(map, algorithm, p, &pre.metric)).unwrap_or_default()).mean;
+        let m = summarize(
+            &point
+                .as_deref()
+                .map(|p| data.replicate_values(map, algorithm, p, &pre.metric))
+                .unwrap_or_default(),
+        )
+        .mean;
         let ok = pre.below.is_none_or(|b| m < b) && pre.above.is_none_or(|a| m > a);
         if !ok {
             let need = match (pre.below, pre.above) {
@@ -242,14 +298,31 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
                 (_, Some(a)) => format!("above {}", sig(a, 3)),
                 _ => String::new(),
             };
-            return MapOutcome::untestable(format!("precondition not met: {} is {} at {label}, and the claim needs it {need} ({})", pre.metric, sig(m, 3), pre.why));
+            return MapOutcome::untestable(format!(
+                "precondition not met: {} is {} at {label}, and the claim needs it {need} ({})",
+                pre.metric,
+                sig(m, 3),
+                pre.why
+            ));
         }
     }
     match claim.test {
         ClaimTest::Fails => {
-            let Some(point) = cells.at.as_deref() else { return MapOutcome::untestable("no cell".into()) };
-            let runs: Vec<&RunRow> = data.runs.iter().filter(|r| r.map == map && r.algorithm == algorithm && r.point == point).collect();
-            let counts = |r: &&RunRow| r.status != RunStatus::Ok && claim.failure.as_deref().is_none_or(|t| r.error.as_deref().is_some_and(|e| e.contains(t)));
+            let Some(point) = cells.at.as_deref() else {
+                return MapOutcome::untestable("no cell".into());
+            };
+            let runs: Vec<&RunRow> = data
+                .runs
+                .iter()
+                .filter(|r| r.map == map && r.algorithm == algorithm && r.point == point)
+                .collect();
+            let counts = |r: &&RunRow| {
+                r.status != RunStatus::Ok
+                    && claim
+                        .failure
+                        .as_deref()
+                        .is_none_or(|t| r.error.as_deref().is_some_and(|e| e.contains(t)))
+            };
             let (k, n) = (runs.iter().filter(|r| counts(r)).count(), runs.len());
             if n < MIN_REPLICATES {
                 return MapOutcome::untestable(format!("{n} runs (a test needs {MIN_REPLICATES})"));
@@ -261,14 +334,26 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
             } else {
                 Verdict::Inconclusive
             };
-            MapOutcome { verdict, text: format!("{k} of {n} runs failed as the claim says"), direction: Some(2 * k > n), p_claim: f64::NAN, p_against: f64::NAN }
+            MapOutcome {
+                verdict,
+                text: format!("{k} of {n} runs failed as the claim says"),
+                direction: Some(2 * k > n),
+                p_claim: f64::NAN,
+                p_against: f64::NAN,
+            }
         }
         ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {
             if s_at.n < MIN_REPLICATES {
-                return MapOutcome::untestable(format!("{} replicates (a test needs {MIN_REPLICATES})", s_at.n));
+                return MapOutcome::untestable(format!(
+                    "{} replicates (a test needs {MIN_REPLICATES})",
+                    s_at.n
+                ));
             }
             if at.values().any(|v| !v.is_finite()) {
-                return MapOutcome::untestable(format!("the cell has ∞ or NaN values: {}", describe(&s_at)));
+                return MapOutcome::untestable(format!(
+                    "the cell has ∞ or NaN values: {}",
+                    describe(&s_at)
+                ));
             }
             let (lo, hi) = (s_at.ci_low, s_at.ci_high);
             let (a, b) = match claim.test {
@@ -278,8 +363,18 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
             };
             let strict = claim.test != ClaimTest::Between;
             let verdict = decide_range((lo, hi), (a, b), strict);
-            let direction = Some(if strict { s_at.mean > a && s_at.mean < b } else { s_at.mean >= a && s_at.mean <= b });
-            MapOutcome { verdict, text: describe(&s_at), direction, p_claim: f64::NAN, p_against: f64::NAN }
+            let direction = Some(if strict {
+                s_at.mean > a && s_at.mean < b
+            } else {
+                s_at.mean >= a && s_at.mean <= b
+            });
+            MapOutcome {
+                verdict,
+                text: describe(&s_at),
+                direction,
+                p_claim: f64::NAN,
+                p_against: f64::NAN,
+            }
         }
         ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
             if cells.at == cells.than && than_algorithm == algorithm {
@@ -287,8 +382,14 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
             }
             let than = values(&cells.than, than_algorithm);
             let s_than = summarize(&than);
-            if let Some(why) = untestable_pair(&at, &than, ("the claim's cell", "the compared cell")) {
-                return MapOutcome::untestable(format!("{why}; {} vs {}", describe(&s_at), describe(&s_than)));
+            if let Some(why) =
+                untestable_pair(&at, &than, ("the claim's cell", "the compared cell"))
+            {
+                return MapOutcome::untestable(format!(
+                    "{why}; {} vs {}",
+                    describe(&s_at),
+                    describe(&s_than)
+                ));
             }
             // Oriented so that the claim reads "d > δ" (greater, less) or "d < δ" (not_*).
             let mut d = paired(&at, &than);
@@ -296,12 +397,18 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
                 d.iter_mut().for_each(|x| *x = -*x);
             }
             let claimed_above = matches!(claim.test, ClaimTest::Greater | ClaimTest::Less);
-            let delta = claim.min_effect.unwrap_or_else(|| claim.min_effect_rel.unwrap_or(DEFAULT_MIN_EFFECT_REL) * s_than.mean.abs());
+            let delta = claim.min_effect.unwrap_or_else(|| {
+                claim.min_effect_rel.unwrap_or(DEFAULT_MIN_EFFECT_REL) * s_than.mean.abs()
+            });
             let verdict = decide_margin(&d, delta, claimed_above);
             let (lo, hi) = t_interval(&d, CONFIDENCE);
             let m = mean(&d);
             let direction = Some(if claimed_above { m > delta } else { m < delta });
-            let word = if matches!(claim.test, ClaimTest::Greater | ClaimTest::NotGreater) { "excess" } else { "shortfall" };
+            let word = if matches!(claim.test, ClaimTest::Greater | ClaimTest::NotGreater) {
+                "excess"
+            } else {
+                "shortfall"
+            };
             let text = format!(
                 "{} vs {}; {word} {} [{}, {}] against δ = {}",
                 describe(&s_at),
@@ -311,39 +418,70 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
                 sig(hi, 3),
                 sig(delta, 3)
             );
-            MapOutcome { verdict, text, direction, p_claim: t_one_sided_p(&d, delta, claimed_above), p_against: t_one_sided_p(&d, delta, !claimed_above) }
+            MapOutcome {
+                verdict,
+                text,
+                direction,
+                p_claim: t_one_sided_p(&d, delta, claimed_above),
+                p_against: t_one_sided_p(&d, delta, !claimed_above),
+            }
         }
         ClaimTest::Flat => {
-            let over: Vec<(String, BTreeMap<u32, f64>)> = cells.over.iter().map(|(v, p)| (v.clone(), data.replicate_values(map, algorithm, p, &claim.metric))).collect();
-            let means: Vec<(String, f64)> = over.iter().map(|(v, c)| (v.clone(), summarize(c).mean)).collect();
-            let listed = means.iter().map(|(v, m)| format!("{v}: {}", sig(*m, 3))).collect::<Vec<_>>().join(", ");
+            let over: Vec<(String, BTreeMap<u32, f64>)> = cells
+                .over
+                .iter()
+                .map(|(v, p)| (v.clone(), data.replicate_values(map, algorithm, p, &claim.metric)))
+                .collect();
+            let means: Vec<(String, f64)> =
+                over.iter().map(|(v, c)| (v.clone(), summarize(c).mean)).collect();
+            let listed = means
+                .iter()
+                .map(|(v, m)| format!("{v}: {}", sig(*m, 3)))
+                .collect::<Vec<_>>()
+                .join(", ");
             let level = mean(&means.iter().map(|(_, m)| m.abs()).collect::<Vec<_>>());
-            let tol = claim.tolerance.unwrap_or_else(|| claim.tolerance_rel.unwrap_or(f64::NAN) * level);
+            let tol =
+                claim.tolerance.unwrap_or_else(|| claim.tolerance_rel.unwrap_or(f64::NAN) * level);
             // The pairs the claim compares: all of them, or each cell against the first.
             let pairs: Vec<(usize, usize)> = match claim.direction {
-                FlatDirection::Both => (0..over.len()).flat_map(|i| (i + 1..over.len()).map(move |j| (i, j))).collect(),
+                FlatDirection::Both => {
+                    (0..over.len()).flat_map(|i| (i + 1..over.len()).map(move |j| (i, j))).collect()
+                }
                 _ => (1..over.len()).map(|j| (0, j)).collect(),
             };
             let mut diffs = Vec::new();
             for &(i, j) in &pairs {
                 let (a, b) = (&over[j], &over[i]);
-                if let Some(why) = untestable_cells(&a.1, &b.1, (&format!("{} = {}", claim.over_param(), a.0), &format!("{}", b.0))) {
+                if let Some(why) = untestable_cells(
+                    &a.1,
+                    &b.1,
+                    (&format!("{} = {}", claim.over_param(), a.0), &format!("{}", b.0)),
+                ) {
                     // Every pair must be testable: a flat claim over an untestable pair says nothing.
                     return MapOutcome::untestable(format!("{why}; means {listed}"));
                 }
                 let d = paired(&a.1, &b.1);
-                diffs.push(if claim.direction == FlatDirection::NoIncrease { d.iter().map(|x| -x).collect() } else { d });
+                diffs.push(if claim.direction == FlatDirection::NoIncrease {
+                    d.iter().map(|x| -x).collect()
+                } else {
+                    d
+                });
             }
             // Identical pairs are equivalent; if every pair is, the parameter does nothing here and
             // the runs cannot tell "flat" from anything else.
             if pairs.iter().all(|&(i, j)| identical(&over[j].1, &over[i].1)) {
-                return MapOutcome::untestable(format!("every {} value gives identical values in every replicate: the parameter does not change this metric here; means {listed}", claim.over_param()));
+                return MapOutcome::untestable(format!(
+                    "every {} value gives identical values in every replicate: the parameter does not change this metric here; means {listed}",
+                    claim.over_param()
+                ));
             }
             let verdict = match claim.direction {
                 FlatDirection::Both => decide_flat(&diffs, tol),
                 _ => decide_no_decrease(&diffs, tol),
             };
-            let (lo, hi) = means.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (_, m)| (a.min(*m), b.max(*m)));
+            let (lo, hi) = means
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (_, m)| (a.min(*m), b.max(*m)));
             let direction = Some(match claim.direction {
                 FlatDirection::Both => hi - lo <= tol,
                 FlatDirection::NoDecrease => means.iter().all(|(_, m)| *m >= means[0].1 - tol),
@@ -356,8 +494,16 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
                     if claim.direction == FlatDirection::Both { l.abs().max(h.abs()) } else { -l }
                 })
                 .fold(f64::NEG_INFINITY, f64::max);
-            let bound = if claim.direction == FlatDirection::Both { "widest 90 % CI bound of a difference" } else { "largest change against the claim within the 90 % CIs" };
-            let p_refute = if claim.direction == FlatDirection::Both { beyond_p(&diffs, tol) } else { below_p(&diffs, tol) };
+            let bound = if claim.direction == FlatDirection::Both {
+                "widest 90 % CI bound of a difference"
+            } else {
+                "largest change against the claim within the 90 % CIs"
+            };
+            let p_refute = if claim.direction == FlatDirection::Both {
+                beyond_p(&diffs, tol)
+            } else {
+                below_p(&diffs, tol)
+            };
             let text = format!(
                 "means {listed}; range {}; {bound} {} (tolerance {}); smallest Holm-adjusted p of a difference beyond the tolerance {} over {} pairs (refutes below 0.025)",
                 sig(hi - lo, 3),
@@ -375,7 +521,8 @@ fn on_map(data: &StudyData, claim: &ClaimSpec, cells: &ClaimCells, map: &str, al
 fn combine(verdicts: &[Verdict], require: Require) -> Verdict {
     let n = verdicts.len();
     let count = |v: Verdict| verdicts.iter().filter(|x| **x == v).count();
-    let (c, r, u) = (count(Verdict::Confirmed), count(Verdict::Refuted), count(Verdict::Untestable));
+    let (c, r, u) =
+        (count(Verdict::Confirmed), count(Verdict::Refuted), count(Verdict::Untestable));
     if n == 0 || u == n {
         return Verdict::Untestable;
     }
@@ -393,7 +540,8 @@ fn combine(verdicts: &[Verdict], require: Require) -> Verdict {
 /// The pooled verdict of a comparative claim: Stouffer's combination of the testable maps'
 /// one-sided p-values, for the claimed side and for the other.
 fn pooled(outcomes: &[MapOutcome]) -> (Verdict, String) {
-    let testable: Vec<&MapOutcome> = outcomes.iter().filter(|o| o.verdict != Verdict::Untestable).collect();
+    let testable: Vec<&MapOutcome> =
+        outcomes.iter().filter(|o| o.verdict != Verdict::Untestable).collect();
     if testable.is_empty() {
         return (Verdict::Untestable, "no map is testable".into());
     }
@@ -407,16 +555,30 @@ fn pooled(outcomes: &[MapOutcome]) -> (Verdict, String) {
     } else {
         Verdict::Inconclusive
     };
-    (verdict, format!("Stouffer over {} maps: one-sided p = {} for the claim, {} against it (decisive below {})", testable.len(), sig(p_claim, 2), sig(p_against, 2), sig(alpha, 2)))
+    (
+        verdict,
+        format!(
+            "Stouffer over {} maps: one-sided p = {} for the claim, {} against it (decisive below {})",
+            testable.len(),
+            sig(p_claim, 2),
+            sig(p_against, 2),
+            sig(alpha, 2)
+        ),
+    )
 }
 
 /// Judges every claim of a study.
 pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
     let spec = &data.resolved.spec;
-    let mut index_metrics: Vec<String> = spec.claims.iter().filter(|c| c.index.is_some()).map(|c| c.metric.clone()).collect();
+    let mut index_metrics: Vec<String> =
+        spec.claims.iter().filter(|c| c.index.is_some()).map(|c| c.metric.clone()).collect();
     index_metrics.sort();
     index_metrics.dedup();
-    let analyses = if index_metrics.is_empty() { Vec::new() } else { super::sensitivity::analyse(data, &index_metrics) };
+    let analyses = if index_metrics.is_empty() {
+        Vec::new()
+    } else {
+        super::sensitivity::analyse(data, &index_metrics)
+    };
     spec.claims
         .iter()
         .filter_map(|claim| {
@@ -487,28 +649,55 @@ fn cell_text(t: &toml::Table) -> String {
     if leaves.is_empty() {
         return "base".into();
     }
-    leaves.iter().map(|(k, v)| format!("{k} = {}", crate::plan::format_value(v))).collect::<Vec<_>>().join(", ")
+    leaves
+        .iter()
+        .map(|(k, v)| format!("{k} = {}", crate::plan::format_value(v)))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The test in words.
 /// One map's outcome of an index claim.
-fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, map: &str, algorithm: &str) -> MapOutcome {
+fn index_on_map(
+    analyses: &[super::sensitivity::Analysis],
+    claim: &ClaimSpec,
+    map: &str,
+    algorithm: &str,
+) -> MapOutcome {
     use super::sensitivity::Indices;
     use crate::spec::IndexKind;
     use crate::stats::sensitivity::percentile_interval;
-    let Some(kind) = claim.index else { return MapOutcome::untestable("not an index claim".into()) };
-    let Some(a) = analyses.iter().find(|a| a.kind == kind.sweep() && a.map == map && a.algorithm == algorithm && a.metric == claim.metric) else {
-        return MapOutcome::untestable(format!("no {} analysis of {} on this map", kind.as_str(), claim.metric));
+    let Some(kind) = claim.index else {
+        return MapOutcome::untestable("not an index claim".into());
+    };
+    let Some(a) = analyses.iter().find(|a| {
+        a.kind == kind.sweep()
+            && a.map == map
+            && a.algorithm == algorithm
+            && a.metric == claim.metric
+    }) else {
+        return MapOutcome::untestable(format!(
+            "no {} analysis of {} on this map",
+            kind.as_str(),
+            claim.metric
+        ));
     };
     let Some(indices) = &a.indices else { return MapOutcome::untestable(a.note.clone()) };
-    let Some(i) = a.params.iter().position(|p| *p == claim.parameter) else { return MapOutcome::untestable(format!("`{}` is not a parameter of the sweep", claim.parameter)) };
+    let Some(i) = a.params.iter().position(|p| *p == claim.parameter) else {
+        return MapOutcome::untestable(format!(
+            "`{}` is not a parameter of the sweep",
+            claim.parameter
+        ));
+    };
     // (estimate, bootstrap replicates) of the index of parameter j
     let of = |j: usize| -> (f64, Vec<f64>) {
         match (indices, kind) {
             (Indices::Sobol(x), IndexKind::S1) => (x.s1[j].value, x.boot_s1[j].clone()),
             (Indices::Sobol(x), IndexKind::St) => (x.st[j].value, x.boot_st[j].clone()),
             (Indices::Sobol(x), IndexKind::Interaction) => x.interaction(j),
-            (Indices::Morris(m), IndexKind::MuStar) => (m[j].mu_star.value, m[j].boot_mu_star.clone()),
+            (Indices::Morris(m), IndexKind::MuStar) => {
+                (m[j].mu_star.value, m[j].boot_mu_star.clone())
+            }
             _ => (f64::NAN, Vec::new()),
         }
     };
@@ -517,7 +706,10 @@ fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, ma
     let floor_text = floor.map_or(String::new(), |f| format!("; noise floor {}", sig(f, 2)));
     let (value, reps) = of(i);
     if reps.is_empty() || !value.is_finite() {
-        return MapOutcome::untestable(format!("{name} of {} has no bootstrap interval", claim.parameter));
+        return MapOutcome::untestable(format!(
+            "{name} of {} has no bootstrap interval",
+            claim.parameter
+        ));
     }
     match claim.test {
         ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {
@@ -527,16 +719,52 @@ fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, ma
             let (lo_bound, hi_bound) = match claim.test {
                 ClaimTest::Above => (claim.value.unwrap_or(f64::NAN) + shift, f64::INFINITY),
                 ClaimTest::Below => (f64::NEG_INFINITY, claim.value.unwrap_or(f64::NAN) + shift),
-                _ => (claim.value.unwrap_or(f64::NAN) + shift, claim.upper.unwrap_or(f64::NAN) + shift),
+                _ => (
+                    claim.value.unwrap_or(f64::NAN) + shift,
+                    claim.upper.unwrap_or(f64::NAN) + shift,
+                ),
             };
             let strict = claim.test != ClaimTest::Between;
             let verdict = decide_range((e.low, e.high), (lo_bound, hi_bound), strict);
-            let direction = Some(if strict { value > lo_bound && value < hi_bound } else { value >= lo_bound && value <= hi_bound });
-            let against = if shift > 0.0 { format!(" (threshold + noise floor: {})", [lo_bound, hi_bound].iter().filter(|b| b.is_finite()).map(|b| sig(*b, 3)).collect::<Vec<_>>().join(", ")) } else { String::new() };
-            MapOutcome { verdict, text: format!("{name} of {} = {} [{}, {}]{floor_text}{against}", claim.parameter, sig(value, 3), sig(e.low, 3), sig(e.high, 3)), direction, p_claim: f64::NAN, p_against: f64::NAN }
+            let direction = Some(if strict {
+                value > lo_bound && value < hi_bound
+            } else {
+                value >= lo_bound && value <= hi_bound
+            });
+            let against = if shift > 0.0 {
+                format!(
+                    " (threshold + noise floor: {})",
+                    [lo_bound, hi_bound]
+                        .iter()
+                        .filter(|b| b.is_finite())
+                        .map(|b| sig(*b, 3))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            } else {
+                String::new()
+            };
+            MapOutcome {
+                verdict,
+                text: format!(
+                    "{name} of {} = {} [{}, {}]{floor_text}{against}",
+                    claim.parameter,
+                    sig(value, 3),
+                    sig(e.low, 3),
+                    sig(e.high, 3)
+                ),
+                direction,
+                p_claim: f64::NAN,
+                p_against: f64::NAN,
+            }
         }
         _ => {
-            let Some(j) = a.params.iter().position(|p| *p == claim.than_parameter) else { return MapOutcome::untestable(format!("`{}` is not a parameter of the sweep", claim.than_parameter)) };
+            let Some(j) = a.params.iter().position(|p| *p == claim.than_parameter) else {
+                return MapOutcome::untestable(format!(
+                    "`{}` is not a parameter of the sweep",
+                    claim.than_parameter
+                ));
+            };
             let (other, other_reps) = of(j);
             let diffs: Vec<f64> = reps.iter().zip(&other_reps).map(|(x, y)| x - y).collect();
             let e = percentile_interval(value - other, &diffs);
@@ -547,7 +775,17 @@ fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, ma
             let direction = Some(if above { e.value > delta } else { e.value < -delta });
             MapOutcome {
                 verdict,
-                text: format!("{name}: {} {} vs {} {}; difference {} [{}, {}] (δ = {})", claim.parameter, sig(value, 3), claim.than_parameter, sig(other, 3), sig(e.value, 3), sig(e.low, 3), sig(e.high, 3), sig(delta, 2)),
+                text: format!(
+                    "{name}: {} {} vs {} {}; difference {} [{}, {}] (δ = {})",
+                    claim.parameter,
+                    sig(value, 3),
+                    claim.than_parameter,
+                    sig(other, 3),
+                    sig(e.value, 3),
+                    sig(e.low, 3),
+                    sig(e.high, 3),
+                    sig(delta, 2)
+                ),
                 direction,
                 p_claim: f64::NAN,
                 p_against: f64::NAN,
@@ -560,12 +798,27 @@ fn index_on_map(analyses: &[super::sensitivity::Analysis], claim: &ClaimSpec, ma
 fn index_test_text(c: &ClaimSpec, kind: crate::spec::IndexKind, log: bool) -> String {
     let v = |x: Option<f64>| x.map_or("?".into(), |x| sig(x, 3));
     let name = kind.as_str();
-    let (parameter, metric) = (&c.parameter, if log { format!("ln {}", c.metric) } else { c.metric.clone() });
-    let floored = if matches!(kind, crate::spec::IndexKind::St | crate::spec::IndexKind::MuStar) { " plus the noise floor (the bias run-to-run noise adds to the estimate)" } else { "" };
+    let (parameter, metric) =
+        (&c.parameter, if log { format!("ln {}", c.metric) } else { c.metric.clone() });
+    let floored = if matches!(kind, crate::spec::IndexKind::St | crate::spec::IndexKind::MuStar) {
+        " plus the noise floor (the bias run-to-run noise adds to the estimate)"
+    } else {
+        ""
+    };
     match c.test {
-        ClaimTest::Above => format!("{name} of {parameter} for {metric}: 95 % bootstrap interval above {}{floored}", v(c.value)),
-        ClaimTest::Below => format!("{name} of {parameter} for {metric}: 95 % bootstrap interval below {}{floored}", v(c.value)),
-        ClaimTest::Between => format!("{name} of {parameter} for {metric}: 95 % bootstrap interval within [{}, {}]{floored}", v(c.value), v(c.upper)),
+        ClaimTest::Above => format!(
+            "{name} of {parameter} for {metric}: 95 % bootstrap interval above {}{floored}",
+            v(c.value)
+        ),
+        ClaimTest::Below => format!(
+            "{name} of {parameter} for {metric}: 95 % bootstrap interval below {}{floored}",
+            v(c.value)
+        ),
+        ClaimTest::Between => format!(
+            "{name} of {parameter} for {metric}: 95 % bootstrap interval within [{}, {}]{floored}",
+            v(c.value),
+            v(c.upper)
+        ),
         _ => format!(
             "{name} of {parameter} for {metric} {} that of {} by more than {}: 95 % bootstrap interval of the difference (same resamples)",
             if c.test == ClaimTest::Greater { "exceeds" } else { "is below" },
@@ -585,17 +838,24 @@ fn test_text(c: &ClaimSpec, cells: &ClaimCells, log: bool) -> String {
     let v = |x: Option<f64>| x.map_or("?".into(), |x| sig(x, 3));
     let margin = || match (c.min_effect, c.min_effect_rel) {
         (Some(a), _) => format!("δ = {}", sig(a, 3)),
-        (None, r) => format!("δ = {} % of the compared cell's mean", sig(100.0 * r.unwrap_or(DEFAULT_MIN_EFFECT_REL), 2)),
+        (None, r) => format!(
+            "δ = {} % of the compared cell's mean",
+            sig(100.0 * r.unwrap_or(DEFAULT_MIN_EFFECT_REL), 2)
+        ),
     };
     match c.test {
         ClaimTest::Fails => format!(
             "the runs{} at {at} fail{}: confirmed when every run fails, refuted when none does",
             c.algorithm.map_or(String::new(), |a| format!(" of {}", a.title())),
-            c.failure.as_deref().map_or(String::new(), |t| format!(" with an error containing “{t}”"))
+            c.failure
+                .as_deref()
+                .map_or(String::new(), |t| format!(" with an error containing “{t}”"))
         ),
         ClaimTest::Above => format!("{metric} at {at}: 95 % CI of the mean above {}", v(c.value)),
         ClaimTest::Below => format!("{metric} at {at}: 95 % CI of the mean below {}", v(c.value)),
-        ClaimTest::Between => format!("{metric} at {at}: 95 % CI of the mean within [{}, {}]", v(c.value), v(c.upper)),
+        ClaimTest::Between => {
+            format!("{metric} at {at}: 95 % CI of the mean within [{}, {}]", v(c.value), v(c.upper))
+        }
         ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
             let than = match c.than_algorithm {
                 Some(a) if c.than.is_empty() => format!("that of {}", a.title()),
@@ -609,21 +869,31 @@ fn test_text(c: &ClaimSpec, cells: &ClaimCells, log: bool) -> String {
                 ClaimTest::NotGreater => "is not above (non-inferiority)",
                 _ => "is not below (non-inferiority)",
             };
-            let by = if matches!(c.test, ClaimTest::Greater | ClaimTest::Less) { "by more than" } else { "by more than a margin" };
+            let by = if matches!(c.test, ClaimTest::Greater | ClaimTest::Less) {
+                "by more than"
+            } else {
+                "by more than a margin"
+            };
             format!("{metric}{who} at {at} {what} {than} {by} {} (paired 95 % CI)", margin())
         }
         ClaimTest::Flat => {
             let over: Vec<&str> = cells.over.iter().map(|(v, _)| v.as_str()).collect();
             let tol = match (c.tolerance, c.tolerance_rel) {
                 (Some(t), _) => sig(t, 3),
-                (None, r) => format!("{} % of the cells' mean level", sig(100.0 * r.unwrap_or(f64::NAN), 2)),
+                (None, r) => {
+                    format!("{} % of the cells' mean level", sig(100.0 * r.unwrap_or(f64::NAN), 2))
+                }
             };
             let how = match c.direction {
                 FlatDirection::Both => "equivalent (TOST: every pair's 90 % CI of the paired difference within ±tolerance)".to_string(),
                 FlatDirection::NoDecrease => format!("not lower than at {} by more than the tolerance (one-sided, 95 %)", over.first().copied().unwrap_or("?")),
                 FlatDirection::NoIncrease => format!("not higher than at {} by more than the tolerance (one-sided, 95 %)", over.first().copied().unwrap_or("?")),
             };
-            format!("{metric} over {} ∈ {{{}}} {how}; tolerance {tol}", c.over_param(), over.join(", "))
+            format!(
+                "{metric} over {} ∈ {{{}}} {how}; tolerance {tol}",
+                c.over_param(),
+                over.join(", ")
+            )
         }
     }
 }
@@ -707,7 +977,10 @@ mod tests {
             })
             .count();
         let rate = confirmed as f64 / trials as f64;
-        assert!(rate <= 0.05 + 3.0 * (0.05f64 * 0.95 / trials as f64).sqrt(), "confirmed in {rate} of the trials");
+        assert!(
+            rate <= 0.05 + 3.0 * (0.05f64 * 0.95 / trials as f64).sqrt(),
+            "confirmed in {rate} of the trials"
+        );
     }
 
     /// Without any effect, a greater claim is confirmed at most 2.5 % of the time.
@@ -716,7 +989,15 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(12);
         let noise = Normal::new(0.0, 1.0).unwrap();
         let trials = 4000;
-        let confirmed = (0..trials).filter(|_| decide_margin(&(0..5).map(|_| noise.sample(&mut rng)).collect::<Vec<_>>(), 0.0, true) == Verdict::Confirmed).count();
+        let confirmed = (0..trials)
+            .filter(|_| {
+                decide_margin(
+                    &(0..5).map(|_| noise.sample(&mut rng)).collect::<Vec<_>>(),
+                    0.0,
+                    true,
+                ) == Verdict::Confirmed
+            })
+            .count();
         assert!((confirmed as f64 / trials as f64) < 0.025 + 0.008, "{confirmed}");
     }
 
@@ -728,7 +1009,10 @@ mod tests {
         assert!(untestable_pair(&a, &inf, ("a", "b")).unwrap().contains("∞"));
         assert!(untestable_pair(&a, &short, ("a", "b")).unwrap().contains("2 paired replicates"));
         assert!(untestable_pair(&a, &a.clone(), ("a", "b")).unwrap().contains("identical"));
-        assert!(untestable_cells(&a, &a.clone(), ("a", "b")).is_none(), "identical cells are testable for equivalence");
+        assert!(
+            untestable_cells(&a, &a.clone(), ("a", "b")).is_none(),
+            "identical cells are testable for equivalence"
+        );
         let b: BTreeMap<u32, f64> = [(0, 1.5), (1, 2.0), (2, 3.0)].into();
         assert!(untestable_pair(&a, &b, ("a", "b")).is_none());
     }
@@ -750,7 +1034,13 @@ mod tests {
     /// together; and opposite maps cancel.
     #[test]
     fn pooling_by_stouffer() {
-        let o = |p_claim: f64, p_against: f64| MapOutcome { verdict: Verdict::Inconclusive, text: String::new(), direction: Some(true), p_claim, p_against };
+        let o = |p_claim: f64, p_against: f64| MapOutcome {
+            verdict: Verdict::Inconclusive,
+            text: String::new(),
+            direction: Some(true),
+            p_claim,
+            p_against,
+        };
         assert_eq!(pooled(&[o(0.04, 0.96), o(0.04, 0.96), o(0.04, 0.96)]).0, Verdict::Confirmed);
         assert_eq!(pooled(&[o(0.001, 0.999), o(0.999, 0.001)]).0, Verdict::Inconclusive);
         assert_eq!(pooled(&[MapOutcome::untestable("x".into())]).0, Verdict::Untestable);
@@ -762,7 +1052,7 @@ mod tests {
     #[test]
     fn index_claims_test_intervals_noise_floor_and_differences() {
         use super::super::sensitivity::{Analysis, Indices};
-        use crate::stats::sensitivity::{percentile_interval, Indices as Sobol};
+        use crate::stats::sensitivity::{Indices as Sobol, percentile_interval};
         // bootstrap replicates: parameter a's ST around 0.5, b's around 0.1
         let boot_a: Vec<f64> = (0..200).map(|k| 0.4 + 0.2 * k as f64 / 199.0).collect();
         let boot_b: Vec<f64> = boot_a.iter().map(|x| x - 0.4).collect();
@@ -775,7 +1065,12 @@ mod tests {
             metric: "ate_rmse_m".into(),
             log: false,
             params: vec!["a".into(), "b".into()],
-            indices: Some(Indices::Sobol(Sobol { s1: st.clone(), st: st.clone(), boot_s1: vec![boot_a.clone(), boot_b.clone()], boot_st: vec![boot_a.clone(), boot_b.clone()] })),
+            indices: Some(Indices::Sobol(Sobol {
+                s1: st.clone(),
+                st: st.clone(),
+                boot_s1: vec![boot_a.clone(), boot_b.clone()],
+                boot_st: vec![boot_a.clone(), boot_b.clone()],
+            })),
             shares: None,
             noise_floor: floor,
             used: 32,
@@ -788,18 +1083,37 @@ mod tests {
         let claim = |test: &str, parameter: &str, extra: &str| -> ClaimSpec {
             toml::from_str(&format!("id = \"c\"\nsource = \"s\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"st\"\nparameter = \"{parameter}\"\ntest = \"{test}\"\n{extra}")).unwrap()
         };
-        let verdict = |c: &ClaimSpec, floor: Option<f64>| index_on_map(&[analysis(floor)], c, "m", "fastslam1").verdict;
+        let verdict = |c: &ClaimSpec, floor: Option<f64>| {
+            index_on_map(&[analysis(floor)], c, "m", "fastslam1").verdict
+        };
         let above = claim("above", "a", "value = 0.3");
         assert_eq!(verdict(&above, Some(0.05)), Verdict::Confirmed);
-        assert_eq!(verdict(&above, Some(0.15)), Verdict::Inconclusive, "0.3 + a floor of 0.15 is inside [0.4, 0.6]: noise could make up the excess");
+        assert_eq!(
+            verdict(&above, Some(0.15)),
+            Verdict::Inconclusive,
+            "0.3 + a floor of 0.15 is inside [0.4, 0.6]: noise could make up the excess"
+        );
         assert_eq!(verdict(&claim("above", "b", "value = 0.3"), Some(0.05)), Verdict::Refuted);
         // "below 0.05" with a floor of 0.25: an estimate of 0.1 [0, 0.2] is what noise alone gives
         let below = claim("below", "b", "value = 0.05");
         assert_eq!(verdict(&below, None), Verdict::Inconclusive);
         assert_eq!(verdict(&below, Some(0.25)), Verdict::Confirmed);
-        assert_eq!(verdict(&claim("greater", "a", "than_parameter = \"b\""), None), Verdict::Confirmed);
-        assert_eq!(verdict(&claim("greater", "b", "than_parameter = \"a\""), None), Verdict::Refuted);
-        assert_eq!(verdict(&claim("greater", "a", "than_parameter = \"b\"\nmin_effect = 0.5"), None), Verdict::Refuted, "difference 0.4 is not more than 0.5");
-        assert_eq!(index_on_map(&[analysis(None)], &above, "other-map", "fastslam1").verdict, Verdict::Untestable);
+        assert_eq!(
+            verdict(&claim("greater", "a", "than_parameter = \"b\""), None),
+            Verdict::Confirmed
+        );
+        assert_eq!(
+            verdict(&claim("greater", "b", "than_parameter = \"a\""), None),
+            Verdict::Refuted
+        );
+        assert_eq!(
+            verdict(&claim("greater", "a", "than_parameter = \"b\"\nmin_effect = 0.5"), None),
+            Verdict::Refuted,
+            "difference 0.4 is not more than 0.5"
+        );
+        assert_eq!(
+            index_on_map(&[analysis(None)], &above, "other-map", "fastslam1").verdict,
+            Verdict::Untestable
+        );
     }
 }

@@ -19,7 +19,7 @@ use super::agreement::{self, Published};
 use super::claims::{ClaimResult, Verdict};
 use crate::stats::compare::spearman;
 use crate::stats::sig;
-use crate::store::reference::{cell_metric_name, ReferenceRow};
+use crate::store::reference::{ReferenceRow, cell_metric_name};
 use crate::store::{ParamValue, StudyData};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -84,12 +84,20 @@ pub struct CellSelector {
 pub fn parse_items(text: &str) -> Result<Vec<Item>, String> {
     let f: ItemsFile = toml::from_str(text).map_err(|e| e.to_string())?;
     for (i, it) in f.item.iter().enumerate() {
-        let answers = it.cells.is_some() as usize + (!it.claims.is_empty()) as usize + it.missing.is_some() as usize;
+        let answers = it.cells.is_some() as usize
+            + (!it.claims.is_empty()) as usize
+            + it.missing.is_some() as usize;
         if answers != 1 {
-            return Err(format!("item[{i}] ({}): needs exactly one of `cells`, `claims` or `missing`", it.id));
+            return Err(format!(
+                "item[{i}] ({}): needs exactly one of `cells`, `claims` or `missing`",
+                it.id
+            ));
         }
         if (it.cells.is_some() || !it.claims.is_empty()) && it.study.is_none() {
-            return Err(format!("item[{i}] ({}): `cells` and `claims` need the `study` that answers them", it.id));
+            return Err(format!(
+                "item[{i}] ({}): `cells` and `claims` need the `study` that answers them",
+                it.id
+            ));
         }
         if f.item[..i].iter().any(|o| o.id == it.id) {
             return Err(format!("item[{i}]: id `{}` is used twice", it.id));
@@ -142,11 +150,19 @@ pub fn point_of(data: &StudyData, row: &ReferenceRow) -> Option<String> {
 /// (wide layout) the first point that sets the row's parameter to the row's value, or, when that
 /// value is the base one, a point of the base configuration (every value it sets equals the
 /// base's) — never a point that varies another parameter.
-pub fn point_in(points: &[crate::store::PointRecord], base: &toml::Table, row: &ReferenceRow) -> Option<String> {
+pub fn point_in(
+    points: &[crate::store::PointRecord],
+    base: &toml::Table,
+    row: &ReferenceRow,
+) -> Option<String> {
     if !row.cell.is_empty() {
         return points.iter().find(|p| p.label == row.cell).map(|p| p.label.clone());
     }
-    let close = |v: &toml::Value| ParamValue::from_toml(v).as_f64().is_some_and(|v| v == row.value || (v - row.value).abs() <= 1e-9 * row.value.abs().max(1.0));
+    let close = |v: &toml::Value| {
+        ParamValue::from_toml(v).as_f64().is_some_and(|v| {
+            v == row.value || (v - row.value).abs() <= 1e-9 * row.value.abs().max(1.0)
+        })
+    };
     if let Some(p) = points.iter().find(|p| p.assignments.get(&row.parameter).is_some_and(close)) {
         return Some(p.label.clone());
     }
@@ -156,15 +172,23 @@ pub fn point_in(points: &[crate::store::PointRecord], base: &toml::Table, row: &
         return None;
     }
     let at_base = |k: &str, v: &toml::Value| leaves.iter().any(|(b, bv)| b == k && bv == v);
-    points.iter().find(|p| p.assignments.iter().all(|(k, v)| at_base(k, v))).map(|p| p.label.clone())
+    points
+        .iter()
+        .find(|p| p.assignments.iter().all(|(k, v)| at_base(k, v)))
+        .map(|p| p.label.clone())
 }
 
 /// Our successful replicates' values of `metric` in the cell a published row describes (the
 /// study's first algorithm for a wide-layout row).
 pub fn our_values(data: &StudyData, row: &ReferenceRow, metric: &str) -> Option<Vec<f64>> {
     let point = point_of(data, row)?;
-    let algorithm = if row.algorithm.is_empty() { data.resolved.spec.algorithms.first()?.name().to_string() } else { row.algorithm.clone() };
-    let v: Vec<f64> = data.replicate_values(&row.map, &algorithm, &point, metric).into_values().collect();
+    let algorithm = if row.algorithm.is_empty() {
+        data.resolved.spec.algorithms.first()?.name().to_string()
+    } else {
+        row.algorithm.clone()
+    };
+    let v: Vec<f64> =
+        data.replicate_values(&row.map, &algorithm, &point, metric).into_values().collect();
     (!v.is_empty()).then_some(v)
 }
 
@@ -186,7 +210,9 @@ fn selected<'a>(data: &'a StudyData, sel: &CellSelector) -> Vec<(&'a ReferenceRo
                 && (sel.algorithms.is_empty() || sel.algorithms.contains(&row.algorithm))
                 && (sel.cells.is_empty() || sel.cells.contains(&row.cell))
         } else {
-            (experiments.is_empty() || experiments.contains(&row.experiment)) && (sel.values.is_empty() || sel.values.iter().any(|v| (v - row.value).abs() <= 1e-9 * v.abs().max(1.0)))
+            (experiments.is_empty() || experiments.contains(&row.experiment))
+                && (sel.values.is_empty()
+                    || sel.values.iter().any(|v| (v - row.value).abs() <= 1e-9 * v.abs().max(1.0)))
         };
         if !ok || !(sel.maps.is_empty() || sel.maps.contains(&row.map)) {
             continue;
@@ -197,7 +223,11 @@ fn selected<'a>(data: &'a StudyData, sel: &CellSelector) -> Vec<(&'a ReferenceRo
             None => vec!["mean", "max"],
         };
         for m in &sel.metrics {
-            let names: Vec<String> = if long { stats.iter().map(|s| cell_metric_name(m, s)).collect() } else { vec![m.clone()] };
+            let names: Vec<String> = if long {
+                stats.iter().map(|s| cell_metric_name(m, s)).collect()
+            } else {
+                vec![m.clone()]
+            };
             for name in names {
                 if row.metric(&name).is_some() {
                     out.push((row, name));
@@ -215,21 +245,43 @@ fn classify_cells(data: &StudyData, sel: &CellSelector) -> (Class, String) {
     let mut series: BTreeMap<(String, String, String), Vec<(f64, f64)>> = BTreeMap::new();
     let (mut compatible, mut judged) = (0usize, 0usize);
     for (row, metric) in &rows {
-        let (Some(p), Some(ours)) = (published(data, row, metric), our_values(data, row, metric)) else { continue };
+        let (Some(p), Some(ours)) = (published(data, row, metric), our_values(data, row, metric))
+        else {
+            continue;
+        };
         let a = agreement::judge(p, &ours);
         if let Some(c) = a.compatible {
             judged += 1;
             compatible += c as usize;
         }
         let mean = ours.iter().sum::<f64>() / ours.len() as f64;
-        series.entry((row.map.clone(), row.algorithm.clone(), metric.clone())).or_default().push((p.mean, mean));
+        series
+            .entry((row.map.clone(), row.algorithm.clone(), metric.clone()))
+            .or_default()
+            .push((p.mean, mean));
     }
     if judged == 0 {
-        return (Class::Missing, format!("none of the {} selected published cells has a counterpart with ≥ 2 replicates", rows.len()));
+        return (
+            Class::Missing,
+            format!(
+                "none of the {} selected published cells has a counterpart with ≥ 2 replicates",
+                rows.len()
+            ),
+        );
     }
     let share = compatible as f64 / judged as f64;
-    let rho_of = |s: &[(f64, f64)]| spearman(&s.iter().map(|x| x.0).collect::<Vec<_>>(), &s.iter().map(|x| x.1).collect::<Vec<_>>());
-    let mut rhos: Vec<f64> = series.values().filter(|s| s.len() >= 3).map(|s| rho_of(s)).filter(|r| r.is_finite()).collect();
+    let rho_of = |s: &[(f64, f64)]| {
+        spearman(
+            &s.iter().map(|x| x.0).collect::<Vec<_>>(),
+            &s.iter().map(|x| x.1).collect::<Vec<_>>(),
+        )
+    };
+    let mut rhos: Vec<f64> = series
+        .values()
+        .filter(|s| s.len() >= 3)
+        .map(|s| rho_of(s))
+        .filter(|r| r.is_finite())
+        .collect();
     let mut scope = "series";
     if rhos.is_empty() {
         // no series of 3: one ordering per metric over the item's cells
@@ -237,7 +289,12 @@ fn classify_cells(data: &StudyData, sel: &CellSelector) -> (Class, String) {
         for ((_, _, m), s) in &series {
             by_metric.entry(m.as_str()).or_default().extend(s);
         }
-        rhos = by_metric.values().filter(|s| s.len() >= 3).map(|s| rho_of(s)).filter(|r| r.is_finite()).collect();
+        rhos = by_metric
+            .values()
+            .filter(|s| s.len() >= 3)
+            .map(|s| rho_of(s))
+            .filter(|r| r.is_finite())
+            .collect();
         scope = "metric";
     }
     let rho = if rhos.is_empty() { f64::NAN } else { rhos.iter().sum::<f64>() / rhos.len() as f64 };
@@ -248,24 +305,47 @@ fn classify_cells(data: &StudyData, sel: &CellSelector) -> (Class, String) {
     } else {
         Class::Disagree
     };
-    let rho_text = if rho.is_nan() { "no ordering to compare".to_string() } else { format!("mean Spearman ρ {} over {} {scope} orderings", sig(rho, 2), rhos.len()) };
-    (class, format!("{compatible} of {judged} cells compatible with the published spread; {rho_text}"))
+    let rho_text = if rho.is_nan() {
+        "no ordering to compare".to_string()
+    } else {
+        format!("mean Spearman ρ {} over {} {scope} orderings", sig(rho, 2), rhos.len())
+    };
+    (
+        class,
+        format!("{compatible} of {judged} cells compatible with the published spread; {rho_text}"),
+    )
 }
 
 /// Classifies an item answered by claims.
 fn classify_claims(ids: &[String], claims: &[&ClaimResult]) -> (Class, String) {
-    let found: Vec<&&ClaimResult> = ids.iter().filter_map(|id| claims.iter().find(|c| &c.id == id)).collect();
-    let listed = found.iter().map(|c| format!("{}: {}", c.id, c.verdict.as_str())).collect::<Vec<_>>().join("; ");
+    let found: Vec<&&ClaimResult> =
+        ids.iter().filter_map(|id| claims.iter().find(|c| &c.id == id)).collect();
+    let listed = found
+        .iter()
+        .map(|c| format!("{}: {}", c.id, c.verdict.as_str()))
+        .collect::<Vec<_>>()
+        .join("; ");
     if found.len() != ids.len() {
-        let absent: Vec<&String> = ids.iter().filter(|id| !claims.iter().any(|c| &c.id == *id)).collect();
-        return (Class::Missing, format!("claims not evaluated: {}", absent.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")));
+        let absent: Vec<&String> =
+            ids.iter().filter(|id| !claims.iter().any(|c| &c.id == *id)).collect();
+        return (
+            Class::Missing,
+            format!(
+                "claims not evaluated: {}",
+                absent.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
+            ),
+        );
     }
-    let testable: Vec<&&ClaimResult> = found.iter().copied().filter(|c| c.verdict != Verdict::Untestable).collect();
+    let testable: Vec<&&ClaimResult> =
+        found.iter().copied().filter(|c| c.verdict != Verdict::Untestable).collect();
     let class = if testable.is_empty() {
         Class::Missing
     } else if testable.iter().all(|c| c.verdict == Verdict::Confirmed) {
         Class::Match
-    } else if testable.iter().any(|c| c.verdict == Verdict::Refuted || (c.verdict == Verdict::Inconclusive && c.direction_agrees != Some(true))) {
+    } else if testable.iter().any(|c| {
+        c.verdict == Verdict::Refuted
+            || (c.verdict == Verdict::Inconclusive && c.direction_agrees != Some(true))
+    }) {
         Class::Disagree
     } else {
         Class::Trend
@@ -275,7 +355,11 @@ fn classify_claims(ids: &[String], claims: &[&ClaimResult]) -> (Class, String) {
 
 /// Classifies every item. `studies` are the studies with runs; `claims` every judged claim
 /// (including those of studies whose report was kept without runs).
-pub fn classify(items: &[Item], studies: &BTreeMap<String, &StudyData>, claims: &[ClaimResult]) -> Vec<ItemResult> {
+pub fn classify(
+    items: &[Item],
+    studies: &BTreeMap<String, &StudyData>,
+    claims: &[ClaimResult],
+) -> Vec<ItemResult> {
     items
         .iter()
         .map(|it| {
@@ -288,10 +372,19 @@ pub fn classify(items: &[Item], studies: &BTreeMap<String, &StudyData>, claims: 
                     None => (Class::Missing, format!("study {study} has no results here")),
                 }
             } else {
-                let of_study: Vec<&ClaimResult> = claims.iter().filter(|c| c.study == study).collect();
+                let of_study: Vec<&ClaimResult> =
+                    claims.iter().filter(|c| c.study == study).collect();
                 classify_claims(&it.claims, &of_study)
             };
-            ItemResult { id: it.id.clone(), seed: it.seed.clone(), source: it.source.clone(), result: it.result.clone(), study, class, basis }
+            ItemResult {
+                id: it.id.clone(),
+                seed: it.seed.clone(),
+                source: it.source.clone(),
+                result: it.result.clone(),
+                study,
+                class,
+                basis,
+            }
         })
         .collect()
 }
@@ -341,12 +434,31 @@ mod tests {
     /// the parameter at base while varying another (σρ² = 1e-4).
     #[test]
     fn a_base_valued_row_maps_to_the_base_configuration() {
-        let point = |label: &str, k: &str, v: f64| crate::store::PointRecord { label: label.into(), groups: vec![0], assignments: [(k.to_string(), toml::Value::Float(v))].into_iter().collect() };
+        let point = |label: &str, k: &str, v: f64| crate::store::PointRecord {
+            label: label.into(),
+            groups: vec![0],
+            assignments: [(k.to_string(), toml::Value::Float(v))].into_iter().collect(),
+        };
         let rho = "fastslam.obs_var_rho_m2";
         let theta = "fastslam.obs_var_theta_rad2";
-        let points = vec![point("rho-small", rho, 1e-4), point("rho-base", rho, 0.04), point("theta-small", theta, 1e-4)];
-        let base: toml::Table = toml::from_str("[fastslam]\nobs_var_rho_m2 = 0.04\nobs_var_theta_rad2 = 0.001224\n").unwrap();
-        let row = |param: &str, value: f64| ReferenceRow { experiment: "e".into(), table: "t".into(), map: "m".into(), parameter: param.into(), value, metrics: Vec::new(), algorithm: String::new(), cell: String::new() };
+        let points = vec![
+            point("rho-small", rho, 1e-4),
+            point("rho-base", rho, 0.04),
+            point("theta-small", theta, 1e-4),
+        ];
+        let base: toml::Table =
+            toml::from_str("[fastslam]\nobs_var_rho_m2 = 0.04\nobs_var_theta_rad2 = 0.001224\n")
+                .unwrap();
+        let row = |param: &str, value: f64| ReferenceRow {
+            experiment: "e".into(),
+            table: "t".into(),
+            map: "m".into(),
+            parameter: param.into(),
+            value,
+            metrics: Vec::new(),
+            algorithm: String::new(),
+            cell: String::new(),
+        };
         assert_eq!(point_in(&points, &base, &row(theta, 0.001224)).as_deref(), Some("rho-base"));
         assert_eq!(point_in(&points, &base, &row(theta, 1e-4)).as_deref(), Some("theta-small"));
         assert_eq!(point_in(&points, &base, &row(theta, 0.5)), None, "no counterpart");

@@ -17,7 +17,9 @@
 
 use crate::plan::design::DesignRecord;
 use crate::spec::SweepKind;
-use crate::stats::sensitivity::{screen, sobol_indices, variance_shares, Screening, VarianceShares};
+use crate::stats::sensitivity::{
+    Screening, VarianceShares, screen, sobol_indices, variance_shares,
+};
 use crate::store::{RunStatus, StudyData};
 use std::collections::{BTreeMap, HashMap};
 
@@ -70,9 +72,15 @@ pub struct Analysis {
 pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
     let spec = &data.resolved.spec;
     // (map, algorithm, point) → replicate → metrics
-    let mut cells: HashMap<(&str, &str), HashMap<&str, Vec<&crate::store::RunRow>>> = HashMap::new();
+    let mut cells: HashMap<(&str, &str), HashMap<&str, Vec<&crate::store::RunRow>>> =
+        HashMap::new();
     for r in &data.runs {
-        cells.entry((r.map.as_str(), r.algorithm.as_str())).or_default().entry(r.point.as_str()).or_default().push(r);
+        cells
+            .entry((r.map.as_str(), r.algorithm.as_str()))
+            .or_default()
+            .entry(r.point.as_str())
+            .or_default()
+            .push(r);
     }
     let mut out = Vec::new();
     for (gi, group) in data.resolved.groups.iter().enumerate() {
@@ -82,9 +90,31 @@ pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
                 let alg = algorithm.name();
                 let of_cell = cells.get(&(map.as_str(), alg));
                 for metric in metrics {
-                    let seed = crate::plan::derive_seed(spec.seed, map, gi as u32, &format!("bootstrap:{alg}:{metric}"));
+                    let seed = crate::plan::derive_seed(
+                        spec.seed,
+                        map,
+                        gi as u32,
+                        &format!("bootstrap:{alg}:{metric}"),
+                    );
                     let log = spec.report.sensitivity_log.contains(metric);
-                    out.push(one(gi, group.kind, &group.params, design, |point| of_cell.and_then(|c| c.get(point)).map(Vec::as_slice).unwrap_or_default(), map, alg, metric, log, spec.replicates as usize, seed));
+                    out.push(one(
+                        gi,
+                        group.kind,
+                        &group.params,
+                        design,
+                        |point| {
+                            of_cell
+                                .and_then(|c| c.get(point))
+                                .map(Vec::as_slice)
+                                .unwrap_or_default()
+                        },
+                        map,
+                        alg,
+                        metric,
+                        log,
+                        spec.replicates as usize,
+                        seed,
+                    ));
                 }
             }
         }
@@ -93,7 +123,19 @@ pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &DesignRecord, runs_of: impl Fn(&str) -> &'a [&'r crate::store::RunRow], map: &str, alg: &str, metric: &str, log: bool, replicates: usize, seed: u64) -> Analysis {
+fn one<'a, 'r: 'a>(
+    gi: usize,
+    kind: SweepKind,
+    params: &[String],
+    design: &DesignRecord,
+    runs_of: impl Fn(&str) -> &'a [&'r crate::store::RunRow],
+    map: &str,
+    alg: &str,
+    metric: &str,
+    log: bool,
+    replicates: usize,
+    seed: u64,
+) -> Analysis {
     let d = params.len();
     // what a run gives: [`FAILED`] is 1 for a failed run and 0 for a finished one; a metric is
     // read from finished runs only (ln of it on a log scale), None when it is not finite
@@ -127,11 +169,16 @@ fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &Desig
         .rows
         .iter()
         .map(|l| {
-            let (sum, n) = points[l.as_str()].iter().flatten().fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+            let (sum, n) =
+                points[l.as_str()].iter().flatten().fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
             if n == 0 { f64::NAN } else { sum / n as f64 }
         })
         .collect();
-    let complete: Vec<Vec<f64>> = points.values().filter(|r| r.iter().all(Option::is_some)).map(|r| r.iter().flatten().copied().collect()).collect();
+    let complete: Vec<Vec<f64>> = points
+        .values()
+        .filter(|r| r.iter().all(Option::is_some))
+        .map(|r| r.iter().flatten().copied().collect())
+        .collect();
     let shares = variance_shares(&complete);
     let mut a = Analysis {
         group: gi,
@@ -156,17 +203,24 @@ fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &Desig
     match kind {
         SweepKind::Sobol => {
             let n = design.size;
-            let keep: Vec<usize> = (0..n).filter(|&k| (0..d + 2).all(|block| y[block * n + k].is_finite())).collect();
+            let keep: Vec<usize> =
+                (0..n).filter(|&k| (0..d + 2).all(|block| y[block * n + k].is_finite())).collect();
             a.used = keep.len();
             if keep.len() < 8 {
-                a.note = format!("only {} of {n} samples have a value at every one of their {} points: too few to estimate indices", keep.len(), d + 2);
+                a.note = format!(
+                    "only {} of {n} samples have a value at every one of their {} points: too few to estimate indices",
+                    keep.len(),
+                    d + 2
+                );
                 return a;
             }
             let fa: Vec<f64> = keep.iter().map(|&k| y[k]).collect();
             let fb: Vec<f64> = keep.iter().map(|&k| y[n + k]).collect();
-            let fab: Vec<Vec<f64>> = (0..d).map(|i| keep.iter().map(|&k| y[(2 + i) * n + k]).collect()).collect();
+            let fab: Vec<Vec<f64>> =
+                (0..d).map(|i| keep.iter().map(|&k| y[(2 + i) * n + k]).collect()).collect();
             let mean = fa.iter().chain(&fb).sum::<f64>() / (2 * fa.len()) as f64;
-            let v = fa.iter().chain(&fb).map(|x| (x - mean).powi(2)).sum::<f64>() / (2 * fa.len()) as f64;
+            let v = fa.iter().chain(&fb).map(|x| (x - mean).powi(2)).sum::<f64>()
+                / (2 * fa.len()) as f64;
             if v <= 0.0 {
                 a.note = "the metric takes the same value at every sampled point: no variance to apportion".into();
                 return a;
@@ -177,7 +231,8 @@ fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &Desig
         }
         SweepKind::Morris => {
             let per = d + 1;
-            let trajectories: Vec<Vec<Vec<f64>>> = design.unit.chunks(per).map(<[Vec<f64>]>::to_vec).collect();
+            let trajectories: Vec<Vec<Vec<f64>>> =
+                design.unit.chunks(per).map(<[Vec<f64>]>::to_vec).collect();
             let f: Vec<Vec<f64>> = y.chunks(per).map(<[f64]>::to_vec).collect();
             a.used = f.iter().filter(|t| t.iter().all(|v| v.is_finite())).count();
             if f.iter().flatten().all(|v| !v.is_finite()) {
@@ -186,7 +241,9 @@ fn one<'a, 'r: 'a>(gi: usize, kind: SweepKind, params: &[String], design: &Desig
             }
             let s = screen(&trajectories, &design.moved, &f, RESAMPLES, seed);
             let delta = design.delta.unwrap_or(f64::NAN);
-            a.noise_floor = shares.filter(|_| replicates >= 2).map(|s| (2.0 * s.residual_var / r).sqrt() * (2.0 / std::f64::consts::PI).sqrt() / delta);
+            a.noise_floor = shares.filter(|_| replicates >= 2).map(|s| {
+                (2.0 * s.residual_var / r).sqrt() * (2.0 / std::f64::consts::PI).sqrt() / delta
+            });
             a.indices = Some(Indices::Morris(s));
         }
         _ => unreachable!("only design groups are analysed"),
@@ -206,9 +263,16 @@ mod tests {
         use crate::store::RunRow;
         let n = 64;
         let unit = crate::stats::sensitivity::Saltelli::new(n, 2, 9);
-        let rows: Vec<Vec<f64>> = unit.a.iter().chain(&unit.b).chain(unit.ab.iter().flatten()).cloned().collect();
+        let rows: Vec<Vec<f64>> =
+            unit.a.iter().chain(&unit.b).chain(unit.ab.iter().flatten()).cloned().collect();
         let labels: Vec<String> = (0..rows.len()).map(|i| format!("p{i}")).collect();
-        let design = DesignRecord { size: n, rows: labels.clone(), moved: Vec::new(), unit: Vec::new(), delta: None };
+        let design = DesignRecord {
+            size: n,
+            rows: labels.clone(),
+            moved: Vec::new(),
+            unit: Vec::new(),
+            delta: None,
+        };
         let mut runs = Vec::new();
         for (i, x) in rows.iter().enumerate() {
             for rep in 0..3u32 {
@@ -228,20 +292,48 @@ mod tests {
                     params_hash: String::new(),
                     code_version: String::new(),
                     params: Vec::new(),
-                    metrics: if failed { Vec::new() } else { vec![("y".into(), 4.0 * x[0] + x[1] + 0.1 * rep as f64)] },
+                    metrics: if failed {
+                        Vec::new()
+                    } else {
+                        vec![("y".into(), 4.0 * x[0] + x[1] + 0.1 * rep as f64)]
+                    },
                 });
             }
         }
         let refs: Vec<&RunRow> = runs.iter().collect();
-        let by_point = |p: &str| -> Vec<&RunRow> { refs.iter().copied().filter(|r| r.point == p).collect() };
-        let cells: HashMap<String, Vec<&RunRow>> = labels.iter().map(|l| (l.clone(), by_point(l))).collect();
-        let a = one(0, SweepKind::Sobol, &["a".into(), "b".into()], &design, |p| cells.get(p).map(Vec::as_slice).unwrap_or_default(), "m", "odometry", "y", false, 3, 1);
+        let by_point =
+            |p: &str| -> Vec<&RunRow> { refs.iter().copied().filter(|r| r.point == p).collect() };
+        let cells: HashMap<String, Vec<&RunRow>> =
+            labels.iter().map(|l| (l.clone(), by_point(l))).collect();
+        let a = one(
+            0,
+            SweepKind::Sobol,
+            &["a".into(), "b".into()],
+            &design,
+            |p| cells.get(p).map(Vec::as_slice).unwrap_or_default(),
+            "m",
+            "odometry",
+            "y",
+            false,
+            3,
+            1,
+        );
         let Some(Indices::Sobol(x)) = &a.indices else { panic!("{}", a.note) };
         let (s1, st) = (&x.s1, &x.st);
-        assert!((s1[0].value - 16.0 / 17.0).abs() < 0.08 && (st[0].value - 16.0 / 17.0).abs() < 0.05, "{s1:?} {st:?}");
+        assert!(
+            (s1[0].value - 16.0 / 17.0).abs() < 0.08 && (st[0].value - 16.0 / 17.0).abs() < 0.05,
+            "{s1:?} {st:?}"
+        );
         assert!((st[1].value - 1.0 / 17.0).abs() < 0.02, "{st:?}");
-        assert_eq!((a.runs, a.failed, a.used), (rows.len() * 3, 1, n), "a failed replicate leaves its point averaged over the other two");
+        assert_eq!(
+            (a.runs, a.failed, a.used),
+            (rows.len() * 3, 1, n),
+            "a failed replicate leaves its point averaged over the other two"
+        );
         let shares = a.shares.unwrap();
-        assert!(shares.world > 0.0 && shares.residual < 1e-12, "additive replicate offsets are the world's share: {shares:?}");
+        assert!(
+            shares.world > 0.0 && shares.residual < 1e-12,
+            "additive replicate offsets are the world's share: {shares:?}"
+        );
     }
 }

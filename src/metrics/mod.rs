@@ -2,7 +2,7 @@
 //! (translation part, no alignment: both trajectories start at the same pose), with evo's names
 //! (rmse, mean, median, max).
 
-use crate::geom::{wrap_angle, Line, Point2, Pose2};
+use crate::geom::{Line, Point2, Pose2, wrap_angle};
 use crate::slam::{LandmarkMap, Trace};
 use crate::world::World;
 
@@ -23,9 +23,27 @@ pub const ATE_RMSE: &str = "ate_rmse_m";
 
 /// Every metric the pipeline can produce, in display order.
 pub const METRICS: &[MetricDef] = &[
-    MetricDef { name: ATE_RMSE, title: "ATE RMSE", unit: "m", description: "root mean square of the position error over all steps (evo APE, translation; no alignment, except a rigid one where the truth is positions only: see the modelling choices)", lower_is_better: true },
-    MetricDef { name: "ate_x_rmse_m", title: "ATE RMSE in x", unit: "m", description: "root mean square of the x component of the position error over all steps (the map frame's x axis)", lower_is_better: true },
-    MetricDef { name: "ate_y_rmse_m", title: "ATE RMSE in y", unit: "m", description: "root mean square of the y component of the position error over all steps", lower_is_better: true },
+    MetricDef {
+        name: ATE_RMSE,
+        title: "ATE RMSE",
+        unit: "m",
+        description: "root mean square of the position error over all steps (evo APE, translation; no alignment, except a rigid one where the truth is positions only: see the modelling choices)",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "ate_x_rmse_m",
+        title: "ATE RMSE in x",
+        unit: "m",
+        description: "root mean square of the x component of the position error over all steps (the map frame's x axis)",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "ate_y_rmse_m",
+        title: "ATE RMSE in y",
+        unit: "m",
+        description: "root mean square of the y component of the position error over all steps",
+        lower_is_better: true,
+    },
     MetricDef {
         name: "ate_x_share",
         title: "x share of the squared error",
@@ -33,13 +51,55 @@ pub const METRICS: &[MetricDef] = &[
         description: "Σ Δx² / Σ (Δx² + Δy²) over all steps (absent when the trajectory has no error): above 0.5 when the drift is mostly along x ([FT] claim 14: Complex's 40 m corridor along x)",
         lower_is_better: false,
     },
-    MetricDef { name: "ate_mean_m", title: "ATE mean", unit: "m", description: "mean position error over all steps", lower_is_better: true },
-    MetricDef { name: "ate_median_m", title: "ATE median", unit: "m", description: "median position error over all steps", lower_is_better: true },
-    MetricDef { name: "ate_max_m", title: "ATE max", unit: "m", description: "largest position error over all steps", lower_is_better: true },
-    MetricDef { name: "final_position_error_m", title: "Final position error", unit: "m", description: "position error at the last step", lower_is_better: true },
-    MetricDef { name: "final_heading_error_deg", title: "Final heading error", unit: "deg", description: "absolute heading error at the last step, wrapped to [0, 180]", lower_is_better: true },
-    MetricDef { name: "path_length_m", title: "Path length", unit: "m", description: "length of the true trajectory", lower_is_better: false },
-    MetricDef { name: "numerical_failures", title: "Numerical failures", unit: "count", description: "numerical problems the algorithm met and survived", lower_is_better: true },
+    MetricDef {
+        name: "ate_mean_m",
+        title: "ATE mean",
+        unit: "m",
+        description: "mean position error over all steps",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "ate_median_m",
+        title: "ATE median",
+        unit: "m",
+        description: "median position error over all steps",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "ate_max_m",
+        title: "ATE max",
+        unit: "m",
+        description: "largest position error over all steps",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "final_position_error_m",
+        title: "Final position error",
+        unit: "m",
+        description: "position error at the last step",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "final_heading_error_deg",
+        title: "Final heading error",
+        unit: "deg",
+        description: "absolute heading error at the last step, wrapped to [0, 180]",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "path_length_m",
+        title: "Path length",
+        unit: "m",
+        description: "length of the true trajectory",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "numerical_failures",
+        title: "Numerical failures",
+        unit: "count",
+        description: "numerical problems the algorithm met and survived",
+        lower_is_better: true,
+    },
     MetricDef {
         name: LANDMARK_ERROR,
         title: "Landmark error",
@@ -47,13 +107,55 @@ pub const METRICS: &[MetricDef] = &[
         description: "[FT] §5: mean, over the landmarks of the final map, of the distance to the nearest same-type true landmark (lines compared by their foot point (ρ cos θ, ρ sin θ)); ∞ when nothing is detected",
         lower_is_better: true,
     },
-    MetricDef { name: LANDMARKS_DETECTED, title: "Landmarks detected", unit: "count", description: "landmarks (lines + corners) in the final map ([FT]'s \"hitos detectados\")", lower_is_better: false },
-    MetricDef { name: "lines_detected", title: "Lines detected", unit: "count", description: "lines in the final map", lower_is_better: false },
-    MetricDef { name: "corners_detected", title: "Corners detected", unit: "count", description: "corners in the final map", lower_is_better: false },
-    MetricDef { name: "landmarks_true", title: "True landmarks", unit: "count", description: "landmarks of the map's ground truth (8, 9, 16, 22, 26 for the [FT] maps)", lower_is_better: false },
-    MetricDef { name: "landmark_count_ratio", title: "Detected / true landmarks", unit: "ratio", description: "landmarks detected divided by the true count (1 = as many as there are)", lower_is_better: false },
-    MetricDef { name: "landmark_precision", title: "Landmark precision", unit: "fraction", description: "share of detected landmarks within 0.5 m of a same-type true landmark", lower_is_better: false },
-    MetricDef { name: "landmark_recall", title: "Landmark recall", unit: "fraction", description: "share of true landmarks with a same-type detected landmark within 0.5 m", lower_is_better: false },
+    MetricDef {
+        name: LANDMARKS_DETECTED,
+        title: "Landmarks detected",
+        unit: "count",
+        description: "landmarks (lines + corners) in the final map ([FT]'s \"hitos detectados\")",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "lines_detected",
+        title: "Lines detected",
+        unit: "count",
+        description: "lines in the final map",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "corners_detected",
+        title: "Corners detected",
+        unit: "count",
+        description: "corners in the final map",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "landmarks_true",
+        title: "True landmarks",
+        unit: "count",
+        description: "landmarks of the map's ground truth (8, 9, 16, 22, 26 for the [FT] maps)",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "landmark_count_ratio",
+        title: "Detected / true landmarks",
+        unit: "ratio",
+        description: "landmarks detected divided by the true count (1 = as many as there are)",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "landmark_precision",
+        title: "Landmark precision",
+        unit: "fraction",
+        description: "share of detected landmarks within 0.5 m of a same-type true landmark",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "landmark_recall",
+        title: "Landmark recall",
+        unit: "fraction",
+        description: "share of true landmarks with a same-type detected landmark within 0.5 m",
+        lower_is_better: false,
+    },
     MetricDef {
         name: MAP_RMSE,
         title: "Map RMS error",
@@ -61,7 +163,13 @@ pub const METRICS: &[MetricDef] = &[
         description: "[PF] Fig. 8b: root mean square, over the point landmarks of the final map, of the distance to their true landmark (the one they were created from under known association, else the nearest)",
         lower_is_better: true,
     },
-    MetricDef { name: NEES_MEAN, title: "Mean pose NEES", unit: "", description: "normalised estimation error squared eᵀP⁻¹e of the filter's own pose belief — its mean (x, y, θ) against its covariance (particle filters: the weighted mean pose and the weighted spread about it) — averaged over the steps with truth and an invertible covariance (expected value 3 for a consistent filter)", lower_is_better: false },
+    MetricDef {
+        name: NEES_MEAN,
+        title: "Mean pose NEES",
+        unit: "",
+        description: "normalised estimation error squared eᵀP⁻¹e of the filter's own pose belief — its mean (x, y, θ) against its covariance (particle filters: the weighted mean pose and the weighted spread about it) — averaged over the steps with truth and an invertible covariance (expected value 3 for a consistent filter)",
+        lower_is_better: false,
+    },
     MetricDef {
         name: NEES_IN_BOUNDS,
         title: "NEES within 95 % bounds",
@@ -69,27 +177,147 @@ pub const METRICS: &[MetricDef] = &[
         description: "share of steps whose pose NEES lies within the two-sided 95 % χ² interval for 3 degrees of freedom [0.216, 9.35] (0.95 for a consistent filter); a step with a singular covariance and a non-zero error counts as out of bounds",
         lower_is_better: false,
     },
-    MetricDef { name: KALMAN_GAIN, title: "Mean pose Kalman gain", unit: "", description: "EKF-SLAM: the Frobenius norm of the pose rows of the Kalman gain K = P Hᵀ S⁻¹, averaged over every landmark update of the run (mixed units: m and rad per m and rad of innovation); how far the observations move the pose ([EV] C004-4)", lower_is_better: false },
-    MetricDef { name: NEES_SINGULAR, title: "Singular-covariance steps", unit: "count", description: "steps whose pose covariance is singular while the error is not zero (a particle set collapsed onto fewer than four poses): out of bounds for the NEES share, left out of the NEES mean", lower_is_better: true },
-    MetricDef { name: "neff_mean", title: "Mean N̂eff", unit: "particles", description: "effective sample size 1/Σw², averaged over the steps that weighted the particles", lower_is_better: false },
-    MetricDef { name: "resamples", title: "Resamples", unit: "count", description: "how many times the particles were resampled", lower_is_better: false },
+    MetricDef {
+        name: KALMAN_GAIN,
+        title: "Mean pose Kalman gain",
+        unit: "",
+        description: "EKF-SLAM: the Frobenius norm of the pose rows of the Kalman gain K = P Hᵀ S⁻¹, averaged over every landmark update of the run (mixed units: m and rad per m and rad of innovation); how far the observations move the pose ([EV] C004-4)",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: NEES_SINGULAR,
+        title: "Singular-covariance steps",
+        unit: "count",
+        description: "steps whose pose covariance is singular while the error is not zero (a particle set collapsed onto fewer than four poses): out of bounds for the NEES share, left out of the NEES mean",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "neff_mean",
+        title: "Mean N̂eff",
+        unit: "particles",
+        description: "effective sample size 1/Σw², averaged over the steps that weighted the particles",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "resamples",
+        title: "Resamples",
+        unit: "count",
+        description: "how many times the particles were resampled",
+        lower_is_better: false,
+    },
     // Scan matching ([EP] §5): errors of each match's estimated pose change in the reference frame.
-    MetricDef { name: "ax_mean_mm", title: "Mean |ax|", unit: "mm", description: "[EP] ax: mean over the matches of |x error| of the estimated pose change, in the reference frame", lower_is_better: true },
-    MetricDef { name: "ax_max_mm", title: "Max |ax|", unit: "mm", description: "largest |x error| of a match's pose change", lower_is_better: true },
-    MetricDef { name: "ay_mean_mm", title: "Mean |ay|", unit: "mm", description: "[EP] ay: mean over the matches of |y error| of the estimated pose change, in the reference frame", lower_is_better: true },
-    MetricDef { name: "ay_max_mm", title: "Max |ay|", unit: "mm", description: "largest |y error| of a match's pose change", lower_is_better: true },
-    MetricDef { name: "atheta_mean_deg", title: "Mean |aθ|", unit: "deg", description: "[EP] atheta: mean over the matches of |heading error| of the estimated pose change", lower_is_better: true },
-    MetricDef { name: "atheta_max_deg", title: "Max |aθ|", unit: "deg", description: "largest |heading error| of a match's pose change", lower_is_better: true },
-    MetricDef { name: "match_trans_rmse_mm", title: "Match translation RMSE", unit: "mm", description: "root mean square over the matches of the position error √(ax² + ay²)", lower_is_better: true },
-    MetricDef { name: "match_rot_rmse_deg", title: "Match rotation RMSE", unit: "deg", description: "root mean square over the matches of the heading error", lower_is_better: true },
-    MetricDef { name: "initial_trans_mean_mm", title: "Mean initial-guess error", unit: "mm", description: "mean over the matches of the position error of the initial guess (the odometry): what the matcher had to correct", lower_is_better: true },
-    MetricDef { name: "f_mean", title: "Mean f", unit: "cm²", description: "[EP] Eq. 4 at the final pose, mean over the matches: mean squared range residual of the valid pairs (see the README for the units)", lower_is_better: true },
-    MetricDef { name: "f_max", title: "Max f", unit: "cm²", description: "largest final f of a match", lower_is_better: true },
-    MetricDef { name: "evals_mean", title: "Evaluations per match", unit: "count", description: "objective evaluations (projections of the current scan) per match: the deterministic cost measure (times are in `make bench`)", lower_is_better: true },
-    MetricDef { name: "pairs_mean", title: "Valid pairs", unit: "count", description: "valid (reference, current) range pairs at the final pose, mean over the matches", lower_is_better: false },
-    MetricDef { name: "match_failure_rate", title: "Failed matches", unit: "fraction", description: "share of matches without a finite estimate or f (too few pairs, singular systems)", lower_is_better: true },
-    MetricDef { name: "fallback_rate", title: "f-check fallbacks", unit: "fraction", description: "share of matches where the f-check kept the odometry guess ([EP] §6.4)", lower_is_better: false },
-    MetricDef { name: "matches", title: "Matches", unit: "count", description: "scan matches in the run", lower_is_better: false },
+    MetricDef {
+        name: "ax_mean_mm",
+        title: "Mean |ax|",
+        unit: "mm",
+        description: "[EP] ax: mean over the matches of |x error| of the estimated pose change, in the reference frame",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "ax_max_mm",
+        title: "Max |ax|",
+        unit: "mm",
+        description: "largest |x error| of a match's pose change",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "ay_mean_mm",
+        title: "Mean |ay|",
+        unit: "mm",
+        description: "[EP] ay: mean over the matches of |y error| of the estimated pose change, in the reference frame",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "ay_max_mm",
+        title: "Max |ay|",
+        unit: "mm",
+        description: "largest |y error| of a match's pose change",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "atheta_mean_deg",
+        title: "Mean |aθ|",
+        unit: "deg",
+        description: "[EP] atheta: mean over the matches of |heading error| of the estimated pose change",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "atheta_max_deg",
+        title: "Max |aθ|",
+        unit: "deg",
+        description: "largest |heading error| of a match's pose change",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "match_trans_rmse_mm",
+        title: "Match translation RMSE",
+        unit: "mm",
+        description: "root mean square over the matches of the position error √(ax² + ay²)",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "match_rot_rmse_deg",
+        title: "Match rotation RMSE",
+        unit: "deg",
+        description: "root mean square over the matches of the heading error",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "initial_trans_mean_mm",
+        title: "Mean initial-guess error",
+        unit: "mm",
+        description: "mean over the matches of the position error of the initial guess (the odometry): what the matcher had to correct",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "f_mean",
+        title: "Mean f",
+        unit: "cm²",
+        description: "[EP] Eq. 4 at the final pose, mean over the matches: mean squared range residual of the valid pairs (see the README for the units)",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "f_max",
+        title: "Max f",
+        unit: "cm²",
+        description: "largest final f of a match",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "evals_mean",
+        title: "Evaluations per match",
+        unit: "count",
+        description: "objective evaluations (projections of the current scan) per match: the deterministic cost measure (times are in `make bench`)",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "pairs_mean",
+        title: "Valid pairs",
+        unit: "count",
+        description: "valid (reference, current) range pairs at the final pose, mean over the matches",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "match_failure_rate",
+        title: "Failed matches",
+        unit: "fraction",
+        description: "share of matches without a finite estimate or f (too few pairs, singular systems)",
+        lower_is_better: true,
+    },
+    MetricDef {
+        name: "fallback_rate",
+        title: "f-check fallbacks",
+        unit: "fraction",
+        description: "share of matches where the f-check kept the odometry guess ([EP] §6.4)",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "matches",
+        title: "Matches",
+        unit: "count",
+        description: "scan matches in the run",
+        lower_is_better: false,
+    },
     MetricDef {
         name: MAP_WALL_RMS,
         title: "Incremental-map RMS",
@@ -128,7 +356,9 @@ pub type RunMetrics = Vec<(&'static str, f64)>;
 /// The range every metric has: none can be negative (errors, counts, rates and lengths; +∞ is a
 /// legitimate value, e.g. f where a match has no pairs, and NaN means "does not apply"). Returns
 /// the first metric outside it.
-pub fn out_of_range<'a>(metrics: impl IntoIterator<Item = (&'a str, f64)>) -> Option<(&'a str, f64)> {
+pub fn out_of_range<'a>(
+    metrics: impl IntoIterator<Item = (&'a str, f64)>,
+) -> Option<(&'a str, f64)> {
     metrics.into_iter().find(|(_, v)| *v < 0.0)
 }
 
@@ -155,7 +385,10 @@ pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
         out.extend(match_metrics(&trace.matches));
     }
     if !trace.kalman_gain.is_empty() {
-        out.push((KALMAN_GAIN, trace.kalman_gain.iter().sum::<f64>() / trace.kalman_gain.len() as f64));
+        out.push((
+            KALMAN_GAIN,
+            trace.kalman_gain.iter().sum::<f64>() / trace.kalman_gain.len() as f64,
+        ));
     }
     let neff: Vec<f64> = trace.neff.iter().flatten().copied().collect();
     if !neff.is_empty() {
@@ -168,7 +401,8 @@ pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
 /// [EP] §5's per-match errors, aggregated as its tables (mean and max of absolute values), plus
 /// RMS errors, cost and failure counts. Failed matches count in the failure rate only.
 pub fn match_metrics(matches: &[crate::scanmatch::track::MatchRecord]) -> RunMetrics {
-    let ok: Vec<&crate::scanmatch::track::MatchRecord> = matches.iter().filter(|m| m.succeeded()).collect();
+    let ok: Vec<&crate::scanmatch::track::MatchRecord> =
+        matches.iter().filter(|m| m.succeeded()).collect();
     let errors: Vec<(f64, f64, f64)> = ok.iter().map(|m| m.error()).collect();
     let mean = |v: &mut dyn Iterator<Item = f64>| {
         let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
@@ -184,9 +418,19 @@ pub fn match_metrics(matches: &[crate::scanmatch::track::MatchRecord]) -> RunMet
         ("ay_max_mm", max(&mut errors.iter().map(|e| e.1.abs() * MM))),
         ("atheta_mean_deg", mean(&mut errors.iter().map(|e| e.2.abs().to_degrees()))),
         ("atheta_max_deg", max(&mut errors.iter().map(|e| e.2.abs().to_degrees()))),
-        ("match_trans_rmse_mm", mean(&mut errors.iter().map(|e| e.0 * e.0 + e.1 * e.1)).sqrt() * MM),
+        (
+            "match_trans_rmse_mm",
+            mean(&mut errors.iter().map(|e| e.0 * e.0 + e.1 * e.1)).sqrt() * MM,
+        ),
         ("match_rot_rmse_deg", mean(&mut errors.iter().map(|e| e.2 * e.2)).sqrt().to_degrees()),
-        ("initial_trans_mean_mm", mean(&mut matches.iter().map(|m| (m.initial.x - m.truth.x).hypot(m.initial.y - m.truth.y) * MM))),
+        (
+            "initial_trans_mean_mm",
+            mean(
+                &mut matches
+                    .iter()
+                    .map(|m| (m.initial.x - m.truth.x).hypot(m.initial.y - m.truth.y) * MM),
+            ),
+        ),
         ("f_mean", mean(&mut ok.iter().map(|m| m.f))),
         ("f_max", max(&mut ok.iter().map(|m| m.f))),
         ("evals_mean", mean(&mut matches.iter().map(|m| m.evaluations as f64))),
@@ -200,7 +444,12 @@ pub fn match_metrics(matches: &[crate::scanmatch::track::MatchRecord]) -> RunMet
 /// [`MAP_WALL_RMS`]: the returns of the scans taken at `steps`, placed at the estimated poses of
 /// those steps (the laser sits at the robot's pose), against the walls; NaN when no return is
 /// placed (no estimate, or no wall).
-pub fn map_wall_rms(world: &World, estimate: &[crate::geom::Pose2], steps: &[usize], walls: &[crate::geom::Segment]) -> f64 {
+pub fn map_wall_rms(
+    world: &World,
+    estimate: &[crate::geom::Pose2],
+    steps: &[usize],
+    walls: &[crate::geom::Segment],
+) -> f64 {
     let Some(geometry) = world.laser else { return f64::NAN };
     let (mut sum, mut n) = (0.0, 0usize);
     for scan in world.scans.iter().filter(|s| steps.binary_search(&s.step).is_ok()) {
@@ -220,18 +469,34 @@ pub fn map_wall_rms(world: &World, estimate: &[crate::geom::Pose2], steps: &[usi
 }
 
 /// The [FT] §5 landmark metrics and their extensions, for a final map against the truth.
-pub fn landmark_metrics(map: &LandmarkMap, true_lines: &[Line], true_corners: &[Point2]) -> RunMetrics {
+pub fn landmark_metrics(
+    map: &LandmarkMap,
+    true_lines: &[Line],
+    true_corners: &[Point2],
+) -> RunMetrics {
     // Every landmark as a point: lines by their foot point ([FT] Eqs. 10.1–10.3).
     let est_lines: Vec<Point2> = map.lines.iter().map(Line::foot_point).collect();
     let ref_lines: Vec<Point2> = true_lines.iter().map(Line::foot_point).collect();
-    let nearest = |p: &Point2, refs: &[Point2]| refs.iter().map(|r| r.distance(*p)).fold(f64::INFINITY, f64::min);
+    let nearest = |p: &Point2, refs: &[Point2]| {
+        refs.iter().map(|r| r.distance(*p)).fold(f64::INFINITY, f64::min)
+    };
     // Many-to-one: every detected landmark is matched to the nearest true one of its type.
-    let errors: Vec<f64> = est_lines.iter().map(|p| nearest(p, &ref_lines)).chain(map.corners.iter().map(|p| nearest(p, true_corners))).collect();
+    let errors: Vec<f64> = est_lines
+        .iter()
+        .map(|p| nearest(p, &ref_lines))
+        .chain(map.corners.iter().map(|p| nearest(p, true_corners)))
+        .collect();
     let detected = errors.len();
     let truth = true_lines.len() + true_corners.len();
-    let error = if detected == 0 { f64::INFINITY } else { errors.iter().sum::<f64>() / detected as f64 };
-    let precision = if detected == 0 { f64::NAN } else { errors.iter().filter(|&&e| e <= LANDMARK_GATE_M).count() as f64 / detected as f64 };
-    let found = ref_lines.iter().filter(|r| nearest(r, &est_lines) <= LANDMARK_GATE_M).count() + true_corners.iter().filter(|r| nearest(r, &map.corners) <= LANDMARK_GATE_M).count();
+    let error =
+        if detected == 0 { f64::INFINITY } else { errors.iter().sum::<f64>() / detected as f64 };
+    let precision = if detected == 0 {
+        f64::NAN
+    } else {
+        errors.iter().filter(|&&e| e <= LANDMARK_GATE_M).count() as f64 / detected as f64
+    };
+    let found = ref_lines.iter().filter(|r| nearest(r, &est_lines) <= LANDMARK_GATE_M).count()
+        + true_corners.iter().filter(|r| nearest(r, &map.corners) <= LANDMARK_GATE_M).count();
     let recall = if truth == 0 { f64::NAN } else { found as f64 / truth as f64 };
     vec![
         (LANDMARK_ERROR, error),
@@ -239,7 +504,10 @@ pub fn landmark_metrics(map: &LandmarkMap, true_lines: &[Line], true_corners: &[
         ("lines_detected", map.lines.len() as f64),
         ("corners_detected", map.corners.len() as f64),
         ("landmarks_true", truth as f64),
-        ("landmark_count_ratio", if truth == 0 { f64::NAN } else { detected as f64 / truth as f64 }),
+        (
+            "landmark_count_ratio",
+            if truth == 0 { f64::NAN } else { detected as f64 / truth as f64 },
+        ),
         ("landmark_precision", precision),
         ("landmark_recall", recall),
     ]
@@ -249,7 +517,8 @@ pub fn landmark_metrics(map: &LandmarkMap, true_lines: &[Line], true_corners: &[
 /// own frame. (`truth[0]` is the start pose every algorithm is given, not a fix.)
 pub fn positions_only(truth: &[Pose2]) -> bool {
     let fixes = truth.get(1..).unwrap_or(&[]);
-    fixes.iter().any(|t| t.x.is_finite() && t.y.is_finite()) && fixes.iter().all(|t| !t.theta.is_finite())
+    fixes.iter().any(|t| t.x.is_finite() && t.y.is_finite())
+        && fixes.iter().all(|t| !t.theta.is_finite())
 }
 
 /// The estimate moved by the rigid 2-D transform (rotation + translation, no scale) that best
@@ -257,8 +526,14 @@ pub fn positions_only(truth: &[Pose2]) -> bool {
 /// without scale; evo's `--align`). Headings are rotated with it.
 pub fn align_to(truth: &[Pose2], estimate: &[Pose2]) -> Vec<Pose2> {
     // the fixes only (position without heading): not the given start pose
-    let pairs: Vec<(Point2, Point2)> =
-        truth.iter().zip(estimate).filter(|(t, e)| t.x.is_finite() && t.y.is_finite() && !t.theta.is_finite() && e.is_finite()).map(|(t, e)| (t.position(), e.position())).collect();
+    let pairs: Vec<(Point2, Point2)> = truth
+        .iter()
+        .zip(estimate)
+        .filter(|(t, e)| {
+            t.x.is_finite() && t.y.is_finite() && !t.theta.is_finite() && e.is_finite()
+        })
+        .map(|(t, e)| (t.position(), e.position()))
+        .collect();
     if pairs.len() < 2 {
         return estimate.to_vec();
     }
@@ -290,7 +565,9 @@ pub fn align_to(truth: &[Pose2], estimate: &[Pose2]) -> Vec<Pose2> {
 /// landmark), [PF]'s map RMS error (to the landmark each was created from when known), counts,
 /// precision and recall within [`LANDMARK_GATE_M`].
 pub fn point_landmark_metrics(map: &LandmarkMap, truth: &[Point2]) -> RunMetrics {
-    let nearest = |p: &Point2, refs: &[Point2]| refs.iter().map(|r| r.distance(*p)).fold(f64::INFINITY, f64::min);
+    let nearest = |p: &Point2, refs: &[Point2]| {
+        refs.iter().map(|r| r.distance(*p)).fold(f64::INFINITY, f64::min)
+    };
     let errors: Vec<f64> = map.points.iter().map(|p| nearest(p, truth)).collect();
     let own: Vec<f64> = map
         .points
@@ -302,9 +579,19 @@ pub fn point_landmark_metrics(map: &LandmarkMap, truth: &[Point2]) -> RunMetrics
         })
         .collect();
     let detected = errors.len();
-    let mean = |v: &[f64]| if v.is_empty() { f64::INFINITY } else { v.iter().sum::<f64>() / v.len() as f64 };
-    let rmse = if own.is_empty() { f64::INFINITY } else { (own.iter().map(|e| e * e).sum::<f64>() / own.len() as f64).sqrt() };
-    let precision = if detected == 0 { f64::NAN } else { errors.iter().filter(|&&e| e <= LANDMARK_GATE_M).count() as f64 / detected as f64 };
+    let mean = |v: &[f64]| {
+        if v.is_empty() { f64::INFINITY } else { v.iter().sum::<f64>() / v.len() as f64 }
+    };
+    let rmse = if own.is_empty() {
+        f64::INFINITY
+    } else {
+        (own.iter().map(|e| e * e).sum::<f64>() / own.len() as f64).sqrt()
+    };
+    let precision = if detected == 0 {
+        f64::NAN
+    } else {
+        errors.iter().filter(|&&e| e <= LANDMARK_GATE_M).count() as f64 / detected as f64
+    };
     let found = truth.iter().filter(|t| nearest(t, &map.points) <= LANDMARK_GATE_M).count();
     let ratio = |n: f64| if truth.is_empty() { f64::NAN } else { n / truth.len() as f64 };
     vec![
@@ -325,14 +612,29 @@ pub fn point_landmark_metrics(map: &LandmarkMap, truth: &[Point2]) -> RunMetrics
 /// count as out of bounds, never dropped; the mean, which they would make infinite, leaves them
 /// out and the count says how many. A singular covariance with zero error (the known start) is
 /// skipped.
-pub fn nees_metrics(truth: &[Pose2], belief: &[Option<(Pose2, nalgebra::Matrix3<f64>)>]) -> RunMetrics {
-    let scored: Vec<Nees> = truth.iter().zip(belief).filter_map(|(t, b)| b.as_ref().map(|(m, p)| nees(t, m, p))).collect();
-    let values: Vec<f64> = scored.iter().filter_map(|s| if let Nees::Value(v) = s { Some(*v) } else { None }).collect();
+pub fn nees_metrics(
+    truth: &[Pose2],
+    belief: &[Option<(Pose2, nalgebra::Matrix3<f64>)>],
+) -> RunMetrics {
+    let scored: Vec<Nees> = truth
+        .iter()
+        .zip(belief)
+        .filter_map(|(t, b)| b.as_ref().map(|(m, p)| nees(t, m, p)))
+        .collect();
+    let values: Vec<f64> = scored
+        .iter()
+        .filter_map(|s| if let Nees::Value(v) = s { Some(*v) } else { None })
+        .collect();
     let singular = scored.iter().filter(|s| matches!(s, Nees::Singular)).count();
     let counted = values.len() + singular;
     let (lo, hi) = NEES_BOUNDS_3DOF;
-    let mean = if values.is_empty() { f64::NAN } else { values.iter().sum::<f64>() / values.len() as f64 };
-    let in_bounds = if counted == 0 { f64::NAN } else { values.iter().filter(|&&v| v >= lo && v <= hi).count() as f64 / counted as f64 };
+    let mean =
+        if values.is_empty() { f64::NAN } else { values.iter().sum::<f64>() / values.len() as f64 };
+    let in_bounds = if counted == 0 {
+        f64::NAN
+    } else {
+        values.iter().filter(|&&v| v >= lo && v <= hi).count() as f64 / counted as f64
+    };
     vec![(NEES_MEAN, mean), (NEES_IN_BOUNDS, in_bounds), (NEES_SINGULAR, singular as f64)]
 }
 
@@ -351,7 +653,11 @@ pub fn nees(truth: &Pose2, estimate: &Pose2, cov: &nalgebra::Matrix3<f64>) -> Ne
     if !truth.is_finite() {
         return Nees::Skipped;
     }
-    let e = nalgebra::Vector3::new(truth.x - estimate.x, truth.y - estimate.y, wrap_angle(truth.theta - estimate.theta));
+    let e = nalgebra::Vector3::new(
+        truth.x - estimate.x,
+        truth.y - estimate.y,
+        wrap_angle(truth.theta - estimate.theta),
+    );
     let Some(chol) = nalgebra::Cholesky::new(*cov) else {
         return if e.iter().all(|v| *v == 0.0) { Nees::Skipped } else { Nees::Singular };
     };
@@ -366,7 +672,8 @@ pub fn nees(truth: &Pose2, estimate: &Pose2, cov: &nalgebra::Matrix3<f64>) -> Ne
 /// use the last step with a true position, and the path length sums the known stretches.
 pub fn trajectory_metrics(truth: &[Pose2], estimate: &[Pose2]) -> RunMetrics {
     let known = |t: &Pose2| t.x.is_finite() && t.y.is_finite();
-    let pairs: Vec<(&Pose2, &Pose2)> = truth.iter().zip(estimate).filter(|(t, _)| known(t)).collect();
+    let pairs: Vec<(&Pose2, &Pose2)> =
+        truth.iter().zip(estimate).filter(|(t, _)| known(t)).collect();
     let errors: Vec<f64> = pairs.iter().map(|(t, e)| t.position().distance(e.position())).collect();
     let n = errors.len() as f64;
     let rmse = (errors.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
@@ -375,11 +682,14 @@ pub fn trajectory_metrics(truth: &[Pose2], estimate: &[Pose2]) -> RunMetrics {
     let mean = errors.iter().sum::<f64>() / n;
     let max = errors.iter().copied().fold(f64::NAN, f64::max);
     let (final_pos, final_heading) = match pairs.last() {
-        Some((t, e)) => (t.position().distance(e.position()), wrap_angle(t.theta - e.theta).abs().to_degrees()),
+        Some((t, e)) => {
+            (t.position().distance(e.position()), wrap_angle(t.theta - e.theta).abs().to_degrees())
+        }
         None => (f64::NAN, f64::NAN),
     };
     // consecutive known positions (sparse truth such as GPS: the path through its fixes)
-    let known_positions: Vec<Point2> = truth.iter().filter(|t| known(t)).map(|t| t.position()).collect();
+    let known_positions: Vec<Point2> =
+        truth.iter().filter(|t| known(t)).map(|t| t.position()).collect();
     let path_length = known_positions.windows(2).map(|w| w[0].distance(w[1])).sum();
     let mut out = vec![
         (ATE_RMSE, rmse),
@@ -430,8 +740,10 @@ mod tests {
     #[test]
     fn ate_statistics_of_known_errors() {
         // position errors 0, 3, 4 (a 3-4-5 offset at the end)
-        let truth = vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(1.0, 0.0, 0.0), Pose2::new(2.0, 0.0, 3.0)];
-        let est = vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(1.0, 3.0, 0.0), Pose2::new(2.0, 4.0, -3.0)];
+        let truth =
+            vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(1.0, 0.0, 0.0), Pose2::new(2.0, 0.0, 3.0)];
+        let est =
+            vec![Pose2::new(0.0, 0.0, 0.0), Pose2::new(1.0, 3.0, 0.0), Pose2::new(2.0, 4.0, -3.0)];
         let m = trajectory_metrics(&truth, &est);
         assert!((get(&m, ATE_RMSE) - (25.0f64 / 3.0).sqrt()).abs() < 1e-12);
         assert!((get(&m, "ate_mean_m") - 7.0 / 3.0).abs() < 1e-12);
@@ -442,20 +754,34 @@ mod tests {
         assert_eq!((get(&m, "ate_x_rmse_m"), get(&m, "ate_x_share")), (0.0, 0.0));
         assert!((get(&m, "ate_y_rmse_m") - (25.0f64 / 3.0).sqrt()).abs() < 1e-12);
         // a (3, 4) offset: x carries 9/25 of the squared error
-        let mixed = trajectory_metrics(&truth[..2], &[Pose2::new(0.0, 0.0, 0.0), Pose2::new(4.0, 4.0, 0.0)]);
-        assert!((get(&mixed, "ate_x_share") - 9.0 / 25.0).abs() < 1e-12 && (get(&mixed, "ate_x_rmse_m") - 4.5f64.sqrt()).abs() < 1e-12);
+        let mixed = trajectory_metrics(
+            &truth[..2],
+            &[Pose2::new(0.0, 0.0, 0.0), Pose2::new(4.0, 4.0, 0.0)],
+        );
+        assert!(
+            (get(&mixed, "ate_x_share") - 9.0 / 25.0).abs() < 1e-12
+                && (get(&mixed, "ate_x_rmse_m") - 4.5f64.sqrt()).abs() < 1e-12
+        );
         // heading 3 vs −3 rad differ by 6 rad ≡ 2π − 6 ≈ 0.283 rad after wrapping
-        assert!((get(&m, "final_heading_error_deg") - (2.0 * std::f64::consts::PI - 6.0).to_degrees()).abs() < 1e-9);
+        assert!(
+            (get(&m, "final_heading_error_deg") - (2.0 * std::f64::consts::PI - 6.0).to_degrees())
+                .abs()
+                < 1e-9
+        );
     }
 
     #[test]
     fn thesis_landmark_error_matches_nearest_same_type_and_counts_duplicates() {
-        let true_lines = [Line::normalised(1.0, -std::f64::consts::FRAC_PI_2), Line::normalised(19.0, 0.0)];
+        let true_lines =
+            [Line::normalised(1.0, -std::f64::consts::FRAC_PI_2), Line::normalised(19.0, 0.0)];
         let true_corners = [Point2::new(-1.0, -1.0), Point2::new(19.0, 9.0)];
         // one line 0.1 m off, a duplicate of it 0.3 m off, one corner 0.2 m off; the second true
         // line and corner are missed
         let map = LandmarkMap {
-            lines: vec![Line::normalised(1.1, -std::f64::consts::FRAC_PI_2), Line::normalised(1.3, -std::f64::consts::FRAC_PI_2)],
+            lines: vec![
+                Line::normalised(1.1, -std::f64::consts::FRAC_PI_2),
+                Line::normalised(1.3, -std::f64::consts::FRAC_PI_2),
+            ],
             corners: vec![Point2::new(-1.2, -1.0)],
             ..LandmarkMap::default()
         };
@@ -489,7 +815,11 @@ mod tests {
         let truth = [Point2::new(0.0, 0.0), Point2::new(10.0, 0.0)];
         // landmark 1 estimated at x = 4: 4 m from landmark 0, 6 m from itself. The nearest-truth
         // error says 4; the map RMS error, which knows its identity, 6.
-        let map = LandmarkMap { points: vec![Point2::new(0.3, 0.4), Point2::new(4.0, 0.0)], point_ids: vec![Some(0), Some(1)], ..LandmarkMap::default() };
+        let map = LandmarkMap {
+            points: vec![Point2::new(0.3, 0.4), Point2::new(4.0, 0.0)],
+            point_ids: vec![Some(0), Some(1)],
+            ..LandmarkMap::default()
+        };
         let m = point_landmark_metrics(&map, &truth);
         let get = |n: &str| m.iter().find(|(k, _)| *k == n).unwrap().1;
         assert!((get(MAP_RMSE) - ((0.25 + 36.0) / 2.0f64).sqrt()).abs() < 1e-12);
@@ -500,8 +830,13 @@ mod tests {
     #[test]
     fn nees_of_a_known_error_and_unknown_truth_is_skipped() {
         let cov = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(0.25, 1.0, 0.01));
-        let truth = [Pose2::new(1.0, 0.0, 0.1), Pose2::new(f64::NAN, f64::NAN, f64::NAN), Pose2::IDENTITY];
-        let belief = [Some((Pose2::new(0.0, 0.0, 0.0), cov)), Some((Pose2::IDENTITY, cov)), Some((Pose2::IDENTITY, nalgebra::Matrix3::zeros()))];
+        let truth =
+            [Pose2::new(1.0, 0.0, 0.1), Pose2::new(f64::NAN, f64::NAN, f64::NAN), Pose2::IDENTITY];
+        let belief = [
+            Some((Pose2::new(0.0, 0.0, 0.0), cov)),
+            Some((Pose2::IDENTITY, cov)),
+            Some((Pose2::IDENTITY, nalgebra::Matrix3::zeros())),
+        ];
         let m = nees_metrics(&truth, &belief);
         // 1²/0.25 + 0.1²/0.01 = 5; the NaN step and the known start (singular, no error) are skipped
         assert!((m[0].1 - 5.0).abs() < 1e-9);
@@ -514,7 +849,10 @@ mod tests {
     fn singular_spreads_with_an_error_count_out_of_bounds() {
         let cov = nalgebra::Matrix3::from_diagonal(&nalgebra::Vector3::new(0.25, 1.0, 0.01));
         let truth = [Pose2::new(1.0, 0.0, 0.1), Pose2::new(2.0, 0.0, 0.0)];
-        let belief = [Some((Pose2::new(0.0, 0.0, 0.0), cov)), Some((Pose2::new(2.1, 0.0, 0.0), nalgebra::Matrix3::zeros()))];
+        let belief = [
+            Some((Pose2::new(0.0, 0.0, 0.0), cov)),
+            Some((Pose2::new(2.1, 0.0, 0.0), nalgebra::Matrix3::zeros())),
+        ];
         let m = nees_metrics(&truth, &belief);
         assert!((m[0].1 - 5.0).abs() < 1e-9, "the mean leaves the singular step out");
         assert_eq!(m[1].1, 0.5, "the singular step is out of bounds");
@@ -525,7 +863,12 @@ mod tests {
     fn steps_without_truth_are_skipped() {
         let nan = Pose2::new(f64::NAN, f64::NAN, f64::NAN);
         let truth = vec![Pose2::IDENTITY, nan, Pose2::new(2.0, 0.0, 0.0), nan];
-        let est = vec![Pose2::IDENTITY, Pose2::new(5.0, 5.0, 0.0), Pose2::new(2.0, 1.0, 0.0), Pose2::new(9.0, 9.0, 0.0)];
+        let est = vec![
+            Pose2::IDENTITY,
+            Pose2::new(5.0, 5.0, 0.0),
+            Pose2::new(2.0, 1.0, 0.0),
+            Pose2::new(9.0, 9.0, 0.0),
+        ];
         let m = trajectory_metrics(&truth, &est);
         assert!((get(&m, ATE_RMSE) - 0.5f64.sqrt()).abs() < 1e-12);
         assert_eq!(get(&m, "final_position_error_m"), 1.0);
@@ -534,19 +877,39 @@ mod tests {
 
     #[test]
     fn no_metric_may_be_negative() {
-        assert_eq!(out_of_range([("ate_rmse_m", 0.3), ("f_mean", f64::INFINITY), ("nees_mean", f64::NAN)]), None);
-        assert_eq!(out_of_range([("ate_rmse_m", 0.3), ("landmark_error_m", -3.1e58)]), Some(("landmark_error_m", -3.1e58)));
-        assert_eq!(out_of_range([("resamples", f64::NEG_INFINITY)]).map(|(k, _)| k), Some("resamples"));
+        assert_eq!(
+            out_of_range([("ate_rmse_m", 0.3), ("f_mean", f64::INFINITY), ("nees_mean", f64::NAN)]),
+            None
+        );
+        assert_eq!(
+            out_of_range([("ate_rmse_m", 0.3), ("landmark_error_m", -3.1e58)]),
+            Some(("landmark_error_m", -3.1e58))
+        );
+        assert_eq!(
+            out_of_range([("resamples", f64::NEG_INFINITY)]).map(|(k, _)| k),
+            Some("resamples")
+        );
     }
 
     #[test]
     fn alignment_recovers_a_rigid_transform() {
-        let est: Vec<Pose2> = (0..20).map(|i| Pose2::new(i as f64 * 0.5, (i as f64 * 0.3).sin(), 0.1)).collect();
+        let est: Vec<Pose2> =
+            (0..20).map(|i| Pose2::new(i as f64 * 0.5, (i as f64 * 0.3).sin(), 0.1)).collect();
         let (phi, tx, ty) = (0.7f64, 3.0, -2.0);
         let truth: Vec<Pose2> = est
             .iter()
             .enumerate()
-            .map(|(i, e)| if i % 3 == 0 { Pose2::new(e.x * phi.cos() - e.y * phi.sin() + tx, e.x * phi.sin() + e.y * phi.cos() + ty, f64::NAN) } else { Pose2::new(f64::NAN, f64::NAN, f64::NAN) })
+            .map(|(i, e)| {
+                if i % 3 == 0 {
+                    Pose2::new(
+                        e.x * phi.cos() - e.y * phi.sin() + tx,
+                        e.x * phi.sin() + e.y * phi.cos() + ty,
+                        f64::NAN,
+                    )
+                } else {
+                    Pose2::new(f64::NAN, f64::NAN, f64::NAN)
+                }
+            })
             .collect();
         assert!(positions_only(&truth));
         let aligned = align_to(&truth, &est);

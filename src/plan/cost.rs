@@ -52,7 +52,12 @@ impl Work {
     /// Expected seconds on one core of the reference machine.
     pub fn seconds(&self) -> f64 {
         use seconds_per_unit as s;
-        s::RUN + s::EXTRACTED_BEAM * self.extraction + s::FILTER * self.filter + s::FILTER_POINTS * self.filter_points + s::MATCHING * self.matching + s::LOG_STEP * self.log_steps
+        s::RUN
+            + s::EXTRACTED_BEAM * self.extraction
+            + s::FILTER * self.filter
+            + s::FILTER_POINTS * self.filter_points
+            + s::MATCHING * self.matching
+            + s::LOG_STEP * self.log_steps
     }
 }
 
@@ -70,18 +75,34 @@ pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
         return w;
     };
     // Path length of the route (as `world::trajectory::drive` measures a lap) over the speed.
-    let lap: f64 = std::iter::once([map.start.x, map.start.y]).chain(route.waypoints.iter().copied()).collect::<Vec<_>>().windows(2).map(|p| (p[1][0] - p[0][0]).hypot(p[1][1] - p[0][1])).sum();
+    let lap: f64 = std::iter::once([map.start.x, map.start.y])
+        .chain(route.waypoints.iter().copied())
+        .collect::<Vec<_>>()
+        .windows(2)
+        .map(|p| (p[1][0] - p[0][0]).hypot(p[1][1] - p[0][1]))
+        .sum();
     let path_m = lap * f64::from(route.laps);
     let duration_s = path_m / route.max_speed_mps.max(1e-3);
     w.steps = duration_s / params.sim.dt_s;
     let landmarks = (map.lines.len() + map.corners.len() + map.point_landmarks.len()) as f64;
     let laser = &params.laser;
-    let (scans, beams) = if sensors.laser { (duration_s * laser.rate_hz, (laser.fov_deg / laser.resolution_deg).floor() + 1.0) } else { (0.0, 0.0) };
+    let (scans, beams) = if sensors.laser {
+        (duration_s * laser.rate_hz, (laser.fov_deg / laser.resolution_deg).floor() + 1.0)
+    } else {
+        (0.0, 0.0)
+    };
     let kind = map.world_kind();
-    let updates = if kind == WorldKind::Laser { scans } else { w.steps * params.landmark_sensor.rate_hz * params.sim.dt_s };
+    let updates = if kind == WorldKind::Laser {
+        scans
+    } else {
+        w.steps * params.landmark_sensor.rate_hz * params.sim.dt_s
+    };
     match run.algorithm {
         AlgorithmKind::Odometry => {}
-        AlgorithmKind::OdometryMap | AlgorithmKind::Fastslam1 | AlgorithmKind::Fastslam2 | AlgorithmKind::EkfSlam => {
+        AlgorithmKind::OdometryMap
+        | AlgorithmKind::Fastslam1
+        | AlgorithmKind::Fastslam2
+        | AlgorithmKind::EkfSlam => {
             if kind == WorldKind::Laser {
                 w.extraction = scans * beams;
             }
@@ -113,11 +134,17 @@ pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
                 AlgorithmKind::Psm | AlgorithmKind::PsmOriginal => 12.0,
                 AlgorithmKind::Epsm => 670.0,
                 AlgorithmKind::BruteForce => {
-                    let side = 2.0 * (params.brute_force.half_window_m / params.brute_force.step_m.max(1e-6)).round() + 1.0;
+                    let side = 2.0
+                        * (params.brute_force.half_window_m / params.brute_force.step_m.max(1e-6))
+                            .round()
+                        + 1.0;
                     // E-PSM's orientation search at a cell: ≈ 121 evaluations
                     match params.brute_force.mode {
                         crate::scanmatch::brute::BruteForceMode::Nested => side * side * 121.0,
-                        crate::scanmatch::brute::BruteForceMode::Descent => side * side + f64::from(params.brute_force.max_moves).min(20.0) * 8.0 * 121.0,
+                        crate::scanmatch::brute::BruteForceMode::Descent => {
+                            side * side
+                                + f64::from(params.brute_force.max_moves).min(20.0) * 8.0 * 121.0
+                        }
                     }
                 }
                 AlgorithmKind::PoseSearch(o) => {
@@ -153,29 +180,52 @@ mod tests {
     use super::*;
 
     fn plan(spec: &str) -> ExperimentPlan {
-        crate::plan::build(crate::spec::load(std::path::Path::new(spec)).expect("spec loads"), std::path::Path::new("data/maps")).expect("spec plans")
+        crate::plan::build(
+            crate::spec::load(std::path::Path::new(spec)).expect("spec loads"),
+            std::path::Path::new("data/maps"),
+        )
+        .expect("spec plans")
     }
 
     /// The cost of the run of `plan` on `map` at the point whose label contains `point`.
     fn cost(plan: &ExperimentPlan, map: &str, point: &str, algorithm: &str) -> f64 {
-        let r = plan.runs.iter().find(|r| plan.maps[r.map].name == map && plan.points[r.point].label.contains(point) && r.algorithm.name() == algorithm && r.replicate == 0).expect("such a run");
+        let r = plan
+            .runs
+            .iter()
+            .find(|r| {
+                plan.maps[r.map].name == map
+                    && plan.points[r.point].label.contains(point)
+                    && r.algorithm.name() == algorithm
+                    && r.replicate == 0
+            })
+            .expect("such a run");
         expected_s(plan, r)
     }
 
     #[test]
     fn more_particles_and_longer_paths_cost_more() {
         let p = plan("experiments/ft-particles.toml");
-        let (few, many) = (cost(&p, "bigloop2", "particles=5", "fastslam1"), cost(&p, "bigloop2", "particles=500", "fastslam1"));
+        let (few, many) = (
+            cost(&p, "bigloop2", "particles=5", "fastslam1"),
+            cost(&p, "bigloop2", "particles=500", "fastslam1"),
+        );
         // measured: 2.35 s against 0.136 s (17×)
         assert!(many > 10.0 * few, "500 particles {many} s against 5: {few} s");
         // Complex's route (285 m) is longer than Recinto básico's
-        assert!(cost(&p, "complex", "particles=100", "fastslam1") > cost(&p, "recinto_basico", "particles=100", "fastslam1"));
+        assert!(
+            cost(&p, "complex", "particles=100", "fastslam1")
+                > cost(&p, "recinto_basico", "particles=100", "fastslam1")
+        );
     }
 
     #[test]
     fn the_exhaustive_brute_force_dwarfs_e_psm_and_psm() {
         let p = plan("experiments/ep-cost.toml");
-        let (psm, epsm, brute) = (cost(&p, "ep_rect_column", "none", "psm"), cost(&p, "ep_rect_column", "none", "epsm"), cost(&p, "ep_rect_column", "none", "brute_force"));
+        let (psm, epsm, brute) = (
+            cost(&p, "ep_rect_column", "none", "psm"),
+            cost(&p, "ep_rect_column", "none", "epsm"),
+            cost(&p, "ep_rect_column", "none", "brute_force"),
+        );
         assert!(psm < epsm && 100.0 * epsm < brute, "psm {psm}, epsm {epsm}, brute force {brute}");
         // measured here: about 45 s per run (10 matches of 6 561 cells × 121 evaluations)
         assert!((10.0..200.0).contains(&brute), "{brute}");

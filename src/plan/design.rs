@@ -53,7 +53,12 @@ pub fn unit_rows(kind: SweepKind, design: &DesignSpec, seed: u64) -> UnitDesign 
         }
         SweepKind::Morris => {
             let m = Morris::new(d, design.levels, design.trajectories, seed);
-            UnitDesign { rows: m.points.into_iter().flatten().collect(), moved: m.moved, size: design.trajectories, delta: Some(m.delta) }
+            UnitDesign {
+                rows: m.points.into_iter().flatten().collect(),
+                moved: m.moved,
+                size: design.trajectories,
+                delta: Some(m.delta),
+            }
         }
         _ => unreachable!("only morris and sobol sweeps have a design"),
     }
@@ -63,7 +68,13 @@ pub fn unit_rows(kind: SweepKind, design: &DesignSpec, seed: u64) -> UnitDesign 
 pub fn realise(p: &RangedParam, u: f64) -> (toml::Value, f64) {
     let x = if p.log { p.low * (p.high / p.low).powf(u) } else { p.low + u * (p.high - p.low) };
     // keep the ends exact (powf and the sum can miss them by an ulp)
-    let x = if u <= 0.0 { p.low } else if u >= 1.0 { p.high } else { x.clamp(p.low, p.high) };
+    let x = if u <= 0.0 {
+        p.low
+    } else if u >= 1.0 {
+        p.high
+    } else {
+        x.clamp(p.low, p.high)
+    };
     if p.integer {
         let n = x.round();
         (toml::Value::Integer(n as i64), to_unit(p, n))
@@ -101,7 +112,13 @@ mod tests {
 
     #[test]
     fn sobol_rows_are_a_b_then_each_ab_i() {
-        let spec = DesignSpec { params: vec![param(0.0, 1.0, false, false); 3], tied: Vec::new(), levels: 4, trajectories: 4, samples: 8 };
+        let spec = DesignSpec {
+            params: vec![param(0.0, 1.0, false, false); 3],
+            tied: Vec::new(),
+            levels: 4,
+            trajectories: 4,
+            samples: 8,
+        };
         let d = unit_rows(SweepKind::Sobol, &spec, 3);
         assert_eq!(d.rows.len(), 8 * (3 + 2));
         let (a, b) = (&d.rows[..8], &d.rows[8..16]);

@@ -8,9 +8,9 @@
 use crate::metrics::METRICS_VERSION;
 use crate::slam::AlgorithmKind;
 use crate::spec::{InputErrors, LoadedSpec, Params, SpecError, SweepKind};
-use crate::store::{reference as reference_file, ClaimCells};
-use crate::world::map::Map;
+use crate::store::{ClaimCells, reference as reference_file};
 use crate::world::WORLD_CODE_VERSION;
+use crate::world::map::Map;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -139,12 +139,22 @@ pub fn planned_runs(spec: &LoadedSpec) -> u64 {
             acc.saturating_add(n)
         })
     };
-    [spec.spec.maps.len() as u64, spec.spec.algorithms.len() as u64, u64::from(spec.spec.replicates)].into_iter().fold(points, u64::saturating_mul)
+    [
+        spec.spec.maps.len() as u64,
+        spec.spec.algorithms.len() as u64,
+        u64::from(spec.spec.replicates),
+    ]
+    .into_iter()
+    .fold(points, u64::saturating_mul)
 }
 
 /// [`build`] with a limit on the number of runs: a larger spec is an error (naming the number and
 /// how to raise the limit) before anything is expanded.
-pub fn build_limited(spec: LoadedSpec, maps_dir: &Path, max_runs: u64) -> Result<ExperimentPlan, InputErrors> {
+pub fn build_limited(
+    spec: LoadedSpec,
+    maps_dir: &Path,
+    max_runs: u64,
+) -> Result<ExperimentPlan, InputErrors> {
     let planned = planned_runs(&spec);
     if planned > max_runs {
         let key = if spec.sweeps.is_empty() { "replicates" } else { "sweeps" };
@@ -162,7 +172,13 @@ pub fn build_limited(spec: LoadedSpec, maps_dir: &Path, max_runs: u64) -> Result
     // must fit the clock only where that sensor is simulated.
     let kinds: Vec<crate::world::WorldKind> = maps.iter().map(|m| m.map.world_kind()).collect();
     let sensors = crate::slam::Sensors::union(&spec.spec.algorithms, &kinds);
-    let base_errors: Vec<_> = spec.spec.base.validate(sensors).into_iter().map(|v| spec.error_at(&format!("base.{}", v.key), v.message)).collect();
+    let base_errors: Vec<_> = spec
+        .spec
+        .base
+        .validate(sensors)
+        .into_iter()
+        .map(|v| spec.error_at(&format!("base.{}", v.key), v.message))
+        .collect();
     if !base_errors.is_empty() {
         errors.push(SpecError::new(&spec.path, base_errors));
     }
@@ -202,8 +218,13 @@ pub fn build_limited(spec: LoadedSpec, maps_dir: &Path, max_runs: u64) -> Result
         for (j, pair) in c.pairs.iter().enumerate() {
             if let Some(name) = pair.iter().find(|n| !points.iter().any(|p| &p.label == *n)) {
                 let known: Vec<&str> = points.iter().map(|p| p.label.as_str()).collect();
-                let msg = format!("no sweep point `{name}` (the study's points: {})", known.join(", "));
-                return Err(SpecError::new(&spec.path, vec![spec.error_at(&format!("report.contrasts[{i}].pairs[{j}]"), msg)]).into());
+                let msg =
+                    format!("no sweep point `{name}` (the study's points: {})", known.join(", "));
+                return Err(SpecError::new(
+                    &spec.path,
+                    vec![spec.error_at(&format!("report.contrasts[{i}].pairs[{j}]"), msg)],
+                )
+                .into());
             }
         }
     }
@@ -211,7 +232,16 @@ pub fn build_limited(spec: LoadedSpec, maps_dir: &Path, max_runs: u64) -> Result
     let mut ids: Vec<&str> = runs.iter().map(|r| r.run_id.as_str()).collect();
     ids.sort_unstable();
     if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
-        return Err(SpecError::new(&spec.path, vec![spec.error_at("sweeps", format!("two sweep points give the same run id `{}`", w[0]))]).into());
+        return Err(SpecError::new(
+            &spec.path,
+            vec![
+                spec.error_at(
+                    "sweeps",
+                    format!("two sweep points give the same run id `{}`", w[0]),
+                ),
+            ],
+        )
+        .into());
     }
     Ok(ExperimentPlan { spec, maps, groups, points, runs, claims, reference, landmark_points })
 }
@@ -224,8 +254,16 @@ fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) ->
             Ok(t) => t,
             Err(_) => {
                 let available = available_maps(maps_dir);
-                let msg = format!("no map `{name}`: {} does not exist (available in {}: {})", path.display(), maps_dir.display(), if available.is_empty() { "none".into() } else { available.join(", ") });
-                errors.push(SpecError::new(&spec.path, vec![spec.error_at(&format!("maps[{i}]"), msg)]));
+                let msg = format!(
+                    "no map `{name}`: {} does not exist (available in {}: {})",
+                    path.display(),
+                    maps_dir.display(),
+                    if available.is_empty() { "none".into() } else { available.join(", ") }
+                );
+                errors.push(SpecError::new(
+                    &spec.path,
+                    vec![spec.error_at(&format!("maps[{i}]"), msg)],
+                ));
                 continue;
             }
         };
@@ -240,7 +278,11 @@ fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) ->
                             hasher.update(&bytes);
                         }
                         Err(e) => {
-                            missing_data = Some(format!("cannot read {} ({e}): the real datasets are read from ../shared/data next to the repository, or from the `path` in {}", f.display(), path.display()));
+                            missing_data = Some(format!(
+                                "cannot read {} ({e}): the real datasets are read from ../shared/data next to the repository, or from the `path` in {}",
+                                f.display(),
+                                path.display()
+                            ));
                             break;
                         }
                     }
@@ -248,7 +290,14 @@ fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) ->
                 let hash = hasher.finalize().to_hex().to_string();
                 out.push(MapEntry { name: name.clone(), path, text, hash, map, missing_data });
             }
-            Ok(map) => errors.push(SpecError::new(&path, vec![crate::source::SourceError::at_key(&crate::source::Locator::new(&text), "name", format!("is `{}` but the file is {name}.toml", map.name))])),
+            Ok(map) => errors.push(SpecError::new(
+                &path,
+                vec![crate::source::SourceError::at_key(
+                    &crate::source::Locator::new(&text),
+                    "name",
+                    format!("is `{}` but the file is {name}.toml", map.name),
+                )],
+            )),
             Err(e) => errors.push(SpecError::new(&path, e)),
         }
     }
@@ -261,31 +310,54 @@ pub fn available_maps(dir: &Path) -> Vec<String> {
         .into_iter()
         .flatten()
         .flatten()
-        .filter_map(|e| e.path().file_stem().filter(|_| e.path().extension().is_some_and(|x| x == "toml")).map(|s| s.to_string_lossy().into_owned()))
+        .filter_map(|e| {
+            e.path()
+                .file_stem()
+                .filter(|_| e.path().extension().is_some_and(|x| x == "toml"))
+                .map(|s| s.to_string_lossy().into_owned())
+        })
         .collect();
     names.sort();
     names
 }
 
 /// Sweep blocks → groups and deduplicated points (in first-appearance order).
-fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecError> {
+fn expand(
+    spec: &LoadedSpec,
+    sensors: crate::slam::Sensors,
+) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecError> {
     // Each candidate: assignments with, for error placement, the key of each value.
     type Candidate = Vec<(String, toml::Value, String)>;
     let mut groups = Vec::new();
     // (assignments, group, name of a named cell)
     let mut candidates: Vec<(Candidate, usize, Option<String>)> = Vec::new();
     if spec.sweeps.is_empty() {
-        groups.push(SweepGroup { kind: SweepKind::OneAtATime, params: Vec::new(), named: false, design: None });
+        groups.push(SweepGroup {
+            kind: SweepKind::OneAtATime,
+            params: Vec::new(),
+            named: false,
+            design: None,
+        });
         candidates.push((Vec::new(), 0, None));
     }
     for (bi, block) in spec.sweeps.iter().enumerate() {
         if let Some(d) = &block.design {
-            let unit = design::unit_rows(block.kind, d, derive_seed(spec.spec.seed, "sweeps", bi as u32, "design"));
+            let unit = design::unit_rows(
+                block.kind,
+                d,
+                derive_seed(spec.spec.seed, "sweeps", bi as u32, "design"),
+            );
             let kind = if block.kind == SweepKind::Morris { "morris" } else { "sobol" };
             let mut realised = Vec::with_capacity(unit.rows.len());
             for (row, u) in unit.rows.iter().enumerate() {
-                let (values, coords): (Vec<toml::Value>, Vec<f64>) = d.params.iter().zip(u).map(|(p, &x)| design::realise(p, x)).unzip();
-                let mut assignments: Candidate = d.params.iter().zip(&values).map(|(p, v)| (p.path.clone(), v.clone(), p.key.clone())).collect();
+                let (values, coords): (Vec<toml::Value>, Vec<f64>) =
+                    d.params.iter().zip(u).map(|(p, &x)| design::realise(p, x)).unzip();
+                let mut assignments: Candidate = d
+                    .params
+                    .iter()
+                    .zip(&values)
+                    .map(|(p, v)| (p.path.clone(), v.clone(), p.key.clone()))
+                    .collect();
                 for (path, j) in &d.tied {
                     assignments.push((path.clone(), values[*j].clone(), d.params[*j].key.clone()));
                 }
@@ -298,35 +370,69 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
                 kind: block.kind,
                 params: d.params.iter().map(|p| p.path.clone()).collect(),
                 named: false,
-                design: Some(design::DesignRecord { size: unit.size, rows: Vec::new(), moved: unit.moved, unit: unit_coords, delta: unit.delta }),
+                design: Some(design::DesignRecord {
+                    size: unit.size,
+                    rows: Vec::new(),
+                    moved: unit.moved,
+                    unit: unit_coords,
+                    delta: unit.delta,
+                }),
             });
             continue;
         }
-        let at = |p: &crate::spec::SweptParam, i: usize| (p.path.clone(), p.values[i].clone(), format!("{}[{i}]", p.key));
+        let at = |p: &crate::spec::SweptParam, i: usize| {
+            (p.path.clone(), p.values[i].clone(), format!("{}[{i}]", p.key))
+        };
         match block.kind {
             SweepKind::OneAtATime => {
                 for p in &block.params {
-                    groups.push(SweepGroup { kind: block.kind, params: vec![p.path.clone()], named: false, design: None });
+                    groups.push(SweepGroup {
+                        kind: block.kind,
+                        params: vec![p.path.clone()],
+                        named: false,
+                        design: None,
+                    });
                     for i in 0..p.values.len() {
                         candidates.push((vec![at(p, i)], groups.len() - 1, None));
                     }
                 }
             }
             SweepKind::Grid => {
-                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect(), named: false, design: None });
+                groups.push(SweepGroup {
+                    kind: block.kind,
+                    params: block.params.iter().map(|p| p.path.clone()).collect(),
+                    named: false,
+                    design: None,
+                });
                 let mut combos: Vec<Candidate> = vec![Vec::new()];
                 for p in &block.params {
-                    combos = combos.into_iter().flat_map(|c| (0..p.values.len()).map(move |i| [c.clone(), vec![at(p, i)]].concat())).collect();
+                    combos = combos
+                        .into_iter()
+                        .flat_map(|c| {
+                            (0..p.values.len()).map(move |i| [c.clone(), vec![at(p, i)]].concat())
+                        })
+                        .collect();
                 }
                 candidates.extend(combos.into_iter().map(|c| (c, groups.len() - 1, None)));
             }
             SweepKind::Zip => {
-                groups.push(SweepGroup { kind: block.kind, params: block.params.iter().map(|p| p.path.clone()).collect(), named: !block.labels.is_empty(), design: None });
+                groups.push(SweepGroup {
+                    kind: block.kind,
+                    params: block.params.iter().map(|p| p.path.clone()).collect(),
+                    named: !block.labels.is_empty(),
+                    design: None,
+                });
                 for i in 0..block.params[0].values.len() {
-                    candidates.push((block.params.iter().map(|p| at(p, i)).collect(), groups.len() - 1, block.labels.get(i).cloned()));
+                    candidates.push((
+                        block.params.iter().map(|p| at(p, i)).collect(),
+                        groups.len() - 1,
+                        block.labels.get(i).cloned(),
+                    ));
                 }
             }
-            SweepKind::Morris | SweepKind::Sobol => unreachable!("a design block without its design was rejected by the spec check"),
+            SweepKind::Morris | SweepKind::Sobol => {
+                unreachable!("a design block without its design was rejected by the spec check")
+            }
         }
     }
 
@@ -345,8 +451,11 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
         // TOML spells ±inf and NaN apart (JSON would not); equal texts are equal parameters,
         // checked anyway
         // (−0 and 0 are equal parameters: one key)
-        let key = toml::to_string(&params).unwrap_or_else(|_| format!("{params:?}")).replace("= -0.0\n", "= 0.0\n");
-        let same = seen.get(&key).into_iter().flatten().copied().find(|&i| points[i].params == params);
+        let key = toml::to_string(&params)
+            .unwrap_or_else(|_| format!("{params:?}"))
+            .replace("= -0.0\n", "= 0.0\n");
+        let same =
+            seen.get(&key).into_iter().flatten().copied().find(|&i| points[i].params == params);
         if let Some(i) = same {
             let existing = &mut points[i];
             if !existing.groups.contains(&group) {
@@ -366,9 +475,18 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
         } else if assignments.is_empty() {
             "base".to_string()
         } else {
-            assignments.iter().map(|(p, v, _)| format!("{p}={}", format_value(v))).collect::<Vec<_>>().join(",")
+            assignments
+                .iter()
+                .map(|(p, v, _)| format!("{p}={}", format_value(v)))
+                .collect::<Vec<_>>()
+                .join(",")
         };
-        points.push(SweepPoint { label, assignments: assignments.into_iter().map(|(p, v, _)| (p, v)).collect(), params, groups: vec![group] });
+        points.push(SweepPoint {
+            label,
+            assignments: assignments.into_iter().map(|(p, v, _)| (p, v)).collect(),
+            params,
+            groups: vec![group],
+        });
     }
     if !errors.is_empty() {
         // The same bad value can make several points invalid: report it once.
@@ -385,7 +503,11 @@ fn expand(spec: &LoadedSpec, sensors: crate::slam::Sensors) -> Result<(Vec<Sweep
 
 /// `[base]` with the assignments applied, deserialised and validated; errors point at the
 /// sweep value responsible.
-fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)], sensors: crate::slam::Sensors) -> Result<Params, Vec<crate::source::SourceError>> {
+fn resolve(
+    spec: &LoadedSpec,
+    assignments: &[(String, toml::Value, String)],
+    sensors: crate::slam::Sensors,
+) -> Result<Params, Vec<crate::source::SourceError>> {
     if assignments.is_empty() {
         return Ok(spec.spec.base.clone());
     }
@@ -408,10 +530,28 @@ fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)], sen
     }
     let params: Params = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
         // Blame the values that fail on their own; if only the combination fails, blame all.
-        let alone: Vec<&(String, toml::Value, String)> = assignments.iter().filter(|a| assignments.len() > 1 && resolve(spec, std::slice::from_ref(*a), sensors).is_err()).collect();
-        let culprits: Vec<&(String, toml::Value, String)> = if alone.is_empty() { assignments.iter().collect() } else { alone };
+        let alone: Vec<&(String, toml::Value, String)> = assignments
+            .iter()
+            .filter(|a| {
+                assignments.len() > 1 && resolve(spec, std::slice::from_ref(*a), sensors).is_err()
+            })
+            .collect();
+        let culprits: Vec<&(String, toml::Value, String)> =
+            if alone.is_empty() { assignments.iter().collect() } else { alone };
         let names: Vec<&str> = assignments.iter().map(|(p, ..)| p.as_str()).collect();
-        culprits.iter().map(|(_, _, key)| spec.error_at(key, format!("with {} set here, [base] does not deserialise: {}", names.join(", "), e.message().trim()))).collect::<Vec<_>>()
+        culprits
+            .iter()
+            .map(|(_, _, key)| {
+                spec.error_at(
+                    key,
+                    format!(
+                        "with {} set here, [base] does not deserialise: {}",
+                        names.join(", "),
+                        e.message().trim()
+                    ),
+                )
+            })
+            .collect::<Vec<_>>()
     })?;
     let violations = params.validate(sensors);
     if violations.is_empty() {
@@ -421,7 +561,12 @@ fn resolve(spec: &LoadedSpec, assignments: &[(String, toml::Value, String)], sen
         .into_iter()
         .map(|v| {
             // Place the error at the sweep value that set the key, else at the first assignment.
-            let key = assignments.iter().find(|(p, ..)| *p == v.key).or(assignments.first()).map(|(_, _, k)| k.as_str()).unwrap_or("sweeps");
+            let key = assignments
+                .iter()
+                .find(|(p, ..)| *p == v.key)
+                .or(assignments.first())
+                .map(|(_, _, k)| k.as_str())
+                .unwrap_or("sweeps");
             spec.error_at(key, format!("`{}` {}", v.key, v.message))
         })
         .collect())
@@ -437,13 +582,22 @@ fn get_path<'a>(table: &'a toml::Table, path: &str) -> Option<&'a toml::Value> {
 }
 
 /// The sweep point with the base parameters plus `table`'s assignments (`key` places errors).
-fn find_point(spec: &LoadedSpec, points: &[SweepPoint], table: &toml::Table, key: &str) -> Result<usize, crate::source::SourceError> {
+fn find_point(
+    spec: &LoadedSpec,
+    points: &[SweepPoint],
+    table: &toml::Table,
+    key: &str,
+) -> Result<usize, crate::source::SourceError> {
     let mut leaves = Vec::new();
     crate::spec::params::flatten("", &toml::Value::Table(table.clone()), &mut leaves);
-    let assignments: Vec<(String, toml::Value, String)> = leaves.into_iter().map(|(p, v)| (p.clone(), v, crate::source::join_key(key, &p))).collect();
+    let assignments: Vec<(String, toml::Value, String)> =
+        leaves.into_iter().map(|(p, v)| (p.clone(), v, crate::source::join_key(key, &p))).collect();
     // only to find the point: the points themselves were checked with the study's sensors
-    let params = resolve(spec, &assignments, crate::slam::Sensors::default()).map_err(|mut e| e.remove(0))?;
-    points.iter().position(|p| p.params == params).ok_or_else(|| spec.error_at(key, "no sweep point of this study has these parameters (the others at base)"))
+    let params = resolve(spec, &assignments, crate::slam::Sensors::default())
+        .map_err(|mut e| e.remove(0))?;
+    points.iter().position(|p| p.params == params).ok_or_else(|| {
+        spec.error_at(key, "no sweep point of this study has these parameters (the others at base)")
+    })
 }
 
 /// Resolves every claim's cells to sweep points.
@@ -457,7 +611,12 @@ fn claim_cells(spec: &LoadedSpec, points: &[SweepPoint]) -> Result<Vec<ClaimCell
             continue;
         }
         // An empty table means the base configuration.
-        let mut cell = |t: &toml::Table, k: &str| match find_point(spec, points, t, &format!("claims[{i}].{k}")) {
+        let mut cell = |t: &toml::Table, k: &str| match find_point(
+            spec,
+            points,
+            t,
+            &format!("claims[{i}].{k}"),
+        ) {
             Ok(p) => Some(points[p].label.clone()),
             Err(e) => {
                 errors.push(e);
@@ -465,18 +624,29 @@ fn claim_cells(spec: &LoadedSpec, points: &[SweepPoint]) -> Result<Vec<ClaimCell
             }
         };
         // A flat claim is about its `over` cells only.
-        let at = if c.test == crate::spec::ClaimTest::Flat && c.at.is_empty() { None } else { cell(&c.at, "at") };
+        let at = if c.test == crate::spec::ClaimTest::Flat && c.at.is_empty() {
+            None
+        } else {
+            cell(&c.at, "at")
+        };
         // Comparing algorithms without a `than` cell: the same cell.
-        let than = if c.than.is_empty() { c.than_algorithm.and(at.clone()) } else { cell(&c.than, "than") };
+        let than = if c.than.is_empty() {
+            c.than_algorithm.and(at.clone())
+        } else {
+            cell(&c.than, "than")
+        };
         let mut over = Vec::new();
         if let Some((param, values)) = c.over.iter().next() {
-            for (j, v) in values.as_array().map(Vec::as_slice).unwrap_or_default().iter().enumerate() {
+            for (j, v) in
+                values.as_array().map(Vec::as_slice).unwrap_or_default().iter().enumerate()
+            {
                 let mut t = toml::Table::new();
                 t.insert(param.clone(), v.clone());
                 match find_point(spec, points, &t, &format!("claims[{i}].over")) {
                     Ok(p) => over.push((format_value(v), points[p].label.clone())),
                     Err(mut e) => {
-                        e.key = format!("claims[{i}].over.{}[{j}]", crate::source::join_key("", param));
+                        e.key =
+                            format!("claims[{i}].over.{}[{j}]", crate::source::join_key("", param));
                         errors.push(e);
                     }
                 }
@@ -492,9 +662,12 @@ fn claim_cells(spec: &LoadedSpec, points: &[SweepPoint]) -> Result<Vec<ClaimCell
 fn reference(spec: &LoadedSpec) -> Result<Option<String>, SpecError> {
     let Some(r) = &spec.spec.report.reference else { return Ok(None) };
     let fail = |key: &str, msg: String| SpecError::new(&spec.path, vec![spec.error_at(key, msg)]);
-    let text = std::fs::read_to_string(&r.file).map_err(|e| fail("report.reference.file", format!("cannot read {}: {e}", r.file)))?;
-    let rows = reference_file::parse(&text).map_err(|e| fail("report.reference.file", format!("{}: {e}", r.file)))?;
-    let swept: Vec<&str> = spec.sweeps.iter().flat_map(|b| &b.params).map(|p| p.path.as_str()).collect();
+    let text = std::fs::read_to_string(&r.file)
+        .map_err(|e| fail("report.reference.file", format!("cannot read {}: {e}", r.file)))?;
+    let rows = reference_file::parse(&text)
+        .map_err(|e| fail("report.reference.file", format!("{}: {e}", r.file)))?;
+    let swept: Vec<&str> =
+        spec.sweeps.iter().flat_map(|b| &b.params).map(|p| p.path.as_str()).collect();
     for (i, e) in r.experiments.iter().enumerate() {
         let key = format!("report.reference.experiments[{i}]");
         let mine: Vec<_> = rows.iter().filter(|row| &row.experiment == e).collect();
@@ -502,12 +675,26 @@ fn reference(spec: &LoadedSpec) -> Result<Option<String>, SpecError> {
             return Err(fail(&key, format!("{} has no rows of experiment `{e}`", r.file)));
         }
         // Long-layout rows name cells (sweep labels) instead of a parameter.
-        let labels: Vec<&str> = spec.sweeps.iter().flat_map(|b| &b.labels).map(String::as_str).collect();
-        if let Some(row) = mine.iter().find(|row| !row.cell.is_empty() && !labels.contains(&row.cell.as_str())) {
-            return Err(fail(&key, format!("its rows name the cell `{}`, which no sweep `labels` of this study names", row.cell)));
+        let labels: Vec<&str> =
+            spec.sweeps.iter().flat_map(|b| &b.labels).map(String::as_str).collect();
+        if let Some(row) =
+            mine.iter().find(|row| !row.cell.is_empty() && !labels.contains(&row.cell.as_str()))
+        {
+            return Err(fail(
+                &key,
+                format!(
+                    "its rows name the cell `{}`, which no sweep `labels` of this study names",
+                    row.cell
+                ),
+            ));
         }
-        if let Some(row) = mine.iter().find(|row| row.cell.is_empty() && !swept.contains(&row.parameter.as_str())) {
-            return Err(fail(&key, format!("its rows sweep `{}`, which this study does not sweep", row.parameter)));
+        if let Some(row) =
+            mine.iter().find(|row| row.cell.is_empty() && !swept.contains(&row.parameter.as_str()))
+        {
+            return Err(fail(
+                &key,
+                format!("its rows sweep `{}`, which this study does not sweep", row.parameter),
+            ));
         }
     }
     Ok(Some(reference_file::select(&text, &r.experiments)))
@@ -522,7 +709,9 @@ fn set_path(table: &mut toml::Table, path: &str, value: toml::Value) {
             current.insert(part.to_string(), value);
             return;
         }
-        let entry = current.entry(part.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        let entry = current
+            .entry(part.to_string())
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
         if !entry.is_table() {
             *entry = toml::Value::Table(toml::Table::new());
         }
@@ -543,7 +732,10 @@ pub fn format_value(v: &toml::Value) -> String {
 
 /// Keeps run ids filename-safe (they name TUM files).
 fn sanitize(label: &str) -> String {
-    label.chars().map(|c| if c.is_ascii_alphanumeric() || "._=,+-".contains(c) { c } else { '_' }).collect()
+    label
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() || "._=,+-".contains(c) { c } else { '_' })
+        .collect()
 }
 
 fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunSpec> {
@@ -554,7 +746,10 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
         for &algorithm in &s.algorithms {
             // The world's parts this run reads: the point sensor's and the dataset loaders'
             // versions enter only the hashes of the runs that use them.
-            let mut code_version = format!("{SCHEMA_VERSION}+{WORLD_CODE_VERSION}+{METRICS_VERSION}+{}", algorithm.code_version());
+            let mut code_version = format!(
+                "{SCHEMA_VERSION}+{WORLD_CODE_VERSION}+{METRICS_VERSION}+{}",
+                algorithm.code_version()
+            );
             // The scan matchers share their code version and (by kind) their parameter
             // sections: the algorithm's name keeps their runs apart.
             if algorithm.is_scan_matcher() {
@@ -563,20 +758,39 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
             if map.map.dataset.is_some() {
                 code_version.push_str(&format!("+{}", crate::dataset::DATASET_CODE_VERSION));
             } else if algorithm.sensors(map.map.world_kind()).landmarks {
-                code_version.push_str(&format!("+{}", crate::world::point_sensor::POINT_SENSOR_CODE_VERSION));
+                code_version.push_str(&format!(
+                    "+{}",
+                    crate::world::point_sensor::POINT_SENSOR_CODE_VERSION
+                ));
             }
             for (pi, point) in points.iter().enumerate() {
                 let sections = point.params.sections_read_by(algorithm, map.map.world_kind());
                 for replicate in 0..s.replicates {
-                    let world_seed = derive_seed(s.seed, &map.name, if s.fixed_world { 0 } else { replicate }, "world");
+                    let world_seed = derive_seed(
+                        s.seed,
+                        &map.name,
+                        if s.fixed_world { 0 } else { replicate },
+                        "world",
+                    );
                     let filter_seed = derive_seed(s.seed, &map.name, replicate, "filter");
                     // TOML text, not JSON: it keeps `inf` (e.g. fastslam.neff_threshold) distinct.
                     let params = toml::to_string(&sections).expect("parameters serialise to TOML");
-                    let inputs = format!("map_blake3 = {:?}\nworld_seed = {world_seed}\nfilter_seed = {filter_seed}\n{params}", map.hash);
+                    let inputs = format!(
+                        "map_blake3 = {:?}\nworld_seed = {world_seed}\nfilter_seed = {filter_seed}\n{params}",
+                        map.hash
+                    );
                     let params_hash = blake3::hash(inputs.as_bytes()).to_hex().to_string();
-                    let hash = blake3::hash(format!("{code_version}\n{params_hash}").as_bytes()).to_hex().to_string();
+                    let hash = blake3::hash(format!("{code_version}\n{params_hash}").as_bytes())
+                        .to_hex()
+                        .to_string();
                     runs.push(RunSpec {
-                        run_id: format!("{}--{}--{}--r{:0width$}", map.name, algorithm.name(), sanitize(&point.label), replicate),
+                        run_id: format!(
+                            "{}--{}--{}--r{:0width$}",
+                            map.name,
+                            algorithm.name(),
+                            sanitize(&point.label),
+                            replicate
+                        ),
                         map: mi,
                         point: pi,
                         algorithm,
@@ -615,11 +829,17 @@ mod tests {
     /// one is an error at the pair's key.
     #[test]
     fn contrast_pairs_must_name_sweep_points() {
-        let spec = format!("{HEAD}[[sweeps]]\nkind = \"zip\"\nlabels = [\"low\", \"high\"]\nvalues = {{ \"odometry.k\" = [0.05, 0.2] }}\n[report]\nmetrics = [\"ate_rmse_m\"]\n[[report.contrasts]]\ntitle = \"c\"\npairs = [[\"high\", \"low\"], [\"high\", \"middle\"]]\n");
+        let spec = format!(
+            "{HEAD}[[sweeps]]\nkind = \"zip\"\nlabels = [\"low\", \"high\"]\nvalues = {{ \"odometry.k\" = [0.05, 0.2] }}\n[report]\nmetrics = [\"ate_rmse_m\"]\n[[report.contrasts]]\ntitle = \"c\"\npairs = [[\"high\", \"low\"], [\"high\", \"middle\"]]\n"
+        );
         let e = plan_of(&spec).unwrap_err();
         let err = &e.0[0].errors[0];
         assert_eq!(err.key, "report.contrasts[0].pairs[1]");
-        assert!(err.message.contains("no sweep point `middle`") && err.message.contains("low, high"), "{}", err.message);
+        assert!(
+            err.message.contains("no sweep point `middle`") && err.message.contains("low, high"),
+            "{}",
+            err.message
+        );
         assert!(plan_of(&spec.replace(", [\"high\", \"middle\"]", "")).is_ok());
     }
 
@@ -627,11 +847,14 @@ mod tests {
     /// a failure of every run.
     #[test]
     fn wall_pixels_need_the_maps_bitmap_scale() {
-        let spec = format!("{HEAD}[base.laser]\nwall_thickness_px = 2.5\n").replace("[\"odometry\"]", "[\"fastslam1\"]");
+        let spec = format!("{HEAD}[base.laser]\nwall_thickness_px = 2.5\n")
+            .replace("[\"odometry\"]", "[\"fastslam1\"]");
         let e = plan_of(&spec).unwrap_err();
         assert_eq!(e.0[0].errors[0].key, "maps[0]");
         assert!(e.0[0].errors[0].message.contains("no bitmap_m_per_px"));
-        assert!(plan_of(&spec.replace("wall_thickness_px = 2.5", "wall_thickness_m = 0.05")).is_ok());
+        assert!(
+            plan_of(&spec.replace("wall_thickness_px = 2.5", "wall_thickness_m = 0.05")).is_ok()
+        );
     }
 
     /// A sensor's rate must fit the clock only where the study simulates that sensor: EKF-SLAM on
@@ -640,34 +863,74 @@ mod tests {
     #[test]
     fn sensor_rates_are_checked_against_the_maps_world_kinds() {
         let dir = tempfile::tempdir().unwrap();
-        let map = |name: &str, extra: &str| format!("name = \"{name}\"\ntitle = \"M\"\nstart = {{ x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }}\n{extra}[[walls]]\npoints = [[-1, -1], [5, -1], [5, 5], [-1, 5], [-1, -1]]\n[trajectory]\nmax_speed_mps = 0.5\nlaps = 1\nwaypoints = [[4, 0], [0, 0]]\n");
-        std::fs::write(dir.path().join("dots.toml"), map("dots", "landmarks = [[2.0, 2.0]]\n")).unwrap();
+        let map = |name: &str, extra: &str| {
+            format!(
+                "name = \"{name}\"\ntitle = \"M\"\nstart = {{ x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }}\n{extra}[[walls]]\npoints = [[-1, -1], [5, -1], [5, 5], [-1, 5], [-1, -1]]\n[trajectory]\nmax_speed_mps = 0.5\nlaps = 1\nwaypoints = [[4, 0], [0, 0]]\n"
+            )
+        };
+        std::fs::write(dir.path().join("dots.toml"), map("dots", "landmarks = [[2.0, 2.0]]\n"))
+            .unwrap();
         std::fs::write(dir.path().join("box.toml"), map("box", "")).unwrap();
-        let text = |m: &str| format!("id = \"t\"\ntitle = \"T\"\nseed = 5\nreplicates = 3\nmaps = [\"{m}\"]\nalgorithms = [\"ekf_slam\"]\n[base.sim]\ndt_s = 0.3\n[base.landmark_sensor]\nrate_hz = 1.0\n");
-        let plan = |m: &str| build(crate::spec::parse(Path::new("s.toml"), &text(m)).map_err(InputErrors::from).unwrap(), dir.path());
+        let text = |m: &str| {
+            format!(
+                "id = \"t\"\ntitle = \"T\"\nseed = 5\nreplicates = 3\nmaps = [\"{m}\"]\nalgorithms = [\"ekf_slam\"]\n[base.sim]\ndt_s = 0.3\n[base.landmark_sensor]\nrate_hz = 1.0\n"
+            )
+        };
+        let plan = |m: &str| {
+            build(
+                crate::spec::parse(Path::new("s.toml"), &text(m))
+                    .map_err(InputErrors::from)
+                    .unwrap(),
+                dir.path(),
+            )
+        };
         // 1/(1 Hz · 0.3 s) is not whole either: the point map's sensor is checked
         let e = plan("dots").unwrap_err();
-        assert_eq!(e.0[0].errors.iter().map(|e| e.key.as_str()).collect::<Vec<_>>(), ["base.landmark_sensor.rate_hz"]);
-        let fits = text("dots").replace("dt_s = 0.3", "dt_s = 0.25").replace("rate_hz = 1.0", "rate_hz = 2.0");
-        assert!(build(crate::spec::parse(Path::new("s.toml"), &fits).unwrap(), dir.path()).is_ok(), "the laser's 5 Hz at Δt = 0.25 s is not checked on a point map");
-        let e = build(crate::spec::parse(Path::new("s.toml"), &fits.replace("\"dots\"", "\"box\"")).unwrap(), dir.path()).unwrap_err();
+        assert_eq!(
+            e.0[0].errors.iter().map(|e| e.key.as_str()).collect::<Vec<_>>(),
+            ["base.landmark_sensor.rate_hz"]
+        );
+        let fits = text("dots")
+            .replace("dt_s = 0.3", "dt_s = 0.25")
+            .replace("rate_hz = 1.0", "rate_hz = 2.0");
+        assert!(
+            build(crate::spec::parse(Path::new("s.toml"), &fits).unwrap(), dir.path()).is_ok(),
+            "the laser's 5 Hz at Δt = 0.25 s is not checked on a point map"
+        );
+        let e = build(
+            crate::spec::parse(Path::new("s.toml"), &fits.replace("\"dots\"", "\"box\"")).unwrap(),
+            dir.path(),
+        )
+        .unwrap_err();
         assert_eq!(e.0[0].errors[0].key, "base.laser.rate_hz");
     }
 
     #[test]
     fn one_at_a_time_shares_the_base_point() {
-        let text = format!("{HEAD}[base.odometry]\nmodel = \"proportional\"\nk = 0.1\nk_is = \"std\"\n[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.k\" = [0.05, 0.1], \"sim.dt_s\" = [0.1, 0.2] }}\n");
+        let text = format!(
+            "{HEAD}[base.odometry]\nmodel = \"proportional\"\nk = 0.1\nk_is = \"std\"\n[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.k\" = [0.05, 0.1], \"sim.dt_s\" = [0.1, 0.2] }}\n"
+        );
         let plan = plan_of(&text).unwrap();
         // k=0.1 and dt=0.1 are both the base configuration: one point, in both groups
-        let labels: Vec<_> = plan.points.iter().map(|p| (p.label.as_str(), p.groups.clone())).collect();
-        assert_eq!(labels, vec![("odometry.k=0.05", vec![0]), ("odometry.k=0.1", vec![0, 1]), ("sim.dt_s=0.2", vec![1])]);
+        let labels: Vec<_> =
+            plan.points.iter().map(|p| (p.label.as_str(), p.groups.clone())).collect();
+        assert_eq!(
+            labels,
+            vec![
+                ("odometry.k=0.05", vec![0]),
+                ("odometry.k=0.1", vec![0, 1]),
+                ("sim.dt_s=0.2", vec![1])
+            ]
+        );
         assert_eq!(plan.runs.len(), 3 * 3);
         assert_eq!(plan.runs[0].run_id, "box--odometry--odometry.k=0.05--r00");
     }
 
     #[test]
     fn seeds_do_not_depend_on_the_swept_value() {
-        let text = format!("{HEAD}[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.k\" = [0.0, 0.2], \"sim.dt_s\" = [0.1, 0.2] }}\n");
+        let text = format!(
+            "{HEAD}[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.k\" = [0.0, 0.2], \"sim.dt_s\" = [0.1, 0.2] }}\n"
+        );
         let plan = plan_of(&text).unwrap();
         assert_eq!(plan.points.len(), 4);
         for r in &plan.runs {
@@ -680,7 +943,9 @@ mod tests {
 
     #[test]
     fn zip_pairs_values() {
-        let text = format!("{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.k\" = [0.0, 0.2], \"sim.dt_s\" = [0.1, 0.2] }}\n");
+        let text = format!(
+            "{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.k\" = [0.0, 0.2], \"sim.dt_s\" = [0.1, 0.2] }}\n"
+        );
         let plan = plan_of(&text).unwrap();
         let labels: Vec<_> = plan.points.iter().map(|p| p.label.as_str()).collect();
         assert_eq!(labels, vec!["odometry.k=0,sim.dt_s=0.1", "odometry.k=0.2,sim.dt_s=0.2"]);
@@ -688,7 +953,9 @@ mod tests {
 
     #[test]
     fn invalid_sweep_value_points_at_the_value() {
-        let text = format!("{HEAD}[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.k\" = [0.1, -0.5] }}\n");
+        let text = format!(
+            "{HEAD}[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.k\" = [0.1, -0.5] }}\n"
+        );
         let err = plan_of(&text).unwrap_err();
         let e = &err.0[0].errors[0];
         assert_eq!(e.key, "sweeps[0].values.\"odometry.k\"[1]");
@@ -698,25 +965,39 @@ mod tests {
 
     #[test]
     fn wrong_type_in_sweep_is_reported_at_the_value() {
-        let text = format!("{HEAD}[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"sim.dt_s\" = [0.1, \"fast\"] }}\n");
+        let text = format!(
+            "{HEAD}[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"sim.dt_s\" = [0.1, \"fast\"] }}\n"
+        );
         let err = plan_of(&text).unwrap_err();
         assert_eq!(err.0[0].errors[0].key, "sweeps[0].values.\"sim.dt_s\"[1]");
     }
 
     #[test]
     fn switching_the_odometry_model_starts_its_section_afresh() {
-        let text = format!("{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.model\" = [\"proportional\", \"pose\"], \"odometry.var_theta_rad2\" = [0.0, 0.001] }}\n");
+        let text = format!(
+            "{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.model\" = [\"proportional\", \"pose\"], \"odometry.var_theta_rad2\" = [0.0, 0.001] }}\n"
+        );
         // proportional has no var_theta_rad2: that point is invalid and named
         let err = plan_of(&text).unwrap_err();
-        assert!(err.0[0].errors[0].message.contains("var_theta_rad2"), "{}", err.0[0].errors[0].message);
-        let text = format!("{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.model\" = [\"pose\"], \"odometry.var_x_m2\" = [0.01], \"odometry.var_y_m2\" = [0.01], \"odometry.var_theta_rad2\" = [0.001] }}\n");
+        assert!(
+            err.0[0].errors[0].message.contains("var_theta_rad2"),
+            "{}",
+            err.0[0].errors[0].message
+        );
+        let text = format!(
+            "{HEAD}[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.model\" = [\"pose\"], \"odometry.var_x_m2\" = [0.01], \"odometry.var_y_m2\" = [0.01], \"odometry.var_theta_rad2\" = [0.001] }}\n"
+        );
         let plan = plan_of(&text).unwrap();
-        assert!(matches!(plan.points[0].params.odometry, crate::world::odometry::OdometryNoise::Pose { var_theta_rad2, .. } if var_theta_rad2 == 0.001));
+        assert!(
+            matches!(plan.points[0].params.odometry, crate::world::odometry::OdometryNoise::Pose { var_theta_rad2, .. } if var_theta_rad2 == 0.001)
+        );
     }
 
     #[test]
     fn a_bad_value_in_a_grid_is_blamed_on_its_own_key() {
-        let text = format!("{HEAD}[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.k\" = [0.1], \"sim.dt_s\" = [\"fast\"] }}\n");
+        let text = format!(
+            "{HEAD}[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.k\" = [0.1], \"sim.dt_s\" = [\"fast\"] }}\n"
+        );
         let err = plan_of(&text).unwrap_err();
         let keys: Vec<&str> = err.0[0].errors.iter().map(|e| e.key.as_str()).collect();
         assert_eq!(keys, ["sweeps[0].values.\"sim.dt_s\"[0]"]);
@@ -749,7 +1030,10 @@ mod tests {
         assert_eq!((d.rows.len(), d.unit.len(), d.moved.len(), d.size), (6 * 3, 6 * 3, 6, 6));
         let distinct: std::collections::BTreeSet<&String> = d.rows.iter().collect();
         assert_eq!(distinct.len(), plan.points.len(), "every point is some row's");
-        assert!(plan.points.len() < d.rows.len(), "particles 1.67 and 2.33 both round to 2 (and trajectories share grid points)");
+        assert!(
+            plan.points.len() < d.rows.len(),
+            "particles 1.67 and 2.33 both round to 2 (and trajectories share grid points)"
+        );
         for (row, label) in d.rows.iter().enumerate() {
             let p = &plan.points.iter().find(|p| &p.label == label).unwrap().params.fastslam;
             assert_eq!(p.motion_y, p.motion_x, "tied");
@@ -767,11 +1051,15 @@ mod tests {
     /// planned_runs counts a sobol design as N (d + 2) points before expanding it.
     #[test]
     fn sobol_designs_are_counted_before_expansion() {
-        let text = HEAD.replace("[\"odometry\"]", "[\"fastslam1\"]") + "[[sweeps]]\nkind = \"sobol\"\nsamples = 8\nranges = { \"fastslam.p0\" = [0.001, 1.0], \"fastslam.motion_x\" = [0.001, 0.1] }\n";
+        let text = HEAD.replace("[\"odometry\"]", "[\"fastslam1\"]")
+            + "[[sweeps]]\nkind = \"sobol\"\nsamples = 8\nranges = { \"fastslam.p0\" = [0.001, 1.0], \"fastslam.motion_x\" = [0.001, 0.1] }\n";
         let spec = crate::spec::parse(Path::new("s.toml"), &text).unwrap();
         assert_eq!(planned_runs(&spec), 8 * 4 * 3);
         let plan = plan_of(&text).unwrap();
         assert_eq!(plan.groups[0].design.as_ref().unwrap().rows.len(), 32);
-        assert!(plan.groups[0].design.as_ref().unwrap().unit.is_empty(), "sobol keeps no coordinates");
+        assert!(
+            plan.groups[0].design.as_ref().unwrap().unit.is_empty(),
+            "sobol keeps no coordinates"
+        );
     }
 }

@@ -27,14 +27,22 @@ pub const MAX_SHARDS: usize = 100_000;
 impl FromStr for Shard {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        let (i, n) = s.split_once('/').ok_or_else(|| format!("`{s}` is not I/N (e.g. 3/8: the third of eight shards)"))?;
-        let parse = |x: &str, what: &str| x.trim().parse::<usize>().map_err(|_| format!("`{s}`: {what} `{x}` is not a whole number"));
+        let (i, n) = s
+            .split_once('/')
+            .ok_or_else(|| format!("`{s}` is not I/N (e.g. 3/8: the third of eight shards)"))?;
+        let parse = |x: &str, what: &str| {
+            x.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("`{s}`: {what} `{x}` is not a whole number"))
+        };
         let (index, count) = (parse(i, "I")?, parse(n, "N")?);
         if count == 0 || count > MAX_SHARDS {
             return Err(format!("`{s}`: N must be between 1 and {MAX_SHARDS}"));
         }
         if index == 0 || index > count {
-            return Err(format!("`{s}`: I must be between 1 and N = {count} (shards are numbered from 1)"));
+            return Err(format!(
+                "`{s}`: I must be between 1 and N = {count} (shards are numbered from 1)"
+            ));
         }
         Ok(Shard { index, count })
     }
@@ -49,7 +57,10 @@ impl fmt::Display for Shard {
 /// Assigns each distinct hash of `items` (hash, expected cost) to one of `count` shards; returns
 /// hash → shard index (1-based). A hash listed twice keeps its largest cost (identical inputs
 /// have identical costs, so this only matters for malformed input).
-pub fn partition<'a>(items: impl IntoIterator<Item = (&'a str, f64)>, count: usize) -> BTreeMap<&'a str, usize> {
+pub fn partition<'a>(
+    items: impl IntoIterator<Item = (&'a str, f64)>,
+    count: usize,
+) -> BTreeMap<&'a str, usize> {
     assert!(count >= 1, "at least one shard");
     let mut cost: BTreeMap<&str, f64> = BTreeMap::new();
     for (hash, c) in items {
@@ -63,7 +74,10 @@ pub fn partition<'a>(items: impl IntoIterator<Item = (&'a str, f64)>, count: usi
     let mut out = BTreeMap::new();
     for (hash, c) in order {
         // the least loaded shard, the lowest index among equals
-        let (k, _) = load.iter().enumerate().fold((0, f64::INFINITY), |best, (k, &l)| if l < best.1 { (k, l) } else { best });
+        let (k, _) = load
+            .iter()
+            .enumerate()
+            .fold((0, f64::INFINITY), |best, (k, &l)| if l < best.1 { (k, l) } else { best });
         load[k] += c;
         out.insert(hash, k + 1);
     }
@@ -85,7 +99,8 @@ mod tests {
 
     #[test]
     fn every_hash_goes_to_exactly_one_shard_whatever_the_order() {
-        let items: Vec<(String, f64)> = (0..200).map(|i| (format!("h{i:03}"), 1.0 + (i * 37 % 11) as f64)).collect();
+        let items: Vec<(String, f64)> =
+            (0..200).map(|i| (format!("h{i:03}"), 1.0 + (i * 37 % 11) as f64)).collect();
         let a = partition(items.iter().map(|(h, c)| (h.as_str(), *c)), 7);
         let b = partition(items.iter().rev().map(|(h, c)| (h.as_str(), *c)), 7);
         assert_eq!(a, b, "the partition must not depend on the order the plans list the runs");
@@ -99,15 +114,22 @@ mod tests {
         let mut items = vec![("big".to_string(), 100.0)];
         items.extend((0..100).map(|i| (format!("small{i:03}"), 1.0)));
         let p = partition(items.iter().map(|(h, c)| (h.as_str(), *c)), 2);
-        let load = |k: usize| items.iter().filter(|(h, _)| p[h.as_str()] == k).map(|(_, c)| c).sum::<f64>();
+        let load = |k: usize| {
+            items.iter().filter(|(h, _)| p[h.as_str()] == k).map(|(_, c)| c).sum::<f64>()
+        };
         assert_eq!(p["big"], 1);
-        assert_eq!(items.iter().filter(|(h, _)| p[h.as_str()] == 1).count(), 1, "the big run alone fills shard 1");
+        assert_eq!(
+            items.iter().filter(|(h, _)| p[h.as_str()] == 1).count(),
+            1,
+            "the big run alone fills shard 1"
+        );
         assert_eq!((load(1), load(2)), (100.0, 100.0));
     }
 
     #[test]
     fn lpt_stays_within_four_thirds_of_a_perfect_split() {
-        let items: Vec<(String, f64)> = (0..57).map(|i| (format!("r{i}"), ((i * 7919) % 97 + 1) as f64)).collect();
+        let items: Vec<(String, f64)> =
+            (0..57).map(|i| (format!("r{i}"), ((i * 7919) % 97 + 1) as f64)).collect();
         for n in [2, 3, 4, 8] {
             let p = partition(items.iter().map(|(h, c)| (h.as_str(), *c)), n);
             let mut load = vec![0.0; n];

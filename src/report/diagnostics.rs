@@ -3,9 +3,13 @@
 //! with every matcher's path (Figs 26/34/51), f per half-iteration (Fig 27) and the incremental
 //! maps (Figs 52–59).
 
-use super::figure::{self, ContourFigure, LineFigure, LineSeries, PathSeries, ScanMapFigure, SeriesPoint, XAxis};
+use super::figure::{
+    self, ContourFigure, LineFigure, LineSeries, PathSeries, ScanMapFigure, SeriesPoint, XAxis,
+};
 use super::view::FigureView;
-use crate::scanmatch::diagnose::{diosi_parabola, vertex, Diagnostics, MatchDiagnostic, OrientationSlices};
+use crate::scanmatch::diagnose::{
+    Diagnostics, MatchDiagnostic, OrientationSlices, diosi_parabola, vertex,
+};
 use crate::slam::AlgorithmKind;
 use crate::spec::ExperimentSpec;
 use crate::stats::sig;
@@ -53,7 +57,10 @@ pub fn build(d: &Diagnostics, spec: &ExperimentSpec, map: Option<&Map>) -> Diagn
     for m in &d.matches {
         intro.push(match_sentence(m));
         let prefix = format!("diagnostic-{}", m.number);
-        let head = format!("Match {} ({}, steps {} → {})", m.number, m.why, m.reference_step, m.current_step);
+        let head = format!(
+            "Match {} ({}, steps {} → {})",
+            m.number, m.why, m.reference_step, m.current_step
+        );
         if let Some(o) = &m.orientation {
             figures.extend(orientation_views(spec, o, m, &prefix, &head));
         }
@@ -97,32 +104,67 @@ pub fn build(d: &Diagnostics, spec: &ExperimentSpec, map: Option<&Map>) -> Diagn
 fn map_cell(map: &Map, im: &crate::scanmatch::diagnose::IncrementalMap) -> f64 {
     let xs = map.walls.iter().flat_map(|s| [s.a.x, s.b.x]);
     let ys = map.walls.iter().flat_map(|s| [s.a.y, s.b.y]);
-    let span = |v: &mut dyn Iterator<Item = f64>| v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+    let span = |v: &mut dyn Iterator<Item = f64>| {
+        v.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)))
+    };
     let ((x0, x1), (y0, y1)) = (span(&mut xs.into_iter()), span(&mut ys.into_iter()));
     let extent = (x1 - x0).max(y1 - y0);
-    if extent.is_finite() && extent > 0.0 { (extent / MAP_CELLS_ACROSS).max(im.cell_m) } else { im.cell_m }
+    if extent.is_finite() && extent > 0.0 {
+        (extent / MAP_CELLS_ACROSS).max(im.cell_m)
+    } else {
+        im.cell_m
+    }
 }
 
 /// The map's cells re-binned to `cell` (coarser while more than [`MAP_MAX_POINTS`] remain): the
 /// cell size used and the cell centres.
-fn drawn_cells(im: &crate::scanmatch::diagnose::IncrementalMap, mut cell: f64) -> (f64, Vec<(f64, f64)>) {
+fn drawn_cells(
+    im: &crate::scanmatch::diagnose::IncrementalMap,
+    mut cell: f64,
+) -> (f64, Vec<(f64, f64)>) {
     loop {
-        let mut bins: Vec<(i64, i64)> = im.cells.iter().map(|&(i, j)| ((((f64::from(i) + 0.5) * im.cell_m) / cell).floor() as i64, (((f64::from(j) + 0.5) * im.cell_m) / cell).floor() as i64)).collect();
+        let mut bins: Vec<(i64, i64)> = im
+            .cells
+            .iter()
+            .map(|&(i, j)| {
+                (
+                    (((f64::from(i) + 0.5) * im.cell_m) / cell).floor() as i64,
+                    (((f64::from(j) + 0.5) * im.cell_m) / cell).floor() as i64,
+                )
+            })
+            .collect();
         bins.sort_unstable();
         bins.dedup();
         if bins.len() <= MAP_MAX_POINTS || !cell.is_finite() {
-            return (cell, bins.into_iter().map(|(i, j)| ((i as f64 + 0.5) * cell, (j as f64 + 0.5) * cell)).collect());
+            return (
+                cell,
+                bins.into_iter()
+                    .map(|(i, j)| ((i as f64 + 0.5) * cell, (j as f64 + 0.5) * cell))
+                    .collect(),
+            );
         }
         cell *= 1.25;
     }
 }
 
 fn reproduction(d: &Diagnostics) -> String {
-    let bad: Vec<String> = d.matches.iter().flat_map(|m| m.paths.iter().filter(|p| !p.reproduces).map(move |p| format!("{} at match {}", title(&p.algorithm), m.number))).collect();
+    let bad: Vec<String> = d
+        .matches
+        .iter()
+        .flat_map(|m| {
+            m.paths
+                .iter()
+                .filter(|p| !p.reproduces)
+                .map(move |p| format!("{} at match {}", title(&p.algorithm), m.number))
+        })
+        .collect();
     if bad.is_empty() {
         "every re-run returned the stored estimate bit for bit.".to_string()
     } else {
-        format!("these re-runs did NOT return the stored estimate, so their figures may not show what the run did: {}.", bad.join(", "))
+        format!(
+            "these re-runs did NOT return the stored estimate, so their figures may not show what the run did: {}.",
+            bad.join(", ")
+        )
     }
 }
 
@@ -150,8 +192,16 @@ fn match_sentence(m: &MatchDiagnostic) -> String {
             small((e.y - t.y) * 1e3, 1e-3),
             small(deg(crate::geom::wrap_angle(e.theta - t.theta)), 1e-5),
             p.f_estimate.map_or("—".into(), |f| sig(f, 3)),
-            if p.kind == "per half-iteration" { p.poses.len().saturating_sub(1) } else { p.evaluations.last().copied().unwrap_or(0) as usize },
-            if p.kind == "per half-iteration" { "half-iterations" } else { "evaluations (at its best f)" }
+            if p.kind == "per half-iteration" {
+                p.poses.len().saturating_sub(1)
+            } else {
+                p.evaluations.last().copied().unwrap_or(0) as usize
+            },
+            if p.kind == "per half-iteration" {
+                "half-iterations"
+            } else {
+                "evaluations (at its best f)"
+            }
         ));
     }
     for p in m.psm.iter().filter(|p| p.at_label == "estimate") {
@@ -194,10 +244,18 @@ fn marks(label: String, color: usize, points: Vec<SeriesPoint>) -> LineSeries {
 
 /// A vertical dashed line at x over the values of `series`.
 fn vline(label: &str, x: f64, series: &[LineSeries]) -> LineSeries {
-    let ys: Vec<f64> = series.iter().flat_map(|s| &s.points).map(|p| p.mean).filter(|v| v.is_finite()).collect();
-    let (lo, hi) = ys.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
+    let ys: Vec<f64> =
+        series.iter().flat_map(|s| &s.points).map(|p| p.mean).filter(|v| v.is_finite()).collect();
+    let (lo, hi) =
+        ys.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
     let (lo, hi) = if lo.is_finite() { (lo.min(0.0), hi) } else { (0.0, 1.0) };
-    LineSeries { label: label.to_string(), color: TRUTH, points: vec![point(x, lo), point(x, hi)], dashed: true, scatter: false }
+    LineSeries {
+        label: label.to_string(),
+        color: TRUTH,
+        points: vec![point(x, lo), point(x, hi)],
+        dashed: true,
+        scatter: false,
+    }
 }
 
 fn parabola_series(p: (f64, f64, f64, f64), from: f64, to: f64, truth: f64) -> Vec<SeriesPoint> {
@@ -212,25 +270,47 @@ fn parabola_series(p: (f64, f64, f64, f64), from: f64, to: f64, truth: f64) -> V
 }
 
 /// [EP] Fig 25: E-PSM's coarse and fine orientation grids with Diosi's parabola.
-fn orientation_views(spec: &ExperimentSpec, o: &OrientationSlices, m: &MatchDiagnostic, prefix: &str, head: &str) -> Vec<FigureView> {
+fn orientation_views(
+    spec: &ExperimentSpec,
+    o: &OrientationSlices,
+    m: &MatchDiagnostic,
+    prefix: &str,
+    head: &str,
+) -> Vec<FigureView> {
     let truth = m.truth.theta;
     let epsm = color(spec, "epsm");
-    let grid = |v: &[(f64, Option<f64>)]| v.iter().filter_map(|(t, f)| f.map(|f| point(deg(t - truth), f))).collect::<Vec<_>>();
-    let f_at = |v: &[(f64, Option<f64>)], theta: f64| v.iter().find(|(t, _)| (t - theta).abs() < 1e-12).and_then(|(_, f)| *f);
+    let grid = |v: &[(f64, Option<f64>)]| {
+        v.iter().filter_map(|(t, f)| f.map(|f| point(deg(t - truth), f))).collect::<Vec<_>>()
+    };
+    let f_at = |v: &[(f64, Option<f64>)], theta: f64| {
+        v.iter().find(|(t, _)| (t - theta).abs() < 1e-12).and_then(|(_, f)| *f)
+    };
     let mut out = Vec::new();
     for (fine, values, suffix) in [(false, &o.coarse, "coarse"), (true, &o.fine, "fine")] {
         if values.is_empty() {
             continue;
         }
         let (lo, hi) = (values[0].0, values[values.len() - 1].0);
-        let mut series = vec![line(format!("f on E-PSM's {} grid", if fine { "fine" } else { "coarse" }), epsm, grid(values))];
+        let mut series = vec![line(
+            format!("f on E-PSM's {} grid", if fine { "fine" } else { "coarse" }),
+            epsm,
+            grid(values),
+        )];
         if let Some(p) = o.parabola {
             let h = o.coarse.get(1).map_or(0.0, |s| s.0 - o.coarse[0].0);
             let (from, to) = if fine { (lo, hi) } else { (p.0 - 1.5 * h, p.0 + 1.5 * h) };
-            series.push(line("Diosi's parabola (coarse minimum and neighbours)".into(), PARABOLA, parabola_series(p, from, to, truth)));
+            series.push(line(
+                "Diosi's parabola (coarse minimum and neighbours)".into(),
+                PARABOLA,
+                parabola_series(p, from, to, truth),
+            ));
             if let Some(v) = vertex(p).filter(|v| (lo..=hi).contains(v)) {
                 let (t0, a, b, c) = p;
-                series.push(marks("parabola vertex".into(), PARABOLA, vec![point(deg(v - truth), a * (v - t0) * (v - t0) + b * (v - t0) + c)]));
+                series.push(marks(
+                    "parabola vertex".into(),
+                    PARABOLA,
+                    vec![point(deg(v - truth), a * (v - t0) * (v - t0) + b * (v - t0) + c)],
+                ));
             }
         }
         if let Some(f) = f_at(&o.coarse, o.pick).or_else(|| f_at(&o.fine, o.pick)) {
@@ -240,7 +320,13 @@ fn orientation_views(spec: &ExperimentSpec, o: &OrientationSlices, m: &MatchDiag
             let v = vline("true heading", 0.0, &series);
             series.push(v);
         }
-        let fig = LineFigure { x_label: "θ − true θ [deg]".into(), y_label: "f [cm²]".into(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series };
+        let fig = LineFigure {
+            x_label: "θ − true θ [deg]".into(),
+            y_label: "f [cm²]".into(),
+            x_axis: XAxis::Linear,
+            x_ticks: Vec::new(),
+            series,
+        };
         out.push(FigureView {
             panel: false,
             file: format!("{prefix}-orientation-{suffix}"),
@@ -259,7 +345,12 @@ fn orientation_views(spec: &ExperimentSpec, o: &OrientationSlices, m: &MatchDiag
 }
 
 /// PSM's criterion e(θ) at its initial guess and at its estimate, with the heading it picks.
-fn psm_view(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, head: &str) -> Option<FigureView> {
+fn psm_view(
+    spec: &ExperimentSpec,
+    m: &MatchDiagnostic,
+    prefix: &str,
+    head: &str,
+) -> Option<FigureView> {
     if m.psm.is_empty() {
         return None;
     }
@@ -268,20 +359,39 @@ fn psm_view(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, head: &str
     for p in &m.psm {
         let c = color(spec, &p.algorithm);
         let at_estimate = p.at_label == "estimate";
-        let pts: Vec<SeriesPoint> = p.errors.iter().filter_map(|(t, e)| e.map(|e| point(deg(t - truth), e))).collect();
-        series.push(LineSeries { label: format!("{}: e(θ) at its {}", title(&p.algorithm), p.at_label), color: c, points: pts, dashed: at_estimate, scatter: false });
+        let pts: Vec<SeriesPoint> =
+            p.errors.iter().filter_map(|(t, e)| e.map(|e| point(deg(t - truth), e))).collect();
+        series.push(LineSeries {
+            label: format!("{}: e(θ) at its {}", title(&p.algorithm), p.at_label),
+            color: c,
+            points: pts,
+            dashed: at_estimate,
+            scatter: false,
+        });
         if let Some(pick) = p.pick {
             // the criterion's value at the pick: Diosi's parabola through the best shift, or the best shift itself
-            let e = diosi_parabola(&p.errors).filter(|_| p.refined).map(|(t0, a, b, c)| a * (pick - t0) * (pick - t0) + b * (pick - t0) + c);
+            let e = diosi_parabola(&p.errors)
+                .filter(|_| p.refined)
+                .map(|(t0, a, b, c)| a * (pick - t0) * (pick - t0) + b * (pick - t0) + c);
             let e = e.or_else(|| p.errors.iter().filter_map(|(_, e)| *e).min_by(f64::total_cmp));
             if let Some(e) = e {
-                series.push(marks(format!("{}: pick at its {}", title(&p.algorithm), p.at_label), c, vec![point(deg(pick - truth), e)]));
+                series.push(marks(
+                    format!("{}: pick at its {}", title(&p.algorithm), p.at_label),
+                    c,
+                    vec![point(deg(pick - truth), e)],
+                ));
             }
         }
     }
     let v = vline("true heading", 0.0, &series);
     series.push(v);
-    let fig = LineFigure { x_label: "θ − true θ [deg]".into(), y_label: "e(θ): mean |range residual| [cm]".into(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series };
+    let fig = LineFigure {
+        x_label: "θ − true θ [deg]".into(),
+        y_label: "e(θ): mean |range residual| [cm]".into(),
+        x_axis: XAxis::Linear,
+        x_ticks: Vec::new(),
+        series,
+    };
     Some(FigureView {
         panel: false,
         file: format!("{prefix}-psm-criterion"),
@@ -294,27 +404,53 @@ fn psm_view(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, head: &str
 }
 
 /// [EP] Fig 26: f contours at the true heading around the true position, with every path.
-fn contour_view(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, head: &str) -> FigureView {
+fn contour_view(
+    spec: &ExperimentSpec,
+    m: &MatchDiagnostic,
+    prefix: &str,
+    head: &str,
+) -> FigureView {
     let c = &m.contour;
     let mut values: Vec<f64> = c.f.iter().filter_map(|f| *f).collect();
     values.sort_by(f64::total_cmp);
-    let mut levels: Vec<f64> = LEVEL_QUANTILES.iter().filter_map(|q| values.get(((values.len().saturating_sub(1)) as f64 * q).round() as usize).copied()).collect();
+    let mut levels: Vec<f64> = LEVEL_QUANTILES
+        .iter()
+        .filter_map(|q| {
+            values.get(((values.len().saturating_sub(1)) as f64 * q).round() as usize).copied()
+        })
+        .collect();
     levels.dedup();
-    let contours: Vec<(f64, Vec<Vec<(f64, f64)>>)> = levels.iter().map(|&l| (l, figure::contour_lines(&c.xs, &c.ys, &c.f, l))).collect();
+    let contours: Vec<(f64, Vec<Vec<(f64, f64)>>)> =
+        levels.iter().map(|&l| (l, figure::contour_lines(&c.xs, &c.ys, &c.f, l))).collect();
     let paths: Vec<PathSeries> = m
         .paths
         .iter()
-        .map(|p| PathSeries { label: format!("{} ({})", title(&p.algorithm), p.kind), color: Some(color(spec, &p.algorithm)), points: p.poses.iter().filter(|q| q.is_finite()).map(|q| (q.x, q.y)).collect() })
+        .map(|p| PathSeries {
+            label: format!("{} ({})", title(&p.algorithm), p.kind),
+            color: Some(color(spec, &p.algorithm)),
+            points: p.poses.iter().filter(|q| q.is_finite()).map(|q| (q.x, q.y)).collect(),
+        })
         .collect();
     let bounds = ((c.xs[0], c.xs[c.xs.len() - 1]), (c.ys[0], c.ys[c.ys.len() - 1]));
-    let fig = ContourFigure { levels: contours, bounds, paths, truth: (m.truth.x, m.truth.y), initial: (m.initial.x, m.initial.y) };
+    let fig = ContourFigure {
+        levels: contours,
+        bounds,
+        paths,
+        truth: (m.truth.x, m.truth.y),
+        initial: (m.initial.x, m.initial.y),
+    };
     FigureView {
         panel: false,
         file: format!("{prefix}-contour"),
         caption: format!(
             "{head}: contours of f in x–y at the true heading ([EP] Fig 26), levels {} cm² (the {} quantiles of f on the {}×{} grid, darker = lower), with each matcher's path (PSM and E-PSM: the pose after every half-iteration; the others: their best pose so far), ringed at its end. Red square: the true position; triangle: the initial guess. The paths also move in θ, which this slice does not show.",
             levels.iter().map(|l| sig(*l, 2)).collect::<Vec<_>>().join(", "),
-            LEVEL_QUANTILES.iter().map(|q| format!("{}", (q * 100.0).round())).collect::<Vec<_>>().join("/") + " %",
+            LEVEL_QUANTILES
+                .iter()
+                .map(|q| format!("{}", (q * 100.0).round()))
+                .collect::<Vec<_>>()
+                .join("/")
+                + " %",
             c.xs.len(),
             c.ys.len()
         ),
@@ -324,16 +460,33 @@ fn contour_view(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, head: 
 }
 
 /// [EP] Fig 27: f per half-iteration (PSM, E-PSM); and the best f against evaluations (the others).
-fn iteration_views(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, head: &str) -> Vec<FigureView> {
+fn iteration_views(
+    spec: &ExperimentSpec,
+    m: &MatchDiagnostic,
+    prefix: &str,
+    head: &str,
+) -> Vec<FigureView> {
     let mut out = Vec::new();
     let per: Vec<LineSeries> = m
         .paths
         .iter()
         .filter(|p| p.kind == "per half-iteration")
-        .map(|p| line(title(&p.algorithm), color(spec, &p.algorithm), p.f.iter().enumerate().filter_map(|(k, f)| f.map(|f| point(k as f64, f))).collect()))
+        .map(|p| {
+            line(
+                title(&p.algorithm),
+                color(spec, &p.algorithm),
+                p.f.iter().enumerate().filter_map(|(k, f)| f.map(|f| point(k as f64, f))).collect(),
+            )
+        })
         .collect();
     if !per.is_empty() {
-        let fig = LineFigure { x_label: "half-iteration (0 = initial guess)".into(), y_label: "f [cm²]".into(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series: per };
+        let fig = LineFigure {
+            x_label: "half-iteration (0 = initial guess)".into(),
+            y_label: "f [cm²]".into(),
+            x_axis: XAxis::Linear,
+            x_ticks: Vec::new(),
+            series: per,
+        };
         out.push(FigureView {
             panel: false,
             file: format!("{prefix}-iterations"),
@@ -346,13 +499,30 @@ fn iteration_views(spec: &ExperimentSpec, m: &MatchDiagnostic, prefix: &str, hea
         .paths
         .iter()
         .filter(|p| p.kind != "per half-iteration")
-        .map(|p| line(title(&p.algorithm), color(spec, &p.algorithm), p.f.iter().zip(&p.evaluations).filter_map(|(f, e)| f.map(|f| point((*e).max(1) as f64, f))).collect()))
+        .map(|p| {
+            line(
+                title(&p.algorithm),
+                color(spec, &p.algorithm),
+                p.f.iter()
+                    .zip(&p.evaluations)
+                    .filter_map(|(f, e)| f.map(|f| point((*e).max(1) as f64, f)))
+                    .collect(),
+            )
+        })
         .filter(|s| !s.points.is_empty())
         .collect();
     if !best.is_empty() {
         let max = best.iter().flat_map(|s| &s.points).map(|p| p.x).fold(1.0, f64::max);
-        let ticks: Vec<(f64, String)> = (0..=max.log10().floor() as i32).map(|e| (10f64.powi(e), sig(10f64.powi(e), 1))).collect();
-        let fig = LineFigure { x_label: "objective evaluations".into(), y_label: "best f so far [cm²]".into(), x_axis: XAxis::Log, x_ticks: ticks, series: best };
+        let ticks: Vec<(f64, String)> = (0..=max.log10().floor() as i32)
+            .map(|e| (10f64.powi(e), sig(10f64.powi(e), 1)))
+            .collect();
+        let fig = LineFigure {
+            x_label: "objective evaluations".into(),
+            y_label: "best f so far [cm²]".into(),
+            x_axis: XAxis::Log,
+            x_ticks: ticks,
+            series: best,
+        };
         out.push(FigureView {
             panel: false,
             file: format!("{prefix}-evaluations"),

@@ -47,7 +47,9 @@ fn counts_row(label: String, classes: &[Class]) -> Vec<String> {
 
 fn verdict_row(label: String, kind: &str, claims: &[&ClaimResult]) -> Vec<String> {
     let mut row = vec![label, kind.to_string()];
-    row.extend(Verdict::ALL.iter().map(|v| claims.iter().filter(|c| c.verdict == *v).count().to_string()));
+    row.extend(
+        Verdict::ALL.iter().map(|v| claims.iter().filter(|c| c.verdict == *v).count().to_string()),
+    );
     row.push(claims.len().to_string());
     row
 }
@@ -73,7 +75,12 @@ pub fn build(items: &[ItemResult], claims: &[ClaimResult], studies: Vec<String>)
     columns.push("items".into());
     let mut rows: Vec<Vec<String>> = SEEDS
         .iter()
-        .map(|(tag, _)| counts_row(format!("[{tag}]"), &items.iter().filter(|i| i.seed == *tag).map(|i| i.class).collect::<Vec<_>>()))
+        .map(|(tag, _)| {
+            counts_row(
+                format!("[{tag}]"),
+                &items.iter().filter(|i| i.seed == *tag).map(|i| i.class).collect::<Vec<_>>(),
+            )
+        })
         .collect();
     rows.push(counts_row("all".into(), &items.iter().map(|i| i.class).collect::<Vec<_>>()));
     let item_counts = TableView { columns, rows, align: "lrrrrr".into() };
@@ -84,12 +91,16 @@ pub fn build(items: &[ItemResult], claims: &[ClaimResult], studies: Vec<String>)
     let mut rows = Vec::new();
     for kind in ["seed", "calibration", "extension"] {
         for (tag, _) in SEEDS {
-            let of: Vec<&ClaimResult> = claims.iter().filter(|c| c.seed == tag && c.kind == kind).collect();
+            let of: Vec<&ClaimResult> =
+                claims.iter().filter(|c| c.seed == tag && c.kind == kind).collect();
             if !of.is_empty() {
                 rows.push(verdict_row(format!("[{tag}]"), kind, &of));
             }
         }
-        let other: Vec<&ClaimResult> = claims.iter().filter(|c| !SEEDS.iter().any(|(t, _)| *t == c.seed) && c.kind == kind).collect();
+        let other: Vec<&ClaimResult> = claims
+            .iter()
+            .filter(|c| !SEEDS.iter().any(|(t, _)| *t == c.seed) && c.kind == kind)
+            .collect();
         if !other.is_empty() {
             rows.push(verdict_row("other".into(), kind, &other));
         }
@@ -104,28 +115,61 @@ pub fn build(items: &[ItemResult], claims: &[ClaimResult], studies: Vec<String>)
             tag: tag.to_string(),
             title: title.to_string(),
             items: TableView {
-                columns: ["Item", "Source", "Published result", "Study", "Class", "Basis"].map(String::from).to_vec(),
+                columns: ["Item", "Source", "Published result", "Study", "Class", "Basis"]
+                    .map(String::from)
+                    .to_vec(),
                 rows: items
                     .iter()
                     .filter(|i| i.seed == *tag)
-                    .map(|i| vec![i.id.clone(), i.source.clone(), i.result.clone(), if i.study.is_empty() { "—".into() } else { i.study.clone() }, i.class.as_str().to_string(), i.basis.clone()])
+                    .map(|i| {
+                        vec![
+                            i.id.clone(),
+                            i.source.clone(),
+                            i.result.clone(),
+                            if i.study.is_empty() { "—".into() } else { i.study.clone() },
+                            i.class.as_str().to_string(),
+                            i.basis.clone(),
+                        ]
+                    })
                     .collect(),
-                align: "lp{0.14\\linewidth}p{0.26\\linewidth}p{0.1\\linewidth}lp{0.26\\linewidth}".into(),
+                align: "lp{0.14\\linewidth}p{0.26\\linewidth}p{0.1\\linewidth}lp{0.26\\linewidth}"
+                    .into(),
             },
             claims: claims_table(&claims.iter().filter(|c| c.seed == *tag).collect::<Vec<_>>()),
         })
         .collect();
-    let other_claims = claims_table(&claims.iter().filter(|c| !SEEDS.iter().any(|(t, _)| *t == c.seed)).collect::<Vec<_>>());
-    FidelityView { item_counts, claim_counts, seeds, other_claims, items_total: items.len(), claims_total: claims.len(), studies }
+    let other_claims = claims_table(
+        &claims.iter().filter(|c| !SEEDS.iter().any(|(t, _)| *t == c.seed)).collect::<Vec<_>>(),
+    );
+    FidelityView {
+        item_counts,
+        claim_counts,
+        seeds,
+        other_claims,
+        items_total: items.len(),
+        claims_total: claims.len(),
+        studies,
+    }
 }
 
 /// A Markdown table (cells with `|` escaped).
 pub fn markdown_table(t: &TableView) -> String {
     let cell = |s: &str| s.replace('|', "\\|").replace('\n', " ");
-    let mut out = format!("| {} |\n", t.columns.iter().map(|c| cell(c)).collect::<Vec<_>>().join(" | "));
-    out.push_str(&format!("|{}\n", t.columns.iter().enumerate().map(|(i, _)| if i == 0 { "---|" } else { "---:|" }).collect::<String>()));
+    let mut out =
+        format!("| {} |\n", t.columns.iter().map(|c| cell(c)).collect::<Vec<_>>().join(" | "));
+    out.push_str(&format!(
+        "|{}\n",
+        t.columns
+            .iter()
+            .enumerate()
+            .map(|(i, _)| if i == 0 { "---|" } else { "---:|" })
+            .collect::<String>()
+    ));
     for r in &t.rows {
-        out.push_str(&format!("| {} |\n", r.iter().map(|c| cell(c)).collect::<Vec<_>>().join(" | ")));
+        out.push_str(&format!(
+            "| {} |\n",
+            r.iter().map(|c| cell(c)).collect::<Vec<_>>().join(" | ")
+        ));
     }
     out
 }
@@ -148,17 +192,27 @@ pub fn readme_block(view: &FidelityView, items: &[ItemResult], claims: &[ClaimRe
         let by_class: Vec<String> = Class::ALL
             .iter()
             .filter_map(|c| {
-                let ids: Vec<&str> = of.iter().filter(|i| i.class == *c).map(|i| i.id.as_str()).collect();
+                let ids: Vec<&str> =
+                    of.iter().filter(|i| i.class == *c).map(|i| i.id.as_str()).collect();
                 (!ids.is_empty()).then(|| format!("{} {}", c.as_str(), ids.join(", ")))
             })
             .collect();
         s.push_str(&by_class.join("; "));
         s.push_str(".\n");
-        let open: Vec<&ClaimResult> = claims.iter().filter(|c| c.seed == tag && c.kind == "seed" && c.verdict != Verdict::Confirmed).collect();
+        let open: Vec<&ClaimResult> = claims
+            .iter()
+            .filter(|c| c.seed == tag && c.kind == "seed" && c.verdict != Verdict::Confirmed)
+            .collect();
         if !open.is_empty() {
             s.push_str("Seed claims not confirmed:\n");
             for c in open {
-                s.push_str(&format!("- `{}` ({}) {}: {}\n", c.id, c.study, c.verdict.as_str(), c.cause));
+                s.push_str(&format!(
+                    "- `{}` ({}) {}: {}\n",
+                    c.id,
+                    c.study,
+                    c.verdict.as_str(),
+                    c.cause
+                ));
             }
         }
     }
@@ -191,7 +245,11 @@ mod tests {
 
     #[test]
     fn markdown_tables_escape_bars() {
-        let t = TableView { columns: vec!["a".into(), "b".into()], rows: vec![vec!["x|y".into(), "1".into()]], align: "lr".into() };
+        let t = TableView {
+            columns: vec!["a".into(), "b".into()],
+            rows: vec![vec!["x|y".into(), "1".into()]],
+            align: "lr".into(),
+        };
         assert_eq!(markdown_table(&t), "| a | b |\n|---|---:|\n| x\\|y | 1 |\n");
     }
 }

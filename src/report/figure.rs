@@ -6,7 +6,10 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// tab10: distinguishable, colour-blind-tolerant series colours (hex RGB).
-pub const PALETTE: [&str; 10] = ["1f77b4", "ff7f0e", "2ca02c", "d62728", "9467bd", "8c564b", "e377c2", "7f7f7f", "bcbd22", "17becf"];
+pub const PALETTE: [&str; 10] = [
+    "1f77b4", "ff7f0e", "2ca02c", "d62728", "9467bd", "8c564b", "e377c2", "7f7f7f", "bcbd22",
+    "17becf",
+];
 
 /// Series past the palette's 10 colours reuse them dotted, with square markers, so that no two
 /// series of one figure look alike (up to 20).
@@ -41,7 +44,11 @@ struct LegendEntry<'s> {
 }
 
 /// Legend layout in rows above the plot: (entry index, x, row) and the strip's height [px].
-fn legend_layout(entries: &[LegendEntry<'_>], width: u32, left: u32) -> (Vec<(usize, u32, u32)>, u32) {
+fn legend_layout(
+    entries: &[LegendEntry<'_>],
+    width: u32,
+    left: u32,
+) -> (Vec<(usize, u32, u32)>, u32) {
     const ROW_PX: u32 = 18;
     const SWATCH_PX: u32 = 26;
     const GAP_PX: u32 = 18;
@@ -61,7 +68,11 @@ fn legend_layout(entries: &[LegendEntry<'_>], width: u32, left: u32) -> (Vec<(us
     (placed, rows * ROW_PX + 10)
 }
 
-fn draw_legend(area: &DrawingArea<SVGBackend<'_>, Shift>, entries: &[LegendEntry<'_>], left: u32) -> Result<(), String> {
+fn draw_legend(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    entries: &[LegendEntry<'_>],
+    left: u32,
+) -> Result<(), String> {
     let (placed, _) = legend_layout(entries, area.dim_in_pixel().0, left);
     let style = TextStyle::from((FONT, 12).into_font()).pos(Pos::new(HPos::Left, VPos::Center));
     for (i, x, row) in placed {
@@ -71,15 +82,22 @@ fn draw_legend(area: &DrawingArea<SVGBackend<'_>, Shift>, entries: &[LegendEntry
             area.draw(&Circle::new((x + 9, y), 4, e.color.filled())).map_err(|e| e.to_string())?;
         } else if e.dotted {
             for a in [0, 5, 10, 15] {
-                area.draw(&PathElement::new(vec![(x + a, y), (x + a + 2, y)], e.color.stroke_width(2))).map_err(|e| e.to_string())?;
+                area.draw(&PathElement::new(
+                    vec![(x + a, y), (x + a + 2, y)],
+                    e.color.stroke_width(2),
+                ))
+                .map_err(|e| e.to_string())?;
             }
-            area.draw(&Rectangle::new([(x + 6, y - 3), (x + 12, y + 3)], e.color.filled())).map_err(|e| e.to_string())?;
+            area.draw(&Rectangle::new([(x + 6, y - 3), (x + 12, y + 3)], e.color.filled()))
+                .map_err(|e| e.to_string())?;
         } else if e.dashed {
             for (a, b) in [(0, 5), (8, 13), (16, 18)] {
-                area.draw(&PathElement::new(vec![(x + a, y), (x + b, y)], e.color.stroke_width(2))).map_err(|e| e.to_string())?;
+                area.draw(&PathElement::new(vec![(x + a, y), (x + b, y)], e.color.stroke_width(2)))
+                    .map_err(|e| e.to_string())?;
             }
         } else {
-            area.draw(&PathElement::new(vec![(x, y), (x + 18, y)], e.color.stroke_width(2))).map_err(|e| e.to_string())?;
+            area.draw(&PathElement::new(vec![(x, y), (x + 18, y)], e.color.stroke_width(2)))
+                .map_err(|e| e.to_string())?;
         }
         area.draw(&Text::new(e.label, (x + 24, y), style.clone())).map_err(|e| e.to_string())?;
     }
@@ -150,9 +168,16 @@ impl LineFigure {
                 .iter()
                 .flat_map(|s| Self::drawable(&s.points))
                 .map(|p| self.position(p.x))
-                .chain(self.x_ticks.iter().map(|(x, _)| self.position(*x)).filter(|v| v.is_finite()))
+                .chain(
+                    self.x_ticks.iter().map(|(x, _)| self.position(*x)).filter(|v| v.is_finite()),
+                )
                 .collect(),
-            _ => self.series.iter().flat_map(|s| Self::drawable(&s.points)).map(|p| self.position(p.x)).collect(),
+            _ => self
+                .series
+                .iter()
+                .flat_map(|s| Self::drawable(&s.points))
+                .map(|p| self.position(p.x))
+                .collect(),
         };
         let ys: Vec<f64> = self
             .series
@@ -179,11 +204,22 @@ fn padded(v: &[f64], frac: f64, from_zero: bool) -> (f64, f64) {
 
 /// Renders a line figure to an SVG document string.
 pub fn line_svg(fig: &LineFigure) -> String {
-    let entries: Vec<LegendEntry<'_>> = fig.series.iter().map(|s| LegendEntry { label: &s.label, color: rgb(s.color), dot: s.scatter, dashed: s.dashed, dotted: dotted(s.color) && !s.scatter && !s.dashed }).collect();
+    let entries: Vec<LegendEntry<'_>> = fig
+        .series
+        .iter()
+        .map(|s| LegendEntry {
+            label: &s.label,
+            color: rgb(s.color),
+            dot: s.scatter,
+            dashed: s.dashed,
+            dotted: dotted(s.color) && !s.scatter && !s.dashed,
+        })
+        .collect();
     let (_, legend_px) = legend_layout(&entries, WIDTH, LEFT_PX);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px)).into_drawing_area();
+        let root =
+            SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px)).into_drawing_area();
         // Drawing into a String cannot fail for IO reasons; errors here would be layout bugs.
         root.fill(&WHITE).expect("drawing an SVG into memory");
         let (top, plot) = root.split_vertically(legend_px);
@@ -197,9 +233,18 @@ pub fn line_svg(fig: &LineFigure) -> String {
 fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Result<(), String> {
     let ((x0, x1), (y0, y1)) = fig.ranges();
     let manual_ticks = !matches!(fig.x_axis, XAxis::Linear);
-    let mut chart = ChartBuilder::on(root).margin(14).x_label_area_size(46).y_label_area_size(LEFT_PX - 14).build_cartesian_2d(x0..x1, y0..y1).map_err(|e| e.to_string())?;
+    let mut chart = ChartBuilder::on(root)
+        .margin(14)
+        .x_label_area_size(46)
+        .y_label_area_size(LEFT_PX - 14)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| e.to_string())?;
     let mut mesh = chart.configure_mesh();
-    mesh.x_desc(fig.x_label.as_str()).y_desc(fig.y_label.as_str()).label_style((FONT, 13)).axis_desc_style((FONT, 14)).light_line_style(WHITE.mix(0.0));
+    mesh.x_desc(fig.x_label.as_str())
+        .y_desc(fig.y_label.as_str())
+        .label_style((FONT, 13))
+        .axis_desc_style((FONT, 14))
+        .light_line_style(WHITE.mix(0.0));
     if manual_ticks {
         mesh.disable_x_mesh().x_labels(0);
     }
@@ -209,37 +254,74 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
         let color = rgb(s.color);
         let pts: Vec<&SeriesPoint> = LineFigure::drawable(&s.points).collect();
         if s.scatter {
-            chart.draw_series(pts.iter().map(|p| Circle::new((fig.position(p.x), p.mean), 4, color.filled()))).map_err(|e| e.to_string())?;
+            chart
+                .draw_series(
+                    pts.iter().map(|p| Circle::new((fig.position(p.x), p.mean), 4, color.filled())),
+                )
+                .map_err(|e| e.to_string())?;
             continue;
         }
         if s.dashed {
             let line: Vec<(f64, f64)> = pts.iter().map(|p| (fig.position(p.x), p.mean)).collect();
-            chart.draw_series(plotters::series::DashedLineSeries::new(line.clone(), 6, 4, color.stroke_width(2))).map_err(|e| e.to_string())?;
-            chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.stroke_width(1)))).map_err(|e| e.to_string())?;
+            chart
+                .draw_series(plotters::series::DashedLineSeries::new(
+                    line.clone(),
+                    6,
+                    4,
+                    color.stroke_width(2),
+                ))
+                .map_err(|e| e.to_string())?;
+            chart
+                .draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.stroke_width(1))))
+                .map_err(|e| e.to_string())?;
             // The published dispersion, where printed: vertical error bars.
-            let bars = pts.iter().filter(|p| p.lo.is_finite() && p.hi.is_finite()).map(|p| PathElement::new(vec![(fig.position(p.x), p.lo), (fig.position(p.x), p.hi)], color.stroke_width(1)));
+            let bars = pts.iter().filter(|p| p.lo.is_finite() && p.hi.is_finite()).map(|p| {
+                PathElement::new(
+                    vec![(fig.position(p.x), p.lo), (fig.position(p.x), p.hi)],
+                    color.stroke_width(1),
+                )
+            });
             chart.draw_series(bars).map_err(|e| e.to_string())?;
             continue;
         }
-        let band: Vec<&SeriesPoint> = pts.iter().copied().filter(|p| p.lo.is_finite() && p.hi.is_finite()).collect();
+        let band: Vec<&SeriesPoint> =
+            pts.iter().copied().filter(|p| p.lo.is_finite() && p.hi.is_finite()).collect();
         if band.len() >= 2 {
-            let mut poly: Vec<(f64, f64)> = band.iter().map(|p| (fig.position(p.x), p.hi)).collect();
+            let mut poly: Vec<(f64, f64)> =
+                band.iter().map(|p| (fig.position(p.x), p.hi)).collect();
             poly.extend(band.iter().rev().map(|p| (fig.position(p.x), p.lo)));
-            chart.draw_series(std::iter::once(Polygon::new(poly, color.mix(0.18).filled()))).map_err(|e| e.to_string())?;
+            chart
+                .draw_series(std::iter::once(Polygon::new(poly, color.mix(0.18).filled())))
+                .map_err(|e| e.to_string())?;
         }
         let line: Vec<(f64, f64)> = pts.iter().map(|p| (fig.position(p.x), p.mean)).collect();
         // a long trace (every match of a run) is a line without marks: marks would hide it and
         // make the file several times larger
         let marked = line.len() <= MARKED_POINTS;
         if dotted(s.color) {
-            chart.draw_series(plotters::series::DashedLineSeries::new(line.clone(), 2, 4, color.stroke_width(2))).map_err(|e| e.to_string())?;
+            chart
+                .draw_series(plotters::series::DashedLineSeries::new(
+                    line.clone(),
+                    2,
+                    4,
+                    color.stroke_width(2),
+                ))
+                .map_err(|e| e.to_string())?;
             if marked {
-                chart.draw_series(line.into_iter().map(|p| EmptyElement::at(p) + Rectangle::new([(-3, -3), (3, 3)], color.filled()))).map_err(|e| e.to_string())?;
+                chart
+                    .draw_series(line.into_iter().map(|p| {
+                        EmptyElement::at(p) + Rectangle::new([(-3, -3), (3, 3)], color.filled())
+                    }))
+                    .map_err(|e| e.to_string())?;
             }
         } else {
-            chart.draw_series(plotters::series::LineSeries::new(line.clone(), color.stroke_width(2))).map_err(|e| e.to_string())?;
+            chart
+                .draw_series(plotters::series::LineSeries::new(line.clone(), color.stroke_width(2)))
+                .map_err(|e| e.to_string())?;
             if marked {
-                chart.draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.filled()))).map_err(|e| e.to_string())?;
+                chart
+                    .draw_series(line.into_iter().map(|p| Circle::new(p, 3, color.filled())))
+                    .map_err(|e| e.to_string())?;
             }
         }
     }
@@ -250,8 +332,10 @@ fn draw_line(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &LineFigure) -> Res
         for (x, label) in &fig.x_ticks {
             let (px, py) = chart.backend_coord(&(fig.position(*x), y0));
             let (px, py) = (px - bx, py - by);
-            root.draw(&PathElement::new(vec![(px, py), (px, py + 4)], BLACK)).map_err(|e| e.to_string())?;
-            root.draw(&Text::new(label.as_str(), (px, py + 6), style.clone())).map_err(|e| e.to_string())?;
+            root.draw(&PathElement::new(vec![(px, py), (px, py + 4)], BLACK))
+                .map_err(|e| e.to_string())?;
+            root.draw(&Text::new(label.as_str(), (px, py + 6), style.clone()))
+                .map_err(|e| e.to_string())?;
         }
     }
     Ok(())
@@ -283,7 +367,11 @@ pub struct TrajectoryFigure {
 }
 
 /// The part of the line ρ = x cos θ + y sin θ inside a rectangle, if any.
-pub fn clip_line(rho: f64, theta: f64, ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64))) -> Option<((f64, f64), (f64, f64))> {
+pub fn clip_line(
+    rho: f64,
+    theta: f64,
+    ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
+) -> Option<((f64, f64), (f64, f64))> {
     let (s, c) = theta.sin_cos();
     let mut pts: Vec<(f64, f64)> = Vec::new();
     if s.abs() > 1e-12 {
@@ -310,9 +398,26 @@ pub fn clip_line(rho: f64, theta: f64, ((x0, x1), (y0, y1)): ((f64, f64), (f64, 
 impl TrajectoryFigure {
     /// Bounds of walls, paths and true landmarks with a margin [m].
     pub fn bounds(&self) -> ((f64, f64), (f64, f64)) {
-        let points = || self.paths.iter().flat_map(|p| p.points.iter().copied()).chain(self.corners.iter().copied());
-        let xs: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.0, b.0]).chain(points().map(|q| q.0)).filter(|v| v.is_finite()).collect();
-        let ys: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.1, b.1]).chain(points().map(|q| q.1)).filter(|v| v.is_finite()).collect();
+        let points = || {
+            self.paths
+                .iter()
+                .flat_map(|p| p.points.iter().copied())
+                .chain(self.corners.iter().copied())
+        };
+        let xs: Vec<f64> = self
+            .walls
+            .iter()
+            .flat_map(|(a, b)| [a.0, b.0])
+            .chain(points().map(|q| q.0))
+            .filter(|v| v.is_finite())
+            .collect();
+        let ys: Vec<f64> = self
+            .walls
+            .iter()
+            .flat_map(|(a, b)| [a.1, b.1])
+            .chain(points().map(|q| q.1))
+            .filter(|v| v.is_finite())
+            .collect();
         let (x0, x1) = padded(&xs, 0.04, false);
         let (y0, y1) = padded(&ys, 0.04, false);
         ((x0, x1), (y0, y1))
@@ -344,24 +449,53 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
     let (label_x, label_y, margin) = (40u32, 52u32, 14u32);
     let plot_w = (WIDTH - label_y - 2 * margin) as f64;
     let plot_h = (plot_w * (y1 - y0) / (x1 - x0)).clamp(160.0, 640.0);
-    let (plot_w, height) = (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
+    let (plot_w, height) =
+        (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
     let width = (plot_w as u32 + label_y + 2 * margin).min(WIDTH);
-    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(BLACK), dot: false, dashed: false, dotted: p.color.is_some_and(dotted) }).collect();
+    let mut entries: Vec<LegendEntry<'_>> = fig
+        .paths
+        .iter()
+        .map(|p| LegendEntry {
+            label: &p.label,
+            color: p.color.map(rgb).unwrap_or(BLACK),
+            dot: false,
+            dashed: false,
+            dotted: p.color.is_some_and(dotted),
+        })
+        .collect();
     if !fig.corners.is_empty() {
-        entries.push(LegendEntry { label: if fig.point_landmarks { "true landmarks" } else { "true corners" }, color: CORNER, dot: true, dashed: false, dotted: false });
+        entries.push(LegendEntry {
+            label: if fig.point_landmarks { "true landmarks" } else { "true corners" },
+            color: CORNER,
+            dot: true,
+            dashed: false,
+            dotted: false,
+        });
     }
     if !fig.est_lines.is_empty() || !fig.est_corners.is_empty() {
-        let label = if fig.point_landmarks { "mapped landmarks (×)" } else { "mapped lines (dashed) and corners (×)" };
-        entries.push(LegendEntry { label, color: RGBColor(100, 100, 100), dot: false, dashed: !fig.point_landmarks, dotted: false });
+        let label = if fig.point_landmarks {
+            "mapped landmarks (×)"
+        } else {
+            "mapped lines (dashed) and corners (×)"
+        };
+        entries.push(LegendEntry {
+            label,
+            color: RGBColor(100, 100, 100),
+            dot: false,
+            dashed: !fig.point_landmarks,
+            dotted: false,
+        });
     }
     let (_, legend_px) = legend_layout(&entries, width, label_y + margin);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (width, height + legend_px)).into_drawing_area();
+        let root =
+            SVGBackend::with_string(&mut svg, (width, height + legend_px)).into_drawing_area();
         root.fill(&WHITE).expect("drawing an SVG into memory");
         let (top, plot) = root.split_vertically(legend_px);
         draw_legend(&top, &entries, label_y + margin).expect("drawing an SVG into memory");
-        draw_trajectory(&plot, fig, ((x0, x1), (y0, y1)), (label_x, label_y, margin)).expect("drawing an SVG into memory");
+        draw_trajectory(&plot, fig, ((x0, x1), (y0, y1)), (label_x, label_y, margin))
+            .expect("drawing an SVG into memory");
         root.present().expect("finishing an SVG in memory");
     }
     svg
@@ -369,35 +503,89 @@ pub fn trajectory_svg(fig: &TrajectoryFigure) -> String {
 
 pub type Bounds = ((f64, f64), (f64, f64));
 
-fn draw_trajectory(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &TrajectoryFigure, ((x0, x1), (y0, y1)): Bounds, (label_x, label_y, margin): (u32, u32, u32)) -> Result<(), String> {
+fn draw_trajectory(
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    fig: &TrajectoryFigure,
+    ((x0, x1), (y0, y1)): Bounds,
+    (label_x, label_y, margin): (u32, u32, u32),
+) -> Result<(), String> {
     let e = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
-    let mut chart = ChartBuilder::on(root).margin(margin).x_label_area_size(label_x).y_label_area_size(label_y).build_cartesian_2d(x0..x1, y0..y1).map_err(e)?;
-    chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FONT, 12)).light_line_style(WHITE.mix(0.0)).bold_line_style(BLACK.mix(0.08)).draw().map_err(e)?;
-    chart.draw_series(fig.walls.iter().map(|(a, b)| PathElement::new(vec![*a, *b], BLACK.stroke_width(3)))).map_err(e)?;
+    let mut chart = ChartBuilder::on(root)
+        .margin(margin)
+        .x_label_area_size(label_x)
+        .y_label_area_size(label_y)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("x [m]")
+        .y_desc("y [m]")
+        .label_style((FONT, 12))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(e)?;
+    chart
+        .draw_series(
+            fig.walls.iter().map(|(a, b)| PathElement::new(vec![*a, *b], BLACK.stroke_width(3))),
+        )
+        .map_err(e)?;
     // the ground truth last, thin and dark, so that no estimate hides it (sparse GPS truth was
     // invisible under the estimates)
-    for p in fig.paths.iter().filter(|p| p.color.is_some()).chain(fig.paths.iter().filter(|p| p.color.is_none())) {
+    for p in fig
+        .paths
+        .iter()
+        .filter(|p| p.color.is_some())
+        .chain(fig.paths.iter().filter(|p| p.color.is_none()))
+    {
         let (color, width) = match p.color {
             Some(c) => (rgb(c), 2),
             None => (BLACK, 1),
         };
         let points = decimate(&p.points, SVG_PATH_POINTS);
         if p.color.is_some_and(dotted) {
-            chart.draw_series(plotters::series::DashedLineSeries::new(points, 2, 4, color.stroke_width(width))).map_err(e)?;
+            chart
+                .draw_series(plotters::series::DashedLineSeries::new(
+                    points,
+                    2,
+                    4,
+                    color.stroke_width(width),
+                ))
+                .map_err(e)?;
         } else {
-            chart.draw_series(std::iter::once(PathElement::new(points, color.stroke_width(width)))).map_err(e)?;
+            chart
+                .draw_series(std::iter::once(PathElement::new(points, color.stroke_width(width))))
+                .map_err(e)?;
         }
     }
     for &(color, rho, theta) in &fig.est_lines {
         if let Some((a, b)) = clip_line(rho, theta, ((x0, x1), (y0, y1))) {
-            chart.draw_series(plotters::series::DashedLineSeries::new([a, b], 3, 5, rgb(color).mix(0.6).stroke_width(1))).map_err(e)?;
+            chart
+                .draw_series(plotters::series::DashedLineSeries::new(
+                    [a, b],
+                    3,
+                    5,
+                    rgb(color).mix(0.6).stroke_width(1),
+                ))
+                .map_err(e)?;
         }
     }
-    chart.draw_series(fig.corners.iter().map(|c| Circle::new(*c, 4, CORNER.filled()))).map_err(e)?;
+    chart
+        .draw_series(fig.corners.iter().map(|c| Circle::new(*c, 4, CORNER.filled())))
+        .map_err(e)?;
     // mapped landmarks outside the plotted area are left out rather than pinned to its edge
     let inside = |(x, y): (f64, f64)| x >= x0 && x <= x1 && y >= y0 && y <= y1;
-    chart.draw_series(fig.est_corners.iter().filter(|(_, c)| inside(*c)).map(|(color, c)| Cross::new(*c, 4, rgb(*color).stroke_width(2)))).map_err(e)?;
-    chart.draw_series(std::iter::once(TriangleMarker::new(fig.start, 7, BLACK.filled()))).map_err(e)?;
+    chart
+        .draw_series(
+            fig.est_corners
+                .iter()
+                .filter(|(_, c)| inside(*c))
+                .map(|(color, c)| Cross::new(*c, 4, rgb(*color).stroke_width(2))),
+        )
+        .map_err(e)?;
+    chart
+        .draw_series(std::iter::once(TriangleMarker::new(fig.start, 7, BLACK.filled())))
+        .map_err(e)?;
     Ok(())
 }
 
@@ -418,7 +606,12 @@ pub struct ContourFigure {
 /// Contour lines of a row-major grid `f[row * xs.len() + col]` at `level` by marching squares
 /// (saddles resolved by the cell's mean), joined into polylines; cells with a missing corner are
 /// skipped. Deterministic: segments are produced and joined in grid order.
-pub fn contour_lines(xs: &[f64], ys: &[f64], f: &[Option<f64>], level: f64) -> Vec<Vec<(f64, f64)>> {
+pub fn contour_lines(
+    xs: &[f64],
+    ys: &[f64],
+    f: &[Option<f64>],
+    level: f64,
+) -> Vec<Vec<(f64, f64)>> {
     let (nx, ny) = (xs.len(), ys.len());
     if nx < 2 || ny < 2 || f.len() != nx * ny {
         return Vec::new();
@@ -436,8 +629,14 @@ pub fn contour_lines(xs: &[f64], ys: &[f64], f: &[Option<f64>], level: f64) -> V
     for r in 0..ny - 1 {
         for c in 0..nx - 1 {
             let corners = [(c, r), (c + 1, r), (c + 1, r + 1), (c, r + 1)];
-            let Some(v) = corners.iter().map(|&(x, y)| at(x, y)).collect::<Option<Vec<f64>>>() else { continue };
-            let case = v.iter().enumerate().fold(0usize, |acc, (k, &x)| acc | (usize::from(x > level) << k));
+            let Some(v) = corners.iter().map(|&(x, y)| at(x, y)).collect::<Option<Vec<f64>>>()
+            else {
+                continue;
+            };
+            let case = v
+                .iter()
+                .enumerate()
+                .fold(0usize, |acc, (k, &x)| acc | (usize::from(x > level) << k));
             // edges: 0 bottom (0-1), 1 right (1-2), 2 top (2-3), 3 left (3-0)
             let edge = |e: usize| cross(corners[e], corners[(e + 1) % 4]);
             let centre_above = v.iter().sum::<f64>() / 4.0 > level;
@@ -449,8 +648,20 @@ pub fn contour_lines(xs: &[f64], ys: &[f64], f: &[Option<f64>], level: f64) -> V
                 4 | 11 => &[(1, 2)],
                 6 | 9 => &[(0, 2)],
                 7 | 8 => &[(3, 2)],
-                5 => if centre_above { &[(3, 2), (0, 1)] } else { &[(3, 0), (1, 2)] },
-                10 => if centre_above { &[(3, 0), (1, 2)] } else { &[(3, 2), (0, 1)] },
+                5 => {
+                    if centre_above {
+                        &[(3, 2), (0, 1)]
+                    } else {
+                        &[(3, 0), (1, 2)]
+                    }
+                }
+                10 => {
+                    if centre_above {
+                        &[(3, 0), (1, 2)]
+                    } else {
+                        &[(3, 2), (0, 1)]
+                    }
+                }
                 _ => &[],
             };
             segments.extend(pairs.iter().map(|&(a, b)| (edge(a), edge(b))));
@@ -480,7 +691,8 @@ fn join_segments(segments: Vec<((f64, f64), (f64, f64))>) -> Vec<Vec<(f64, f64)>
         for front in [false, true] {
             loop {
                 let end = if front { line[0] } else { line[line.len() - 1] };
-                let next = by_end.get(&key(end)).and_then(|ids| ids.iter().copied().find(|&i| !used[i]));
+                let next =
+                    by_end.get(&key(end)).and_then(|ids| ids.iter().copied().find(|&i| !used[i]));
                 let Some(i) = next else { break };
                 used[i] = true;
                 let (a, b) = segments[i];
@@ -503,19 +715,43 @@ pub fn contour_svg(fig: &ContourFigure) -> String {
     let (label_x, label_y, margin) = (40u32, 60u32, 14u32);
     let width = side + label_y + 2 * margin;
     let height = side + label_x + 2 * margin;
-    let mut entries: Vec<LegendEntry<'_>> = fig.paths.iter().map(|p| LegendEntry { label: &p.label, color: p.color.map(rgb).unwrap_or(TRUTH), dot: false, dashed: false, dotted: p.color.is_some_and(dotted) }).collect();
-    entries.push(LegendEntry { label: "true position", color: CORNER, dot: true, dashed: false, dotted: false });
-    entries.push(LegendEntry { label: "initial guess", color: BLACK, dot: true, dashed: false, dotted: false });
+    let mut entries: Vec<LegendEntry<'_>> = fig
+        .paths
+        .iter()
+        .map(|p| LegendEntry {
+            label: &p.label,
+            color: p.color.map(rgb).unwrap_or(TRUTH),
+            dot: false,
+            dashed: false,
+            dotted: p.color.is_some_and(dotted),
+        })
+        .collect();
+    entries.push(LegendEntry {
+        label: "true position",
+        color: CORNER,
+        dot: true,
+        dashed: false,
+        dotted: false,
+    });
+    entries.push(LegendEntry {
+        label: "initial guess",
+        color: BLACK,
+        dot: true,
+        dashed: false,
+        dotted: false,
+    });
     let (_, legend_px) = legend_layout(&entries, width.max(WIDTH), label_y + margin);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (width.max(WIDTH), height + legend_px)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (width.max(WIDTH), height + legend_px))
+            .into_drawing_area();
         root.fill(&WHITE).expect("drawing an SVG into memory");
         let (top, plot) = root.split_vertically(legend_px);
         draw_legend(&top, &entries, label_y + margin).expect("drawing an SVG into memory");
         // a square plot at the left, the rest of the width for the legend above
         let (plot, _) = plot.split_horizontally(width);
-        draw_contour(&plot, fig, ((x0, x1), (y0, y1)), (label_x, label_y, margin)).expect("drawing an SVG into memory");
+        draw_contour(&plot, fig, ((x0, x1), (y0, y1)), (label_x, label_y, margin))
+            .expect("drawing an SVG into memory");
         root.present().expect("finishing an SVG in memory");
     }
     svg
@@ -527,34 +763,72 @@ fn level_gray(k: usize, n: usize) -> RGBColor {
     RGBColor(g, g, g)
 }
 
-fn draw_contour(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &ContourFigure, ((x0, x1), (y0, y1)): Bounds, (label_x, label_y, margin): (u32, u32, u32)) -> Result<(), String> {
+fn draw_contour(
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    fig: &ContourFigure,
+    ((x0, x1), (y0, y1)): Bounds,
+    (label_x, label_y, margin): (u32, u32, u32),
+) -> Result<(), String> {
     let e = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
-    let mut chart = ChartBuilder::on(root).margin(margin).x_label_area_size(label_x).y_label_area_size(label_y).build_cartesian_2d(x0..x1, y0..y1).map_err(e)?;
-    chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FONT, 12)).light_line_style(WHITE.mix(0.0)).bold_line_style(BLACK.mix(0.06)).draw().map_err(e)?;
+    let mut chart = ChartBuilder::on(root)
+        .margin(margin)
+        .x_label_area_size(label_x)
+        .y_label_area_size(label_y)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("x [m]")
+        .y_desc("y [m]")
+        .label_style((FONT, 12))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.06))
+        .draw()
+        .map_err(e)?;
     let n = fig.levels.len();
     for (k, (_, lines)) in fig.levels.iter().enumerate() {
         let color = level_gray(k, n);
-        chart.draw_series(lines.iter().map(|l| PathElement::new(l.clone(), color.stroke_width(1)))).map_err(e)?;
+        chart
+            .draw_series(lines.iter().map(|l| PathElement::new(l.clone(), color.stroke_width(1))))
+            .map_err(e)?;
     }
     let inside = |&(x, y): &(f64, f64)| x >= x0 && x <= x1 && y >= y0 && y <= y1;
     for p in &fig.paths {
         let color = p.color.map(rgb).unwrap_or(TRUTH);
         let pts: Vec<(f64, f64)> = p.points.iter().copied().filter(inside).collect();
         if p.color.is_some_and(dotted) {
-            chart.draw_series(plotters::series::DashedLineSeries::new(pts.clone(), 2, 4, color.stroke_width(2))).map_err(e)?;
+            chart
+                .draw_series(plotters::series::DashedLineSeries::new(
+                    pts.clone(),
+                    2,
+                    4,
+                    color.stroke_width(2),
+                ))
+                .map_err(e)?;
         } else {
-            chart.draw_series(std::iter::once(PathElement::new(pts.clone(), color.stroke_width(2)))).map_err(e)?;
+            chart
+                .draw_series(std::iter::once(PathElement::new(pts.clone(), color.stroke_width(2))))
+                .map_err(e)?;
         }
         chart.draw_series(pts.iter().map(|q| Circle::new(*q, 3, color.filled()))).map_err(e)?;
         // the estimate: a ring around the last point
         if let Some(last) = pts.last() {
-            chart.draw_series(std::iter::once(Circle::new(*last, 6, color.stroke_width(2)))).map_err(e)?;
+            chart
+                .draw_series(std::iter::once(Circle::new(*last, 6, color.stroke_width(2))))
+                .map_err(e)?;
         }
     }
     let d = 0.012 * (x1 - x0);
     let t = fig.truth;
-    chart.draw_series(std::iter::once(Rectangle::new([(t.0 - d, t.1 - d), (t.0 + d, t.1 + d)], CORNER.filled()))).map_err(e)?;
-    chart.draw_series(std::iter::once(TriangleMarker::new(fig.initial, 7, BLACK.filled()))).map_err(e)?;
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(t.0 - d, t.1 - d), (t.0 + d, t.1 + d)],
+            CORNER.filled(),
+        )))
+        .map_err(e)?;
+    chart
+        .draw_series(std::iter::once(TriangleMarker::new(fig.initial, 7, BLACK.filled())))
+        .map_err(e)?;
     Ok(())
 }
 
@@ -572,8 +846,20 @@ pub struct ScanMapFigure {
 
 impl ScanMapFigure {
     pub fn bounds(&self) -> Bounds {
-        let xs: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.0, b.0]).chain(self.points.iter().chain(&self.path).map(|p| p.0)).filter(|v| v.is_finite()).collect();
-        let ys: Vec<f64> = self.walls.iter().flat_map(|(a, b)| [a.1, b.1]).chain(self.points.iter().chain(&self.path).map(|p| p.1)).filter(|v| v.is_finite()).collect();
+        let xs: Vec<f64> = self
+            .walls
+            .iter()
+            .flat_map(|(a, b)| [a.0, b.0])
+            .chain(self.points.iter().chain(&self.path).map(|p| p.0))
+            .filter(|v| v.is_finite())
+            .collect();
+        let ys: Vec<f64> = self
+            .walls
+            .iter()
+            .flat_map(|(a, b)| [a.1, b.1])
+            .chain(self.points.iter().chain(&self.path).map(|p| p.1))
+            .filter(|v| v.is_finite())
+            .collect();
         (padded(&xs, 0.03, false), padded(&ys, 0.03, false))
     }
 }
@@ -583,11 +869,24 @@ pub fn scan_map_svg(fig: &ScanMapFigure) -> String {
     let (label_x, label_y, margin) = (40u32, 52u32, 14u32);
     let plot_w = (WIDTH - label_y - 2 * margin) as f64;
     let plot_h = (plot_w * (y1 - y0) / (x1 - x0)).clamp(160.0, 560.0);
-    let (plot_w, height) = (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
+    let (plot_w, height) =
+        (plot_h * (x1 - x0) / (y1 - y0), plot_h as u32 + label_x + 2 * margin + 8);
     let width = (plot_w as u32 + label_y + 2 * margin).min(WIDTH);
     let entries = [
-        LegendEntry { label: &fig.label, color: rgb(fig.color), dot: true, dashed: false, dotted: false },
-        LegendEntry { label: "estimated scan poses", color: rgb(fig.color), dot: false, dashed: false, dotted: false },
+        LegendEntry {
+            label: &fig.label,
+            color: rgb(fig.color),
+            dot: true,
+            dashed: false,
+            dotted: false,
+        },
+        LegendEntry {
+            label: "estimated scan poses",
+            color: rgb(fig.color),
+            dot: false,
+            dashed: false,
+            dotted: false,
+        },
         LegendEntry { label: "walls", color: BLACK, dot: false, dashed: false, dotted: false },
     ];
     let (_, legend_px) = legend_layout(&entries, width, label_y + margin);
@@ -596,18 +895,43 @@ pub fn scan_map_svg(fig: &ScanMapFigure) -> String {
     // ten times larger)
     let mut pixels: Vec<(i32, i32)> = Vec::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (width, height + legend_px)).into_drawing_area();
+        let root =
+            SVGBackend::with_string(&mut svg, (width, height + legend_px)).into_drawing_area();
         root.fill(&WHITE).expect("drawing an SVG into memory");
         let (top, plot) = root.split_vertically(legend_px);
         draw_legend(&top, &entries, label_y + margin).expect("drawing an SVG into memory");
         (|| -> Result<(), String> {
             let e = |e: plotters::drawing::DrawingAreaErrorKind<_>| e.to_string();
-            let mut chart = ChartBuilder::on(&plot).margin(margin).x_label_area_size(label_x).y_label_area_size(label_y).build_cartesian_2d(x0..x1, y0..y1).map_err(e)?;
-            chart.configure_mesh().x_desc("x [m]").y_desc("y [m]").label_style((FONT, 12)).light_line_style(WHITE.mix(0.0)).bold_line_style(BLACK.mix(0.06)).draw().map_err(e)?;
-            chart.draw_series(fig.walls.iter().map(|(a, b)| PathElement::new(vec![*a, *b], BLACK.mix(0.5).stroke_width(1)))).map_err(e)?;
+            let mut chart = ChartBuilder::on(&plot)
+                .margin(margin)
+                .x_label_area_size(label_x)
+                .y_label_area_size(label_y)
+                .build_cartesian_2d(x0..x1, y0..y1)
+                .map_err(e)?;
+            chart
+                .configure_mesh()
+                .x_desc("x [m]")
+                .y_desc("y [m]")
+                .label_style((FONT, 12))
+                .light_line_style(WHITE.mix(0.0))
+                .bold_line_style(BLACK.mix(0.06))
+                .draw()
+                .map_err(e)?;
+            chart
+                .draw_series(
+                    fig.walls.iter().map(|(a, b)| {
+                        PathElement::new(vec![*a, *b], BLACK.mix(0.5).stroke_width(1))
+                    }),
+                )
+                .map_err(e)?;
             let color = rgb(fig.color);
             pixels = fig.points.iter().map(|p| chart.backend_coord(p)).collect();
-            chart.draw_series(std::iter::once(PathElement::new(decimate(&fig.path, SVG_PATH_POINTS), color.mix(0.6).stroke_width(1)))).map_err(e)?;
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    decimate(&fig.path, SVG_PATH_POINTS),
+                    color.mix(0.6).stroke_width(1),
+                )))
+                .map_err(e)?;
             Ok(())
         })()
         .expect("drawing an SVG into memory");
@@ -616,7 +940,10 @@ pub fn scan_map_svg(fig: &ScanMapFigure) -> String {
     pixels.sort_unstable();
     pixels.dedup();
     let d: String = pixels.iter().map(|(x, y)| format!("M{} {}h2v2h-2z", x - 1, y - 1)).collect();
-    let path = format!("<path fill=\"#{}\" d=\"{d}\"/>\n", PALETTE[fig.color % PALETTE.len()].to_uppercase());
+    let path = format!(
+        "<path fill=\"#{}\" d=\"{d}\"/>\n",
+        PALETTE[fig.color % PALETTE.len()].to_uppercase()
+    );
     match svg.rfind("</svg>") {
         Some(end) => svg.insert_str(end, &path),
         None => svg.push_str(&path),
@@ -662,7 +989,8 @@ mod tests {
     fn contour_lines_of_a_cone_are_closed_rings_at_the_right_radius() {
         // f = distance from (0, 0) on a 21 × 21 grid over [−1, 1]²
         let axis: Vec<f64> = (0..21).map(|k| -1.0 + 0.1 * k as f64).collect();
-        let f: Vec<Option<f64>> = axis.iter().flat_map(|&y| axis.iter().map(move |&x| Some(x.hypot(y)))).collect();
+        let f: Vec<Option<f64>> =
+            axis.iter().flat_map(|&y| axis.iter().map(move |&x| Some(x.hypot(y)))).collect();
         let lines = contour_lines(&axis, &axis, &f, 0.55);
         assert_eq!(lines.len(), 1, "one ring");
         let ring = &lines[0];
@@ -699,7 +1027,12 @@ pub struct IndexBarsFigure {
 impl IndexBarsFigure {
     /// y range: [min(0, lowest bound), max(1, highest bound)].
     pub fn y_range(&self) -> (f64, f64) {
-        let all = self.s1.iter().chain(&self.st).flat_map(|&(v, l, h)| [v, l, h]).filter(|v| v.is_finite());
+        let all = self
+            .s1
+            .iter()
+            .chain(&self.st)
+            .flat_map(|&(v, l, h)| [v, l, h])
+            .filter(|v| v.is_finite());
         let (lo, hi) = all.fold((0.0f64, 1.0f64), |(a, b), v| (a.min(v), b.max(v)));
         (lo - 0.02, hi + 0.02)
     }
@@ -707,9 +1040,21 @@ impl IndexBarsFigure {
 
 pub fn index_bars_svg(fig: &IndexBarsFigure) -> String {
     let entries = [
-        LegendEntry { label: "S1 (first order)", color: rgb(0), dot: true, dashed: false, dotted: false },
+        LegendEntry {
+            label: "S1 (first order)",
+            color: rgb(0),
+            dot: true,
+            dashed: false,
+            dotted: false,
+        },
         LegendEntry { label: "ST (total)", color: rgb(1), dot: true, dashed: false, dotted: false },
-        LegendEntry { label: "noise floor of ST", color: TRUTH, dot: false, dashed: true, dotted: false },
+        LegendEntry {
+            label: "noise floor of ST",
+            color: TRUTH,
+            dot: false,
+            dashed: true,
+            dotted: false,
+        },
     ];
     let shown = if fig.noise_floor.is_some() { &entries[..] } else { &entries[..2] };
     // room below the plot for the rotated parameter names
@@ -717,11 +1062,16 @@ pub fn index_bars_svg(fig: &IndexBarsFigure) -> String {
 }
 
 /// An SVG of a legend strip above a plot drawn by `draw` (`extra` px taller than the default).
-fn legend_and_plot(entries: &[LegendEntry<'_>], extra: u32, draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>) -> String {
+fn legend_and_plot(
+    entries: &[LegendEntry<'_>],
+    extra: u32,
+    draw: impl FnOnce(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>,
+) -> String {
     let (_, legend_px) = legend_layout(entries, WIDTH, LEFT_PX);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px + extra)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (WIDTH, HEIGHT + legend_px + extra))
+            .into_drawing_area();
         root.fill(&WHITE).expect("drawing an SVG into memory");
         let (top, plot) = root.split_vertically(legend_px);
         draw_legend(&top, entries, LEFT_PX).expect("drawing an SVG into memory");
@@ -731,34 +1081,87 @@ fn legend_and_plot(entries: &[LegendEntry<'_>], extra: u32, draw: impl FnOnce(&D
     svg
 }
 
-fn draw_index_bars(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &IndexBarsFigure) -> Result<(), String> {
+fn draw_index_bars(
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    fig: &IndexBarsFigure,
+) -> Result<(), String> {
     let d = fig.params.len() as f64;
     let (y0, y1) = fig.y_range();
-    let mut chart = ChartBuilder::on(root).margin(14).x_label_area_size(100).y_label_area_size(LEFT_PX - 14).build_cartesian_2d(0.0..d, y0..y1).map_err(|e| e.to_string())?;
-    chart.configure_mesh().disable_x_mesh().x_labels(0).y_desc("Sobol' index").label_style((FONT, 13)).axis_desc_style((FONT, 14)).light_line_style(WHITE.mix(0.0)).draw().map_err(|e| e.to_string())?;
+    let mut chart = ChartBuilder::on(root)
+        .margin(14)
+        .x_label_area_size(100)
+        .y_label_area_size(LEFT_PX - 14)
+        .build_cartesian_2d(0.0..d, y0..y1)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .disable_x_mesh()
+        .x_labels(0)
+        .y_desc("Sobol' index")
+        .label_style((FONT, 13))
+        .axis_desc_style((FONT, 14))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()
+        .map_err(|e| e.to_string())?;
     for (series, (values, offset)) in [(&fig.s1, 0.18), (&fig.st, 0.52)].into_iter().enumerate() {
         let color = rgb(series);
         for (i, &(v, lo, hi)) in values.iter().enumerate() {
             let x = i as f64 + offset;
             if v.is_finite() {
-                chart.draw_series(std::iter::once(Rectangle::new([(x, 0.0), (x + 0.3, v)], color.mix(0.85).filled()))).map_err(|e| e.to_string())?;
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(x, 0.0), (x + 0.3, v)],
+                        color.mix(0.85).filled(),
+                    )))
+                    .map_err(|e| e.to_string())?;
             }
             if lo.is_finite() && hi.is_finite() {
                 let xm = x + 0.15;
                 let whisker = vec![(xm, lo), (xm, hi)];
-                chart.draw_series([PathElement::new(whisker, BLACK.stroke_width(1)), PathElement::new(vec![(xm - 0.06, lo), (xm + 0.06, lo)], BLACK.stroke_width(1)), PathElement::new(vec![(xm - 0.06, hi), (xm + 0.06, hi)], BLACK.stroke_width(1))]).map_err(|e| e.to_string())?;
+                chart
+                    .draw_series([
+                        PathElement::new(whisker, BLACK.stroke_width(1)),
+                        PathElement::new(
+                            vec![(xm - 0.06, lo), (xm + 0.06, lo)],
+                            BLACK.stroke_width(1),
+                        ),
+                        PathElement::new(
+                            vec![(xm - 0.06, hi), (xm + 0.06, hi)],
+                            BLACK.stroke_width(1),
+                        ),
+                    ])
+                    .map_err(|e| e.to_string())?;
             }
         }
     }
-    chart.draw_series(std::iter::once(PathElement::new(vec![(0.0, 0.0), (d, 0.0)], BLACK.stroke_width(1)))).map_err(|e| e.to_string())?;
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            vec![(0.0, 0.0), (d, 0.0)],
+            BLACK.stroke_width(1),
+        )))
+        .map_err(|e| e.to_string())?;
     if let Some(f) = fig.noise_floor.filter(|f| f.is_finite()) {
-        chart.draw_series(plotters::series::DashedLineSeries::new(vec![(0.0, f), (d, f)], 6, 4, TRUTH.stroke_width(1))).map_err(|e| e.to_string())?;
+        chart
+            .draw_series(plotters::series::DashedLineSeries::new(
+                vec![(0.0, f), (d, f)],
+                6,
+                4,
+                TRUTH.stroke_width(1),
+            ))
+            .map_err(|e| e.to_string())?;
     }
-    let style = TextStyle::from((FONT, 12).into_font()).pos(Pos::new(HPos::Right, VPos::Center)).transform(FontTransform::Rotate270);
+    let style = TextStyle::from((FONT, 12).into_font())
+        .pos(Pos::new(HPos::Right, VPos::Center))
+        .transform(FontTransform::Rotate270);
     let (bx, by) = root.get_base_pixel();
     for (i, p) in fig.params.iter().enumerate() {
         let (px, py) = chart.backend_coord(&(i as f64 + 0.5, y0));
-        root.draw(&Text::new(p.as_str(), (px - bx, py - by + 6), style.clone().pos(Pos::new(HPos::Right, VPos::Center)))).map_err(|e| e.to_string())?;
+        root.draw(&Text::new(
+            p.as_str(),
+            (px - bx, py - by + 6),
+            style.clone().pos(Pos::new(HPos::Right, VPos::Center)),
+        ))
+        .map_err(|e| e.to_string())?;
     }
     Ok(())
 }
@@ -776,7 +1179,14 @@ pub struct MorrisFigure {
 
 impl MorrisFigure {
     pub fn max(&self) -> f64 {
-        let m = self.mu_star.iter().chain(&self.sigma).chain(self.noise_floor.iter()).copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max);
+        let m = self
+            .mu_star
+            .iter()
+            .chain(&self.sigma)
+            .chain(self.noise_floor.iter())
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, f64::max);
         if m > 0.0 { m * 1.12 } else { 1.0 }
     }
 }
@@ -785,15 +1195,29 @@ pub fn morris_svg(fig: &MorrisFigure) -> String {
     let entries = [
         LegendEntry { label: "parameter", color: rgb(0), dot: true, dashed: false, dotted: false },
         LegendEntry { label: "σ = μ*", color: TRUTH, dot: false, dashed: false, dotted: false },
-        LegendEntry { label: "noise floor of μ*", color: rgb(3), dot: false, dashed: true, dotted: false },
+        LegendEntry {
+            label: "noise floor of μ*",
+            color: rgb(3),
+            dot: false,
+            dashed: true,
+            dotted: false,
+        },
     ];
     let shown = if fig.noise_floor.is_some() { &entries[..] } else { &entries[..2] };
     legend_and_plot(shown, 0, |plot| draw_morris(plot, fig))
 }
 
-fn draw_morris(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &MorrisFigure) -> Result<(), String> {
+fn draw_morris(
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    fig: &MorrisFigure,
+) -> Result<(), String> {
     let m = fig.max();
-    let mut chart = ChartBuilder::on(root).margin(14).x_label_area_size(46).y_label_area_size(LEFT_PX - 14).build_cartesian_2d(0.0..m, 0.0..m).map_err(|e| e.to_string())?;
+    let mut chart = ChartBuilder::on(root)
+        .margin(14)
+        .x_label_area_size(46)
+        .y_label_area_size(LEFT_PX - 14)
+        .build_cartesian_2d(0.0..m, 0.0..m)
+        .map_err(|e| e.to_string())?;
     chart
         .configure_mesh()
         .x_desc(format!("μ* [{}]", fig.unit))
@@ -803,15 +1227,31 @@ fn draw_morris(root: &DrawingArea<SVGBackend<'_>, Shift>, fig: &MorrisFigure) ->
         .light_line_style(WHITE.mix(0.0))
         .draw()
         .map_err(|e| e.to_string())?;
-    chart.draw_series(std::iter::once(PathElement::new(vec![(0.0, 0.0), (m, m)], TRUTH.stroke_width(1)))).map_err(|e| e.to_string())?;
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            vec![(0.0, 0.0), (m, m)],
+            TRUTH.stroke_width(1),
+        )))
+        .map_err(|e| e.to_string())?;
     if let Some(f) = fig.noise_floor.filter(|f| f.is_finite()) {
-        chart.draw_series(plotters::series::DashedLineSeries::new(vec![(f, 0.0), (f, m)], 6, 4, rgb(3).stroke_width(1))).map_err(|e| e.to_string())?;
+        chart
+            .draw_series(plotters::series::DashedLineSeries::new(
+                vec![(f, 0.0), (f, m)],
+                6,
+                4,
+                rgb(3).stroke_width(1),
+            ))
+            .map_err(|e| e.to_string())?;
     }
     let style = TextStyle::from((FONT, 12).into_font()).pos(Pos::new(HPos::Left, VPos::Bottom));
     for ((p, &x), &y) in fig.params.iter().zip(&fig.mu_star).zip(&fig.sigma) {
         if x.is_finite() && y.is_finite() {
-            chart.draw_series(std::iter::once(Circle::new((x, y), 4, rgb(0).filled()))).map_err(|e| e.to_string())?;
-            chart.draw_series(std::iter::once(Text::new(p.clone(), (x, y), style.clone()))).map_err(|e| e.to_string())?;
+            chart
+                .draw_series(std::iter::once(Circle::new((x, y), 4, rgb(0).filled())))
+                .map_err(|e| e.to_string())?;
+            chart
+                .draw_series(std::iter::once(Text::new(p.clone(), (x, y), style.clone())))
+                .map_err(|e| e.to_string())?;
         }
     }
     Ok(())

@@ -190,13 +190,20 @@ fn column_width(spec: &str, entries: impl Iterator<Item = usize>, font_pt: f64) 
 /// A table split by columns into parts that each fit the text width at `font_pt`, every part
 /// repeating the first `labels` columns. A part whose label columns alone leave no room wraps the
 /// widest label column (`p{…}`) instead. One part when the table fits.
-pub fn parts(table: &super::view::TableView, labels: usize, font_pt: f64) -> Vec<super::view::TableView> {
+pub fn parts(
+    table: &super::view::TableView,
+    labels: usize,
+    font_pt: f64,
+) -> Vec<super::view::TableView> {
     let specs = column_specs(&table.align);
     let n = table.columns.len();
     if specs.len() != n || n == 0 {
         return vec![table.clone()];
     }
-    let chars = |k: usize| std::iter::once(table.columns[k].chars().count()).chain(table.rows.iter().filter_map(move |r| r.get(k)).map(|v| v.chars().count()));
+    let chars = |k: usize| {
+        std::iter::once(table.columns[k].chars().count())
+            .chain(table.rows.iter().filter_map(move |r| r.get(k)).map(|v| v.chars().count()))
+    };
     let widths: Vec<f64> = (0..n).map(|k| column_width(&specs[k], chars(k), font_pt)).collect();
     let labels = labels.min(n);
     let label_width: f64 = widths[..labels].iter().sum();
@@ -222,13 +229,20 @@ pub fn parts(table: &super::view::TableView, labels: usize, font_pt: f64) -> Vec
             let total: f64 = keep.iter().map(|&k| widths[k]).sum();
             if total > TEXT_WIDTH_PT && labels > 0 {
                 // wrap the widest label column into the room that is left
-                let (wi, _) = (0..labels).map(|i| (i, widths[i])).fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
-                let room = (TEXT_WIDTH_PT - (total - widths[wi]) - 2.0 * TABCOLSEP_PT).max(0.12 * TEXT_WIDTH_PT);
+                let (wi, _) = (0..labels)
+                    .map(|i| (i, widths[i]))
+                    .fold((0, 0.0), |a, b| if b.1 > a.1 { b } else { a });
+                let room = (TEXT_WIDTH_PT - (total - widths[wi]) - 2.0 * TABCOLSEP_PT)
+                    .max(0.12 * TEXT_WIDTH_PT);
                 part_specs[wi] = format!("p{{{:.2}\\linewidth}}", room / TEXT_WIDTH_PT);
             }
             super::view::TableView {
                 columns: keep.iter().map(|&k| table.columns[k].clone()).collect(),
-                rows: table.rows.iter().map(|r| keep.iter().map(|&k| r.get(k).cloned().unwrap_or_default()).collect()).collect(),
+                rows: table
+                    .rows
+                    .iter()
+                    .map(|r| keep.iter().map(|&k| r.get(k).cloned().unwrap_or_default()).collect())
+                    .collect(),
                 align: part_specs.concat(),
             }
         })
@@ -243,7 +257,11 @@ mod parts_tests {
     fn table(columns: usize, width: usize) -> TableView {
         TableView {
             columns: (0..columns).map(|k| format!("c{k}")).collect(),
-            rows: vec![(0..columns).map(|k| if k == 0 { "label".to_string() } else { "9".repeat(width) }).collect()],
+            rows: vec![
+                (0..columns)
+                    .map(|k| if k == 0 { "label".to_string() } else { "9".repeat(width) })
+                    .collect(),
+            ],
             align: format!("l{}", "r".repeat(columns - 1)),
         }
     }
@@ -260,7 +278,8 @@ mod parts_tests {
             assert_eq!(part.columns[0], "c0");
             assert_eq!(part.rows[0][0], "label");
             assert_eq!(part.align.len(), part.columns.len());
-            let width: f64 = part.columns.len() as f64 * 2.0 * TABCOLSEP_PT + (part.columns.len() - 1) as f64 * 30.0 * CHAR_EM * 7.0;
+            let width: f64 = part.columns.len() as f64 * 2.0 * TABCOLSEP_PT
+                + (part.columns.len() - 1) as f64 * 30.0 * CHAR_EM * 7.0;
             assert!(width <= TEXT_WIDTH_PT, "{width}");
         }
         // every data column exactly once, in order
@@ -274,7 +293,11 @@ mod parts_tests {
         t.rows[0][0] = "x".repeat(300);
         let p = parts(&t, 1, 7.0);
         assert_eq!(p.len(), 1);
-        assert!(p[0].align.starts_with("p{0.") && p[0].align.ends_with("\\linewidth}r"), "{}", p[0].align);
+        assert!(
+            p[0].align.starts_with("p{0.") && p[0].align.ends_with("\\linewidth}r"),
+            "{}",
+            p[0].align
+        );
         // p{} columns are read back as their width
         assert_eq!(column_specs("lp{0.3\\linewidth}r"), vec!["l", "p{0.3\\linewidth}", "r"]);
     }

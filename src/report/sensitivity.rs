@@ -4,7 +4,7 @@
 
 use super::figure::{self, IndexBarsFigure, MorrisFigure};
 use super::view::{FigureView, TableView};
-use crate::judge::sensitivity::{analyse, Analysis, Indices, FAILED};
+use crate::judge::sensitivity::{Analysis, FAILED, Indices, analyse};
 use crate::metrics::MetricDef;
 use crate::spec::{SweepKind, SweepSpec};
 use crate::stats::sig;
@@ -36,26 +36,52 @@ pub fn sweep_line(s: &SweepSpec) -> String {
     let ranges: Vec<String> = leaves
         .iter()
         .map(|(k, v)| {
-            let b: Vec<String> = v.as_array().map(|a| a.iter().map(crate::plan::format_value).collect()).unwrap_or_default();
+            let b: Vec<String> = v
+                .as_array()
+                .map(|a| a.iter().map(crate::plan::format_value).collect())
+                .unwrap_or_default();
             format!("{k} ∈ [{}]{}", b.join(", "), if s.log.contains(k) { " (log)" } else { "" })
         })
         .collect();
-    let tied: Vec<String> = s.tied.iter().map(|(k, v)| format!("{k} = {}", v.as_str().unwrap_or("?"))).collect();
+    let tied: Vec<String> =
+        s.tied.iter().map(|(k, v)| format!("{k} = {}", v.as_str().unwrap_or("?"))).collect();
     let tied = if tied.is_empty() { String::new() } else { format!("; tied: {}", tied.join(", ")) };
     match s.kind {
-        SweepKind::Morris => format!("Morris screening, {} trajectories on {} levels: {}{tied}", s.trajectories.unwrap_or(10), s.levels.unwrap_or(4), ranges.join("; ")),
-        _ => format!("Sobol' indices, Saltelli design with N = {} on a scrambled Sobol' sequence: {}{tied}", s.samples.unwrap_or(64), ranges.join("; ")),
+        SweepKind::Morris => format!(
+            "Morris screening, {} trajectories on {} levels: {}{tied}",
+            s.trajectories.unwrap_or(10),
+            s.levels.unwrap_or(4),
+            ranges.join("; ")
+        ),
+        _ => format!(
+            "Sobol' indices, Saltelli design with N = {} on a scrambled Sobol' sequence: {}{tied}",
+            s.samples.unwrap_or(64),
+            ranges.join("; ")
+        ),
     }
 }
 
 /// Last path segment when unique among `params`, else the whole path.
 fn short_names(params: &[String]) -> Vec<String> {
     let last = |p: &str| p.rsplit('.').next().unwrap_or(p).to_string();
-    params.iter().map(|p| if params.iter().filter(|q| last(q) == last(p)).count() == 1 { last(p) } else { p.clone() }).collect()
+    params
+        .iter()
+        .map(|p| {
+            if params.iter().filter(|q| last(q) == last(p)).count() == 1 {
+                last(p)
+            } else {
+                p.clone()
+            }
+        })
+        .collect()
 }
 
 fn ci(e: &crate::stats::sensitivity::Estimate) -> String {
-    if e.low.is_finite() { format!("{} [{}, {}]", sig(e.value, 2), sig(e.low, 2), sig(e.high, 2)) } else { sig(e.value, 2) }
+    if e.low.is_finite() {
+        format!("{} [{}, {}]", sig(e.value, 2), sig(e.low, 2), sig(e.high, 2))
+    } else {
+        sig(e.value, 2)
+    }
 }
 
 fn pct(x: f64) -> String {
@@ -71,14 +97,26 @@ pub fn csv(data: &StudyData, analyses: &[Analysis]) -> String {
     }
     let names = metric_names(analyses);
     // a metric analysed on a log scale is exported as what was analysed: ln of the replicates' values, averaged
-    let header: Vec<String> = names.iter().map(|m| if data.resolved.spec.report.sensitivity_log.contains(m) { format!("ln_{m}") } else { m.clone() }).collect();
+    let header: Vec<String> = names
+        .iter()
+        .map(|m| {
+            if data.resolved.spec.report.sensitivity_log.contains(m) {
+                format!("ln_{m}")
+            } else {
+                m.clone()
+            }
+        })
+        .collect();
     let mut out = format!("group,kind,map,algorithm,row,point,role,{}\n", header.join(","));
     for (gi, group) in data.resolved.groups.iter().enumerate() {
         let Some(design) = &group.design else { continue };
         let d = group.params.len();
         for map in &data.resolved.spec.maps {
             for alg in &data.resolved.spec.algorithms {
-                let mine: Vec<&Analysis> = analyses.iter().filter(|a| a.group == gi && &a.map == map && a.algorithm == alg.name()).collect();
+                let mine: Vec<&Analysis> = analyses
+                    .iter()
+                    .filter(|a| a.group == gi && &a.map == map && a.algorithm == alg.name())
+                    .collect();
                 for (row, label) in design.rows.iter().enumerate() {
                     let role = match group.kind {
                         SweepKind::Sobol => match row / design.size {
@@ -90,9 +128,20 @@ pub fn csv(data: &StudyData, analyses: &[Analysis]) -> String {
                     };
                     let values: Vec<String> = names
                         .iter()
-                        .map(|m| mine.iter().find(|a| &a.metric == m).and_then(|a| a.rows.get(row)).filter(|v| v.is_finite()).map_or(String::new(), |v| crate::stats::sig_ascii(*v, 9)))
+                        .map(|m| {
+                            mine.iter()
+                                .find(|a| &a.metric == m)
+                                .and_then(|a| a.rows.get(row))
+                                .filter(|v| v.is_finite())
+                                .map_or(String::new(), |v| crate::stats::sig_ascii(*v, 9))
+                        })
                         .collect();
-                    out.push_str(&format!("{gi},{},{map},{},{row},{label},{role},{}\n", if group.kind == SweepKind::Sobol { "sobol" } else { "morris" }, alg.name(), values.join(",")));
+                    out.push_str(&format!(
+                        "{gi},{},{map},{},{row},{label},{role},{}\n",
+                        if group.kind == SweepKind::Sobol { "sobol" } else { "morris" },
+                        alg.name(),
+                        values.join(",")
+                    ));
                 }
             }
         }
@@ -119,13 +168,21 @@ fn metric_names(analyses: &[Analysis]) -> Vec<String> {
 }
 
 /// The report section; [`FAILED`] is shown only where some run of the group failed.
-pub fn build(data: &StudyData, analyses: &[Analysis], metrics: &[&MetricDef]) -> Vec<SensitivitySection> {
+pub fn build(
+    data: &StudyData,
+    analyses: &[Analysis],
+    metrics: &[&MetricDef],
+) -> Vec<SensitivitySection> {
     let spec = &data.resolved.spec;
     let mut sections = Vec::new();
     for (gi, group) in data.resolved.groups.iter().enumerate() {
         let Some(design) = &group.design else { continue };
-        let mine: Vec<&Analysis> = analyses.iter().filter(|a| a.group == gi && (a.metric != FAILED || a.failed > 0)).collect();
-        let kind = if group.kind == SweepKind::Morris { "Morris screening" } else { "Sobol' indices" };
+        let mine: Vec<&Analysis> = analyses
+            .iter()
+            .filter(|a| a.group == gi && (a.metric != FAILED || a.failed > 0))
+            .collect();
+        let kind =
+            if group.kind == SweepKind::Morris { "Morris screening" } else { "Sobol' indices" };
         let distinct = design.rows.iter().collect::<std::collections::BTreeSet<_>>().len();
         let mut intro = vec![match group.kind {
             SweepKind::Morris => format!(
@@ -149,19 +206,40 @@ pub fn build(data: &StudyData, analyses: &[Analysis], metrics: &[&MetricDef]) ->
         );
         let short = short_names(&group.params);
         let blocks = mine.into_iter().map(|a| block(data, a, &short, metrics, gi)).collect();
-        sections.push(SensitivitySection { title: format!("{kind}: {}", group.params.join(", ")), intro, blocks });
+        sections.push(SensitivitySection {
+            title: format!("{kind}: {}", group.params.join(", ")),
+            intro,
+            blocks,
+        });
     }
     sections
 }
 
-fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef], gi: usize) -> SensitivityBlock {
+fn block(
+    data: &StudyData,
+    a: &Analysis,
+    short: &[String],
+    metrics: &[&MetricDef],
+    gi: usize,
+) -> SensitivityBlock {
     let spec = &data.resolved.spec;
-    let unit = metrics.iter().find(|m| m.name == a.metric).map_or("share of runs".to_string(), |m| if a.log { format!("ln {}", m.unit) } else { m.unit.to_string() });
-    let alg = if spec.algorithms.len() > 1 { format!(" · {}", a.algorithm) } else { String::new() };
+    let unit =
+        metrics.iter().find(|m| m.name == a.metric).map_or("share of runs".to_string(), |m| {
+            if a.log { format!("ln {}", m.unit) } else { m.unit.to_string() }
+        });
+    let alg =
+        if spec.algorithms.len() > 1 { format!(" · {}", a.algorithm) } else { String::new() };
     let shown = if a.log { format!("ln {}", a.metric) } else { a.metric.clone() };
     let title = format!("{} · {shown}{alg}", a.map);
     let mut findings = Vec::new();
-    let file_stem = format!("sensitivity-g{gi}-{}-{}-{}{}", a.map, a.algorithm, if a.log { "ln-" } else { "" }, a.metric).replace('_', "-");
+    let file_stem = format!(
+        "sensitivity-g{gi}-{}-{}-{}{}",
+        a.map,
+        a.algorithm,
+        if a.log { "ln-" } else { "" },
+        a.metric
+    )
+    .replace('_', "-");
     let file = crate::store::short_name(&file_stem);
     let empty = TableView { columns: Vec::new(), rows: Vec::new(), align: String::new() };
     let Some(indices) = &a.indices else {
@@ -169,7 +247,9 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
         return SensitivityBlock { title, findings, table: empty, figure: None };
     };
     let floor = a.noise_floor;
-    let floor_text = |f: Option<f64>| f.map_or("unknown (one replicate: no residual)".to_string(), |f| sig(f, 2));
+    let floor_text = |f: Option<f64>| {
+        f.map_or("unknown (one replicate: no residual)".to_string(), |f| sig(f, 2))
+    };
     let clears = |low: f64| floor.is_none_or(|f| low > f);
     let (table, figure) = match indices {
         Indices::Sobol(x) => {
@@ -182,10 +262,13 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
                 .collect();
             let mut order: Vec<usize> = (0..short.len()).collect();
             order.sort_by(|&i, &j| st[j].value.total_cmp(&st[i].value).then(i.cmp(&j)));
-            let ranked: Vec<String> = order.iter().map(|&i| format!("{} {}", short[i], sig(st[i].value, 2))).collect();
+            let ranked: Vec<String> =
+                order.iter().map(|&i| format!("{} {}", short[i], sig(st[i].value, 2))).collect();
             findings.push(format!("Ranking by ST: {}.", ranked.join(" > ")));
-            let above: Vec<&str> = order.iter().filter(|&&i| clears(st[i].low)).map(|&i| short[i].as_str()).collect();
-            let below: Vec<&str> = order.iter().filter(|&&i| !clears(st[i].low)).map(|&i| short[i].as_str()).collect();
+            let above: Vec<&str> =
+                order.iter().filter(|&&i| clears(st[i].low)).map(|&i| short[i].as_str()).collect();
+            let below: Vec<&str> =
+                order.iter().filter(|&&i| !clears(st[i].low)).map(|&i| short[i].as_str()).collect();
             findings.push(match floor {
                 None => format!("Noise floor of ST: {}: which indices exceed the simulation's noise cannot be told.", floor_text(floor)),
                 Some(_) => format!(
@@ -198,7 +281,8 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
             let sum_s1: f64 = s1.iter().map(|e| e.value).sum();
             // ΣS1's own interval, from the same resamples
             let resamples = x.boot_s1.first().map_or(0, Vec::len);
-            let sums: Vec<f64> = (0..resamples).map(|b| x.boot_s1.iter().map(|r| r[b]).sum()).collect();
+            let sums: Vec<f64> =
+                (0..resamples).map(|b| x.boot_s1.iter().map(|r| r[b]).sum()).collect();
             let total = crate::stats::sensitivity::percentile_interval(sum_s1, &sums);
             findings.push(format!(
                 "ΣS1 = {}: {}",
@@ -211,7 +295,21 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
                     "too uncertain at this N to say how much of the variance comes from interactions.".to_string()
                 }
             ));
-            let interacting: Vec<String> = order.iter().filter(|&&i| inter[i].value > INTERACTION && inter[i].low > 0.0 && clears(st[i].low)).map(|&i| format!("{} (ST − S1 = {}, S1 {}, ST {})", short[i], ci(&inter[i]), sig(s1[i].value, 2), sig(st[i].value, 2))).collect();
+            let interacting: Vec<String> = order
+                .iter()
+                .filter(|&&i| {
+                    inter[i].value > INTERACTION && inter[i].low > 0.0 && clears(st[i].low)
+                })
+                .map(|&i| {
+                    format!(
+                        "{} (ST − S1 = {}, S1 {}, ST {})",
+                        short[i],
+                        ci(&inter[i]),
+                        sig(s1[i].value, 2),
+                        sig(st[i].value, 2)
+                    )
+                })
+                .collect();
             if interacting.is_empty() {
                 findings.push(format!("No parameter acts measurably through interactions (ST − S1 above {INTERACTION} with an interval above 0)."));
             } else {
@@ -220,19 +318,64 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
             let rows = order
                 .iter()
                 .enumerate()
-                .map(|(rank, &i)| vec![a.params[i].clone(), ci(&s1[i]), ci(&st[i]), ci(&inter[i]), (rank + 1).to_string()])
+                .map(|(rank, &i)| {
+                    vec![
+                        a.params[i].clone(),
+                        ci(&s1[i]),
+                        ci(&st[i]),
+                        ci(&inter[i]),
+                        (rank + 1).to_string(),
+                    ]
+                })
                 .collect();
-            let table = TableView { columns: vec!["Parameter".into(), "S1 [95 % CI]".into(), "ST [95 % CI]".into(), "ST − S1 [95 % CI]".into(), "Rank (ST)".into()], rows, align: "lrrrr".into() };
-            let fig = IndexBarsFigure { params: short.to_vec(), s1: s1.iter().map(|e| (e.value, e.low, e.high)).collect(), st: st.iter().map(|e| (e.value, e.low, e.high)).collect(), noise_floor: floor };
-            let caption = format!("Sobol' indices of {shown} on {}: S1 and ST with 95 % bootstrap intervals; dashed: the noise floor of ST.", a.map);
-            (table, FigureView { file, caption, svg: figure::index_bars_svg(&fig), pgf: super::pgf::index_bars_pgf(&fig), panel: false })
+            let table = TableView {
+                columns: vec![
+                    "Parameter".into(),
+                    "S1 [95 % CI]".into(),
+                    "ST [95 % CI]".into(),
+                    "ST − S1 [95 % CI]".into(),
+                    "Rank (ST)".into(),
+                ],
+                rows,
+                align: "lrrrr".into(),
+            };
+            let fig = IndexBarsFigure {
+                params: short.to_vec(),
+                s1: s1.iter().map(|e| (e.value, e.low, e.high)).collect(),
+                st: st.iter().map(|e| (e.value, e.low, e.high)).collect(),
+                noise_floor: floor,
+            };
+            let caption = format!(
+                "Sobol' indices of {shown} on {}: S1 and ST with 95 % bootstrap intervals; dashed: the noise floor of ST.",
+                a.map
+            );
+            (
+                table,
+                FigureView {
+                    file,
+                    caption,
+                    svg: figure::index_bars_svg(&fig),
+                    pgf: super::pgf::index_bars_pgf(&fig),
+                    panel: false,
+                },
+            )
         }
         Indices::Morris(s) => {
             let mut order: Vec<usize> = (0..short.len()).collect();
-            order.sort_by(|&i, &j| s[j].mu_star.value.total_cmp(&s[i].mu_star.value).then(i.cmp(&j)));
-            let ranked: Vec<String> = order.iter().map(|&i| format!("{} {}", short[i], sig(s[i].mu_star.value, 2))).collect();
-            findings.push(format!("Ranking by μ* [{unit} per full range]: {}.", ranked.join(" > ")));
-            let below: Vec<&str> = order.iter().filter(|&&i| !clears(s[i].mu_star.low)).map(|&i| short[i].as_str()).collect();
+            order.sort_by(|&i, &j| {
+                s[j].mu_star.value.total_cmp(&s[i].mu_star.value).then(i.cmp(&j))
+            });
+            let ranked: Vec<String> = order
+                .iter()
+                .map(|&i| format!("{} {}", short[i], sig(s[i].mu_star.value, 2)))
+                .collect();
+            findings
+                .push(format!("Ranking by μ* [{unit} per full range]: {}.", ranked.join(" > ")));
+            let below: Vec<&str> = order
+                .iter()
+                .filter(|&&i| !clears(s[i].mu_star.low))
+                .map(|&i| short[i].as_str())
+                .collect();
             findings.push(match floor {
                 None => format!("Noise floor of μ*: {}: which effects exceed the simulation's noise cannot be told.", floor_text(floor)),
                 Some(_) => format!(
@@ -241,26 +384,79 @@ fn block(data: &StudyData, a: &Analysis, short: &[String], metrics: &[&MetricDef
                     if below.is_empty() { " Every parameter's μ* interval clears it.".to_string() } else { format!(" Not distinguishable from noise: {}.", below.join(", ")) }
                 ),
             });
-            let curved: Vec<String> = order.iter().filter(|&&i| s[i].sigma > s[i].mu_star.value && clears(s[i].mu_star.low)).map(|&i| format!("{} (σ/μ* = {})", short[i], sig(s[i].sigma / s[i].mu_star.value, 2))).collect();
+            let curved: Vec<String> = order
+                .iter()
+                .filter(|&&i| s[i].sigma > s[i].mu_star.value && clears(s[i].mu_star.low))
+                .map(|&i| {
+                    format!("{} (σ/μ* = {})", short[i], sig(s[i].sigma / s[i].mu_star.value, 2))
+                })
+                .collect();
             if !curved.is_empty() {
                 findings.push(format!("σ > μ* (effects change sign or size across the space: non-linear or interacting): {}.", curved.join(", ")));
             }
-            let dropped: Vec<String> = order.iter().filter(|&&i| s[i].dropped > 0).map(|&i| format!("{} ({} of {})", short[i], s[i].dropped, s[i].dropped + s[i].effects)).collect();
+            let dropped: Vec<String> = order
+                .iter()
+                .filter(|&&i| s[i].dropped > 0)
+                .map(|&i| {
+                    format!("{} ({} of {})", short[i], s[i].dropped, s[i].dropped + s[i].effects)
+                })
+                .collect();
             if !dropped.is_empty() {
-                findings.push(format!("Steps that rounding to an integer made vanish (no effect computed): {}.", dropped.join(", ")));
+                findings.push(format!(
+                    "Steps that rounding to an integer made vanish (no effect computed): {}.",
+                    dropped.join(", ")
+                ));
             }
             let rows = order
                 .iter()
                 .enumerate()
                 .map(|(rank, &i)| {
                     let e = &s[i];
-                    vec![a.params[i].clone(), sig(e.mu, 2), ci(&e.mu_star), sig(e.sigma, 2), sig(e.sigma / e.mu_star.value, 2), e.effects.to_string(), (rank + 1).to_string()]
+                    vec![
+                        a.params[i].clone(),
+                        sig(e.mu, 2),
+                        ci(&e.mu_star),
+                        sig(e.sigma, 2),
+                        sig(e.sigma / e.mu_star.value, 2),
+                        e.effects.to_string(),
+                        (rank + 1).to_string(),
+                    ]
                 })
                 .collect();
-            let table = TableView { columns: vec!["Parameter".into(), "μ".into(), "μ* [95 % CI]".into(), "σ".into(), "σ/μ*".into(), "Effects".into(), "Rank (μ*)".into()], rows, align: "lrrrrrr".into() };
-            let fig = MorrisFigure { params: short.to_vec(), mu_star: s.iter().map(|e| e.mu_star.value).collect(), sigma: s.iter().map(|e| e.sigma).collect(), noise_floor: floor, unit: unit.to_string() };
-            let caption = format!("Morris screening of {shown} on {}: μ* against σ per parameter; grey: σ = μ*; dashed: the noise floor of μ*.", a.map);
-            (table, FigureView { file, caption, svg: figure::morris_svg(&fig), pgf: super::pgf::morris_pgf(&fig), panel: false })
+            let table = TableView {
+                columns: vec![
+                    "Parameter".into(),
+                    "μ".into(),
+                    "μ* [95 % CI]".into(),
+                    "σ".into(),
+                    "σ/μ*".into(),
+                    "Effects".into(),
+                    "Rank (μ*)".into(),
+                ],
+                rows,
+                align: "lrrrrrr".into(),
+            };
+            let fig = MorrisFigure {
+                params: short.to_vec(),
+                mu_star: s.iter().map(|e| e.mu_star.value).collect(),
+                sigma: s.iter().map(|e| e.sigma).collect(),
+                noise_floor: floor,
+                unit: unit.to_string(),
+            };
+            let caption = format!(
+                "Morris screening of {shown} on {}: μ* against σ per parameter; grey: σ = μ*; dashed: the noise floor of μ*.",
+                a.map
+            );
+            (
+                table,
+                FigureView {
+                    file,
+                    caption,
+                    svg: figure::morris_svg(&fig),
+                    pgf: super::pgf::morris_pgf(&fig),
+                    panel: false,
+                },
+            )
         }
     };
     if let Some(sh) = a.shares {

@@ -3,7 +3,7 @@
 //! depends on it (`afterok`) and writes the results and reports. The scripts are rendered from
 //! `templates/slurm-*.sbatch.j2`; this module only fills them (no IO).
 
-use minijinja::{context, Environment, UndefinedBehavior};
+use minijinja::{Environment, UndefinedBehavior, context};
 use serde::Serialize;
 
 /// The runs script's template (task I runs shard I/N).
@@ -56,12 +56,9 @@ pub struct Summary {
 
 /// Quotes `s` for a POSIX shell when it needs it (single quotes; `'` as `'\''`).
 pub fn shell_quote(s: &str) -> String {
-    let plain = !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c));
-    if plain {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', r"'\''"))
-    }
+    let plain =
+        !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c));
+    if plain { s.to_string() } else { format!("'{}'", s.replace('\'', r"'\''")) }
 }
 
 /// Checks `--mem` and `--time` as sbatch would read them, so a typo fails here and not after the
@@ -75,14 +72,25 @@ pub fn validate(r: &Resources) -> Result<(), String> {
     }
     let mem = r.mem.trim_end_matches(['K', 'M', 'G', 'T']);
     if mem.is_empty() || !mem.chars().all(|c| c.is_ascii_digit()) || r.mem.len() - mem.len() > 1 {
-        return Err(format!("--mem `{}` is not a size sbatch reads (a whole number with an optional K, M, G or T, e.g. 4G)", r.mem));
+        return Err(format!(
+            "--mem `{}` is not a size sbatch reads (a whole number with an optional K, M, G or T, e.g. 4G)",
+            r.mem
+        ));
     }
     // [days-]hours:minutes:seconds, minutes, minutes:seconds, hours:minutes:seconds, days-hours…
-    let (days, rest) = r.time.split_once('-').map_or((None, r.time.as_str()), |(d, t)| (Some(d), t));
+    let (days, rest) =
+        r.time.split_once('-').map_or((None, r.time.as_str()), |(d, t)| (Some(d), t));
     let whole = |x: &str| !x.is_empty() && x.len() <= 4 && x.chars().all(|c| c.is_ascii_digit());
     let parts: Vec<&str> = rest.split(':').collect();
-    if !days.is_none_or(whole) || parts.len() > 3 || !parts.iter().all(|p| whole(p)) || r.time == "0" {
-        return Err(format!("--time `{}` is not a time limit sbatch reads (minutes, MM:SS, HH:MM:SS or D-HH:MM:SS)", r.time));
+    if !days.is_none_or(whole)
+        || parts.len() > 3
+        || !parts.iter().all(|p| whole(p))
+        || r.time == "0"
+    {
+        return Err(format!(
+            "--time `{}` is not a time limit sbatch reads (minutes, MM:SS, HH:MM:SS or D-HH:MM:SS)",
+            r.time
+        ));
     }
     if let Some(p) = &r.partition {
         if p.is_empty() || !p.chars().all(|c| c.is_ascii_alphanumeric() || "-_.,".contains(c)) {
@@ -93,7 +101,11 @@ pub fn validate(r: &Resources) -> Result<(), String> {
 }
 
 /// The runs script and the assembling script.
-pub fn scripts(job: &Job, resources: &Resources, summary: &Summary) -> Result<(String, String), minijinja::Error> {
+pub fn scripts(
+    job: &Job,
+    resources: &Resources,
+    summary: &Summary,
+) -> Result<(String, String), minijinja::Error> {
     let mut env = Environment::new();
     env.set_undefined_behavior(UndefinedBehavior::Strict);
     env.set_keep_trailing_newline(true);
@@ -146,8 +158,21 @@ mod tests {
                 logs: "data/slurm/logs".into(),
                 runs_script: "data/slurm/runs.sbatch".into(),
             },
-            Resources { tasks: 4, cpus: 2, mem: "4G".into(), time: "01:30:00".into(), partition: Some("short".into()) },
-            Summary { studies: vec!["smoke".into(), "ft-dmax".into()], runs: 120, unique: 118, to_compute: 118, cost_total_s: 600.4, cost_max_s: 151.0 },
+            Resources {
+                tasks: 4,
+                cpus: 2,
+                mem: "4G".into(),
+                time: "01:30:00".into(),
+                partition: Some("short".into()),
+            },
+            Summary {
+                studies: vec!["smoke".into(), "ft-dmax".into()],
+                runs: 120,
+                unique: 118,
+                to_compute: 118,
+                cost_total_s: 600.4,
+                cost_max_s: 151.0,
+            },
         )
     }
 
@@ -164,14 +189,30 @@ mod tests {
     fn the_runs_script_is_an_array_of_shards_and_the_assembler_renders() {
         let (j, r, s) = job();
         let (runs, assemble) = scripts(&j, &r, &s).unwrap();
-        for line in ["#SBATCH --array=1-4", "#SBATCH --cpus-per-task=2", "#SBATCH --mem=4G", "#SBATCH --time=01:30:00", "#SBATCH --partition=short", "cd '/shared/slam lab'"] {
+        for line in [
+            "#SBATCH --array=1-4",
+            "#SBATCH --cpus-per-task=2",
+            "#SBATCH --mem=4G",
+            "#SBATCH --time=01:30:00",
+            "#SBATCH --partition=short",
+            "cd '/shared/slam lab'",
+        ] {
             assert!(runs.contains(line), "runs script lacks `{line}`:\n{runs}");
         }
         assert!(runs.contains(r#"run --shard "${SLURM_ARRAY_TASK_ID}/4""#), "{runs}");
         assert!(runs.contains("experiments/smoke.toml experiments/ft-dmax.toml"), "{runs}");
-        assert!(runs.contains("118 not yet in the cache") && runs.contains("600 s of one core of the reference machine in all, 151 s in the"), "{runs}");
+        assert!(
+            runs.contains("118 not yet in the cache")
+                && runs.contains("600 s of one core of the reference machine in all, 151 s in the"),
+            "{runs}"
+        );
         assert!(!assemble.contains("--array") && !assemble.contains("--shard"), "{assemble}");
-        assert!(assemble.contains("--results data/results") && assemble.contains("report --results data/results --out reports --specs experiments"), "{assemble}");
+        assert!(
+            assemble.contains("--results data/results")
+                && assemble
+                    .contains("report --results data/results --out reports --specs experiments"),
+            "{assemble}"
+        );
         assert!(runs.starts_with("#!/bin/bash\n") && assemble.starts_with("#!/bin/bash\n"));
     }
 

@@ -58,13 +58,17 @@ type Cells = BTreeMap<(String, String, String), (f64, f64, usize)>;
 
 /// The cells, and how many runs had timed matches.
 fn cells(data: &StudyData, matches: &[MatchRows]) -> (Cells, usize) {
-    let by_run: BTreeMap<&str, &MatchRows> = matches.iter().map(|m| (m.run_id.as_str(), m)).collect();
+    let by_run: BTreeMap<&str, &MatchRows> =
+        matches.iter().map(|m| (m.run_id.as_str(), m)).collect();
     let mut times: BTreeMap<(String, String, String), (Vec<f64>, Vec<f64>)> = BTreeMap::new();
     let mut runs = 0;
     for run in data.runs.iter().filter(|r| r.status == RunStatus::Ok) {
-        let Some(m) = by_run.get(run.run_id.as_str()).filter(|m| !m.matches.is_empty()) else { continue };
+        let Some(m) = by_run.get(run.run_id.as_str()).filter(|m| !m.matches.is_empty()) else {
+            continue;
+        };
         runs += 1;
-        let entry = times.entry((run.map.clone(), run.algorithm.clone(), run.point.clone())).or_default();
+        let entry =
+            times.entry((run.map.clone(), run.algorithm.clone(), run.point.clone())).or_default();
         for record in &m.matches {
             entry.0.push(record.time_s * 1e3);
             entry.1.push(record.evaluations as f64);
@@ -89,21 +93,34 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
     let spec = &data.resolved.spec;
     // the published mean time per match [ms] (one reference row per number)
     let published = |map: &str, algorithm: &str, point: &str| {
-        data.reference.iter().filter(|r| r.map == map && r.algorithm == algorithm && r.cell == point).find_map(|r| r.metric("time_mean_s")).map(|s| s * 1e3)
+        data.reference
+            .iter()
+            .filter(|r| r.map == map && r.algorithm == algorithm && r.cell == point)
+            .find_map(|r| r.metric("time_mean_s"))
+            .map(|s| s * 1e3)
     };
     let points: Vec<String> = data.resolved.points.iter().map(|p| p.label.clone()).collect();
     let tables = spec
         .maps
         .iter()
         .map(|map| {
-            let algorithms: Vec<String> = spec.algorithms.iter().map(|a| a.name().to_string()).filter(|a| points.iter().any(|p| cells.contains_key(&(map.clone(), a.clone(), p.clone())))).collect();
+            let algorithms: Vec<String> = spec
+                .algorithms
+                .iter()
+                .map(|a| a.name().to_string())
+                .filter(|a| {
+                    points.iter().any(|p| cells.contains_key(&(map.clone(), a.clone(), p.clone())))
+                })
+                .collect();
             let rows = points
                 .iter()
                 .map(|p| {
                     let entries = algorithms
                         .iter()
                         .map(|a| {
-                            let ours = cells.get(&(map.clone(), a.clone(), p.clone())).map_or("—".to_string(), |c| sig(c.0, 3));
+                            let ours = cells
+                                .get(&(map.clone(), a.clone(), p.clone()))
+                                .map_or("—".to_string(), |c| sig(c.0, 3));
                             match published(map, a, p) {
                                 Some(ms) => format!("{ours} ({})", sig(ms, 3)),
                                 None => ours,
@@ -118,14 +135,27 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
         .collect();
     let mut checks = Vec::new();
     for claim in spec.claims.iter().filter(|c| c.metric == COST_METRIC) {
-        let (Some(a), Some(b)) = (claim.algorithm.or(spec.algorithms.first().copied()), claim.than_algorithm) else { continue };
-        let Some(cells_of) = data.resolved.claims.iter().find(|c| c.id == claim.id) else { continue };
+        let (Some(a), Some(b)) =
+            (claim.algorithm.or(spec.algorithms.first().copied()), claim.than_algorithm)
+        else {
+            continue;
+        };
+        let Some(cells_of) = data.resolved.claims.iter().find(|c| c.id == claim.id) else {
+            continue;
+        };
         let Some(at) = cells_of.at.clone() else { continue };
         let than = cells_of.than.clone().unwrap_or_else(|| at.clone());
-        if !matches!(claim.test, ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess) {
+        if !matches!(
+            claim.test,
+            ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess
+        ) {
             continue;
         }
-        let maps: Vec<&String> = if claim.maps.is_empty() { spec.maps.iter().collect() } else { claim.maps.iter().collect() };
+        let maps: Vec<&String> = if claim.maps.is_empty() {
+            spec.maps.iter().collect()
+        } else {
+            claim.maps.iter().collect()
+        };
         for map in maps {
             let x = cells.get(&(map.clone(), a.name().to_string(), at.clone()));
             let y = cells.get(&(map.clone(), b.name().to_string(), than.clone()));
@@ -136,9 +166,15 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
                 _ => claim.min_effect_rel.unwrap_or(0.05),
             };
             let (bound, holds): (String, Box<dyn Fn(f64) -> bool>) = match claim.test {
-                ClaimTest::Greater => (format!("> {}", sig(1.0 + rel, 3)), Box::new(move |r| r > 1.0 + rel)),
-                ClaimTest::Less => (format!("< {}", sig(1.0 - rel, 3)), Box::new(move |r| r < 1.0 - rel)),
-                ClaimTest::NotGreater => (format!("≤ {}", sig(1.0 + rel, 3)), Box::new(move |r| r <= 1.0 + rel)),
+                ClaimTest::Greater => {
+                    (format!("> {}", sig(1.0 + rel, 3)), Box::new(move |r| r > 1.0 + rel))
+                }
+                ClaimTest::Less => {
+                    (format!("< {}", sig(1.0 - rel, 3)), Box::new(move |r| r < 1.0 - rel))
+                }
+                ClaimTest::NotGreater => {
+                    (format!("≤ {}", sig(1.0 + rel, 3)), Box::new(move |r| r <= 1.0 + rel))
+                }
                 _ => (format!("≥ {}", sig(1.0 - rel, 3)), Box::new(move |r| r >= 1.0 - rel)),
             };
             let ratio = |f: fn(&(f64, f64, usize)) -> f64| match (x, y) {
@@ -146,10 +182,11 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
                 _ => None,
             };
             let time_ratio = ratio(|c| c.0);
-            let published_ratio = match (published(map, a.name(), &at), published(map, b.name(), &than)) {
-                (Some(p), Some(q)) if q > 0.0 => sig(p / q, 3),
-                _ => "—".into(),
-            };
+            let published_ratio =
+                match (published(map, a.name(), &at), published(map, b.name(), &than)) {
+                    (Some(p), Some(q)) if q > 0.0 => sig(p / q, 3),
+                    _ => "—".into(),
+                };
             checks.push(CostCheck {
                 claim: claim.id.clone(),
                 text: claim.text.clone(),
@@ -167,5 +204,12 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
             });
         }
     }
-    Some(TimingPage { id: spec.id.clone(), title: spec.title.clone(), runs, matches: cells.values().map(|c| c.2).sum(), tables, checks })
+    Some(TimingPage {
+        id: spec.id.clone(),
+        title: spec.title.clone(),
+        runs,
+        matches: cells.values().map(|c| c.2).sum(),
+        tables,
+        checks,
+    })
 }

@@ -1,14 +1,18 @@
 //! Stored results → view-models: every number pre-formatted, every list explicitly sorted.
 //! Templates receive only these structs.
 
-use super::figure::{self, LineFigure, LineSeries, PathSeries, SeriesPoint, TrajectoryFigure, XAxis};
-use crate::stats::{self, sig, sig_ascii, Summary};
-use crate::metrics::{metric_def, MetricDef};
+use super::figure::{
+    self, LineFigure, LineSeries, PathSeries, SeriesPoint, TrajectoryFigure, XAxis,
+};
+use crate::judge::agreement::{self, Published};
+use crate::metrics::{MetricDef, metric_def};
 use crate::spec::params::flatten;
 use crate::spec::{Bands, SweepKind};
+use crate::stats::{self, Summary, sig, sig_ascii};
 use crate::store::reference::ReferenceRow;
-use crate::store::{LandmarkRow, MatchRows, ParamValue, RunLandmarks, RunRow, RunStatus, StudyData, TraceRows};
-use crate::judge::agreement::{self, Published};
+use crate::store::{
+    LandmarkRow, MatchRows, ParamValue, RunLandmarks, RunRow, RunStatus, StudyData, TraceRows,
+};
 use crate::world::map::Map;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -137,13 +141,31 @@ impl Study<'_> {
     fn spec(&self) -> &crate::spec::ExperimentSpec {
         &self.data.resolved.spec
     }
-    fn runs_of<'b>(&'b self, map: &'b str, algorithm: &'b str, point: &'b str) -> impl Iterator<Item = &'b RunRow> + 'b {
-        self.data.runs.iter().filter(move |r| r.map == map && r.algorithm == algorithm && r.point == point)
+    fn runs_of<'b>(
+        &'b self,
+        map: &'b str,
+        algorithm: &'b str,
+        point: &'b str,
+    ) -> impl Iterator<Item = &'b RunRow> + 'b {
+        self.data
+            .runs
+            .iter()
+            .filter(move |r| r.map == map && r.algorithm == algorithm && r.point == point)
     }
     /// Summary of a metric over a cell's successful runs (run-id order), and (failed, n).
-    fn cell(&self, map: &str, algorithm: &str, point: &str, metric: &str) -> (Summary, usize, usize) {
+    fn cell(
+        &self,
+        map: &str,
+        algorithm: &str,
+        point: &str,
+        metric: &str,
+    ) -> (Summary, usize, usize) {
         let runs: Vec<&RunRow> = self.runs_of(map, algorithm, point).collect();
-        let values: Vec<f64> = runs.iter().filter(|r| r.status == RunStatus::Ok).filter_map(|r| r.metric(metric)).collect();
+        let values: Vec<f64> = runs
+            .iter()
+            .filter(|r| r.status == RunStatus::Ok)
+            .filter_map(|r| r.metric(metric))
+            .collect();
         let failed = runs.iter().filter(|r| r.status != RunStatus::Ok).count();
         (stats::summarize_nonnegative(&values), failed, runs.len())
     }
@@ -177,20 +199,37 @@ impl Study<'_> {
     fn agreement_rule(&self) -> String {
         let m = self.published_runs();
         if m >= 2 {
-            format!("Welch's test of our replicates against the published mean and variance over its {m} runs (p < 0.05), or where no variance is printed, our 95 % prediction interval for the mean of {m} runs")
+            format!(
+                "Welch's test of our replicates against the published mean and variance over its {m} runs (p < 0.05), or where no variance is printed, our 95 % prediction interval for the mean of {m} runs"
+            )
         } else {
-            "our 95 % prediction interval for a single run (the source ran one run per cell)".to_string()
+            "our 95 % prediction interval for a single run (the source ran one run per cell)"
+                .to_string()
         }
     }
     /// The published row for (map, parameter = value), if the study shows a reference.
     fn published(&self, map: &str, param: &str, value: f64) -> Option<&ReferenceRow> {
-        self.data.reference.iter().find(|r| r.map == map && r.parameter == param && (r.value - value).abs() <= 1e-9 * value.abs().max(1.0))
+        self.data.reference.iter().find(|r| {
+            r.map == map
+                && r.parameter == param
+                && (r.value - value).abs() <= 1e-9 * value.abs().max(1.0)
+        })
     }
 
     /// The published value of `metric` for (map, algorithm, named cell), from a long-layout
     /// reference, with the table it comes from.
-    fn published_cell(&self, map: &str, algorithm: &str, cell: &str, metric: &str) -> Option<(f64, &str)> {
-        self.data.reference.iter().filter(|r| r.map == map && r.algorithm == algorithm && r.cell == cell).find_map(|r| r.metric(metric).map(|v| (v, r.table.as_str())))
+    fn published_cell(
+        &self,
+        map: &str,
+        algorithm: &str,
+        cell: &str,
+        metric: &str,
+    ) -> Option<(f64, &str)> {
+        self.data
+            .reference
+            .iter()
+            .filter(|r| r.map == map && r.algorithm == algorithm && r.cell == cell)
+            .find_map(|r| r.metric(metric).map(|v| (v, r.table.as_str())))
     }
 
     fn reference_label(&self) -> &str {
@@ -199,7 +238,11 @@ impl Study<'_> {
 
     /// The value of parameter `path` at a point: its sweep assignment, else the base value.
     fn value_at(&self, point: &crate::store::PointRecord, path: &str) -> Option<toml::Value> {
-        point.assignments.get(path).cloned().or_else(|| self.base.iter().find(|(k, _)| k == path).map(|(_, v)| v.clone()))
+        point
+            .assignments
+            .get(path)
+            .cloned()
+            .or_else(|| self.base.iter().find(|(k, _)| k == path).map(|(_, v)| v.clone()))
     }
 }
 
@@ -207,17 +250,40 @@ impl Study<'_> {
 /// Reads the stored traces, final maps and per-match rows of the given runs.
 pub type Fetch<'a> = dyn Fn(&[String]) -> (Vec<TraceRows>, Vec<RunLandmarks>, Vec<MatchRows>) + 'a;
 
-pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::scanmatch::diagnose::Diagnostics>) -> StudyPages {
+pub fn build(
+    data: &StudyData,
+    traces: &Fetch<'_>,
+    diagnostics: Option<&crate::scanmatch::diagnose::Diagnostics>,
+) -> StudyPages {
     let spec = &data.resolved.spec;
-    let maps: Vec<(String, Option<Map>)> =
-        spec.maps.iter().map(|name| (name.clone(), data.maps.iter().find(|(n, _)| n == name).and_then(|(_, text)| Map::from_toml(text).ok()))).collect();
-    let metrics: Vec<&'static MetricDef> = spec.report.metrics.iter().filter_map(|m| metric_def(m)).collect();
+    let maps: Vec<(String, Option<Map>)> = spec
+        .maps
+        .iter()
+        .map(|name| {
+            (
+                name.clone(),
+                data.maps
+                    .iter()
+                    .find(|(n, _)| n == name)
+                    .and_then(|(_, text)| Map::from_toml(text).ok()),
+            )
+        })
+        .collect();
+    let metrics: Vec<&'static MetricDef> =
+        spec.report.metrics.iter().filter_map(|m| metric_def(m)).collect();
     // Only the sections the study's algorithms read (what entered the run hashes).
     let base = crate::store::select::read_base(spec, &world_kinds(&maps));
     let study = Study { data, maps, metrics, base };
 
     // morris / sobol groups get the sensitivity section instead of error-vs-parameter plots
-    let mut groups: Vec<GroupView> = data.resolved.groups.iter().enumerate().filter(|(_, g)| g.design.is_none()).map(|(gi, _)| group_view(&study, gi)).collect();
+    let mut groups: Vec<GroupView> = data
+        .resolved
+        .groups
+        .iter()
+        .enumerate()
+        .filter(|(_, g)| g.design.is_none())
+        .map(|(gi, _)| group_view(&study, gi))
+        .collect();
     let analyses = super::sensitivity::analyses(data, &study.metrics);
     let sensitivity = super::sensitivity::build(data, &analyses, &study.metrics);
     // Two groups can sweep the same parameters (e.g. a one-at-a-time list and a zip): keep file
@@ -234,7 +300,13 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
         used.push(name);
     }
     let trajectories = trajectory_views(&study, traces);
-    let diagnostics = diagnostics.map(|d| super::diagnostics::build(d, spec, study.maps.iter().find(|(n, _)| n == &d.map).and_then(|(_, m)| m.as_ref())));
+    let diagnostics = diagnostics.map(|d| {
+        super::diagnostics::build(
+            d,
+            spec,
+            study.maps.iter().find(|(n, _)| n == &d.map).and_then(|(_, m)| m.as_ref()),
+        )
+    });
     let landmark_tables = landmark_tables(&study, traces);
     let contrasts = contrast_tables(&study);
     let failed = data.runs.iter().filter(|r| r.status != RunStatus::Ok).count();
@@ -245,7 +317,15 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
         facts: facts(&study, failed),
         maps: maps_table(&study),
         sweeps: sweep_lines(&study),
-        base_params: TableView { columns: vec!["Parameter".into(), "Value".into()], rows: study.base.iter().map(|(k, v)| vec![k.clone(), crate::plan::format_value(v)]).collect(), align: "ll".into() },
+        base_params: TableView {
+            columns: vec!["Parameter".into(), "Value".into()],
+            rows: study
+                .base
+                .iter()
+                .map(|(k, v)| vec![k.clone(), crate::plan::format_value(v)])
+                .collect(),
+            align: "ll".into(),
+        },
         choices: modelling_choices(&study),
         notes: spec.notes.clone(),
         groups,
@@ -260,7 +340,11 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
         failures: failures_table(data),
         metrics: TableView {
             columns: vec!["Metric".into(), "Unit".into(), "Definition".into()],
-            rows: study.metrics.iter().map(|m| vec![m.name.to_string(), m.unit.to_string(), m.description.to_string()]).collect(),
+            rows: study
+                .metrics
+                .iter()
+                .map(|m| vec![m.name.to_string(), m.unit.to_string(), m.description.to_string()])
+                .collect(),
             align: "llp{0.55\\linewidth}".into(),
         },
         provenance: provenance(data),
@@ -280,7 +364,10 @@ pub fn build(data: &StudyData, traces: &Fetch<'_>, diagnostics: Option<&crate::s
 }
 
 fn paragraphs(text: &str) -> Vec<String> {
-    text.split("\n\n").map(|p| p.split_whitespace().collect::<Vec<_>>().join(" ")).filter(|p| !p.is_empty()).collect()
+    text.split("\n\n")
+        .map(|p| p.split_whitespace().collect::<Vec<_>>().join(" "))
+        .filter(|p| !p.is_empty())
+        .collect()
 }
 
 fn facts(study: &Study<'_>, failed: usize) -> Vec<Kv> {
@@ -308,11 +395,14 @@ fn filter_choices(study: &Study<'_>, kinds: &[crate::world::WorldKind]) -> Vec<S
     let b = &study.spec().base;
     let algos = &study.spec().algorithms;
     let mut out = Vec::new();
-    let motion_users = algos.iter().any(|a| kinds.iter().any(|&k| a.param_sections(k).contains(&"motion_model")));
+    let motion_users =
+        algos.iter().any(|a| kinds.iter().any(|&k| a.param_sections(k).contains(&"motion_model")));
     if motion_users {
         out.push(b.motion_model.describe());
     }
-    let fast = algos.iter().any(|a| matches!(a, A::Fastslam2) || (matches!(a, A::Fastslam1) && kinds.contains(&W::Points)));
+    let fast = algos.iter().any(|a| {
+        matches!(a, A::Fastslam2) || (matches!(a, A::Fastslam1) && kinds.contains(&W::Points))
+    });
     if fast {
         out.push(b.fastslam.describe_on_points(algos.contains(&A::Fastslam2)));
     }
@@ -367,30 +457,51 @@ fn dataset_choices(study: &Study<'_>) -> Vec<String> {
 
 /// The kinds of world among a study's maps (laser first), laser for a map that cannot be read.
 fn world_kinds(maps: &[(String, Option<Map>)]) -> Vec<crate::world::WorldKind> {
-    let has = |k| maps.iter().any(|(_, m)| m.as_ref().map_or(crate::world::WorldKind::Laser, Map::world_kind) == k);
+    let has = |k| {
+        maps.iter()
+            .any(|(_, m)| m.as_ref().map_or(crate::world::WorldKind::Laser, Map::world_kind) == k)
+    };
     crate::world::WorldKind::ALL.into_iter().filter(|&k| has(k)).collect()
 }
 
 fn maps_table(study: &Study<'_>) -> TableView {
     // Point landmarks only matter (and are only shown) when a map has some.
-    let points = study.maps.iter().any(|(_, m)| m.as_ref().is_some_and(|m| !m.point_landmarks.is_empty()));
+    let points =
+        study.maps.iter().any(|(_, m)| m.as_ref().is_some_and(|m| !m.point_landmarks.is_empty()));
     let rows = study
         .maps
         .iter()
         .map(|(name, map)| {
-            let path_length = study.data.runs.iter().find(|r| &r.map == name && r.status == RunStatus::Ok).and_then(|r| r.metric("path_length_m"));
+            let path_length = study
+                .data
+                .runs
+                .iter()
+                .find(|r| &r.map == name && r.status == RunStatus::Ok)
+                .and_then(|r| r.metric("path_length_m"));
             let mut row = vec![name.clone()];
             match map {
                 Some(m) => {
-                    row.push(format!("{} + {} = {}", m.lines.len(), m.corners.len(), m.landmark_count()));
+                    row.push(format!(
+                        "{} + {} = {}",
+                        m.lines.len(),
+                        m.corners.len(),
+                        m.landmark_count()
+                    ));
                     if points {
                         row.push(m.point_landmarks.len().to_string());
                     }
-                    row.push(m.trajectory.as_ref().map_or("real data".to_string(), |t| format!("{} × {} waypoints", t.laps, t.waypoints.len())));
+                    row.push(m.trajectory.as_ref().map_or("real data".to_string(), |t| {
+                        format!("{} × {} waypoints", t.laps, t.waypoints.len())
+                    }));
                     row.push(path_length.map_or("—".into(), |l| format!("{l:.1} m")));
                     row.push(m.source.clone());
                 }
-                None => row.extend(["(map file not stored)".to_string(), String::new(), String::new(), String::new()]),
+                None => row.extend([
+                    "(map file not stored)".to_string(),
+                    String::new(),
+                    String::new(),
+                    String::new(),
+                ]),
             }
             row
         })
@@ -421,7 +532,10 @@ fn sweep_lines(study: &Study<'_>) -> Vec<String> {
             let lists: Vec<String> = leaves
                 .iter()
                 .map(|(k, v)| {
-                    let vals: Vec<String> = v.as_array().map(|a| a.iter().map(crate::plan::format_value).collect()).unwrap_or_default();
+                    let vals: Vec<String> = v
+                        .as_array()
+                        .map(|a| a.iter().map(crate::plan::format_value).collect())
+                        .unwrap_or_default();
                     format!("{k} ∈ {{{}}}", vals.join(", "))
                 })
                 .collect();
@@ -439,18 +553,26 @@ fn sweep_lines(study: &Study<'_>) -> Vec<String> {
 /// The modelling choices behind these runs, stated from the parameters actually used.
 fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     let b = &study.spec().base;
-    let datasets = study.maps.iter().filter(|(_, m)| m.as_ref().is_some_and(|m| m.dataset.is_some())).count();
+    let datasets =
+        study.maps.iter().filter(|(_, m)| m.as_ref().is_some_and(|m| m.dataset.is_some())).count();
     if datasets > 0 && datasets == study.maps.len() {
         return dataset_choices(study);
     }
     let mut out = vec![b.sim.describe(&sig(1.0 / b.sim.dt_s, 3)), b.odometry.describe()];
     let kinds = world_kinds(&study.maps);
-    let sensors: Vec<_> = study.spec().algorithms.iter().flat_map(|a| kinds.iter().map(|&k| a.sensors(k))).collect();
+    let sensors: Vec<_> =
+        study.spec().algorithms.iter().flat_map(|a| kinds.iter().map(|&k| a.sensors(k))).collect();
     if sensors.iter().any(|s| s.laser) {
         out.push(b.laser.describe());
         out.extend(b.laser.describe_artefacts());
     }
-    let reads = |section: &str| study.spec().algorithms.iter().any(|a| kinds.iter().any(|&k| a.sections_read(k).contains(&section)));
+    let reads = |section: &str| {
+        study
+            .spec()
+            .algorithms
+            .iter()
+            .any(|a| kinds.iter().any(|&k| a.sections_read(k).contains(&section)))
+    };
     if reads("features") {
         out.push(b.features.describe());
     }
@@ -462,7 +584,14 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     }
     out.extend(filter_choices(study, &kinds));
     out.push("Seeds derive from (study seed, map, replicate), never from the swept value: replicate k of every sweep point and algorithm sees the same world noise (paired comparisons).".into());
-    let aligned: Vec<&str> = study.maps.iter().filter(|(_, m)| m.as_ref().and_then(|m| m.dataset.as_ref()).is_some_and(|d| d.truth_is_positions_only())).map(|(n, _)| n.as_str()).collect();
+    let aligned: Vec<&str> = study
+        .maps
+        .iter()
+        .filter(|(_, m)| {
+            m.as_ref().and_then(|m| m.dataset.as_ref()).is_some_and(|d| d.truth_is_positions_only())
+        })
+        .map(|(n, _)| n.as_str())
+        .collect();
     out.push(alignment_sentence(&aligned, study.maps.len()));
     // Map notes, each stated once with the maps it applies to (in spec order).
     let mut notes: Vec<(&str, Vec<&str>)> = Vec::new();
@@ -475,21 +604,29 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
         }
     }
     for (note, maps) in notes {
-        out.push(format!("{} {}: {note}", if maps.len() == 1 { "Map" } else { "Maps" }, maps.join(", ")));
+        out.push(format!(
+            "{} {}: {note}",
+            if maps.len() == 1 { "Map" } else { "Maps" },
+            maps.join(", ")
+        ));
     }
     out
 }
 
 /// How the x axis of a group is laid out, from the values its points take.
 fn x_axis(values: &[toml::Value], force_log: bool) -> (XAxis, Vec<f64>, Vec<(f64, String)>) {
-    let numeric: Option<Vec<f64>> = values.iter().map(|v| ParamValue::from_toml(v).as_f64()).collect();
+    let numeric: Option<Vec<f64>> =
+        values.iter().map(|v| ParamValue::from_toml(v).as_f64()).collect();
     match numeric {
         Some(xs) => {
             let positive = xs.iter().all(|&x| x > 0.0);
-            let (lo, hi) = xs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+            let (lo, hi) = xs
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
             // Log axis when asked, or automatically when all values are positive and span ≥ 2 decades.
             let log = positive && (force_log || hi / lo >= 100.0);
-            let ticks = xs.iter().zip(values).map(|(&x, v)| (x, crate::plan::format_value(v))).collect();
+            let ticks =
+                xs.iter().zip(values).map(|(&x, v)| (x, crate::plan::format_value(v))).collect();
             (if log { XAxis::Log } else { XAxis::Linear }, xs, ticks)
         }
         None => {
@@ -500,7 +637,13 @@ fn x_axis(values: &[toml::Value], force_log: bool) -> (XAxis, Vec<f64>, Vec<(f64
                     names.push(v);
                 }
             }
-            let xs = values.iter().map(|v| names.iter().position(|n| *n == crate::plan::format_value(v)).unwrap_or(0) as f64).collect();
+            let xs = values
+                .iter()
+                .map(|v| {
+                    names.iter().position(|n| *n == crate::plan::format_value(v)).unwrap_or(0)
+                        as f64
+                })
+                .collect();
             let ticks = names.iter().enumerate().map(|(i, n)| (i as f64, n.clone())).collect();
             (XAxis::Categorical(names), xs, ticks)
         }
@@ -522,14 +665,17 @@ fn slug(s: &str) -> String {
 fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
     let spec = study.spec();
     let group = &study.data.resolved.groups[gi];
-    let points: Vec<&crate::store::PointRecord> = study.data.resolved.points.iter().filter(|p| p.groups.contains(&gi)).collect();
+    let points: Vec<&crate::store::PointRecord> =
+        study.data.resolved.points.iter().filter(|p| p.groups.contains(&gi)).collect();
     let title = match (group.kind, group.params.len()) {
         (_, 0) => "Base configuration".to_string(),
         (SweepKind::Zip, _) if group.named => format!("Named cells of {}", group.params.join(", ")),
         (SweepKind::OneAtATime, _) => format!("Varying {} (others at base)", group.params[0]),
         (SweepKind::Grid, _) => format!("Grid over {}", group.params.join(" × ")),
         (SweepKind::Zip, _) => format!("Varying {} together", group.params.join(", ")),
-        (SweepKind::Morris | SweepKind::Sobol, _) => unreachable!("design groups have their own section"),
+        (SweepKind::Morris | SweepKind::Sobol, _) => {
+            unreachable!("design groups have their own section")
+        }
     };
 
     // Table: one row per (map, algorithm, point), metrics as "mean [CI]".
@@ -549,7 +695,11 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
         .metrics
         .iter()
         .copied()
-        .filter(|m| x_param.is_some_and(|x| study.data.reference.iter().any(|r| &r.parameter == x && r.metric(m.name).is_some())))
+        .filter(|m| {
+            x_param.is_some_and(|x| {
+                study.data.reference.iter().any(|r| &r.parameter == x && r.metric(m.name).is_some())
+            })
+        })
         .collect();
     let label = study.reference_label();
     columns.extend(ref_metrics.iter().map(|m| format!("{label}: {}", m.title)));
@@ -562,7 +712,9 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 if show_algorithm {
                     row.push(algorithm.title().to_string());
                 }
-                row.extend(group.params.iter().map(|k| study.value_at(p, k).map(|v| crate::plan::format_value(&v)).unwrap_or_default()));
+                row.extend(group.params.iter().map(|k| {
+                    study.value_at(p, k).map(|v| crate::plan::format_value(&v)).unwrap_or_default()
+                }));
                 let mut n_ok = 0;
                 let mut failed_text = String::new();
                 for (mi, m) in study.metrics.iter().enumerate() {
@@ -571,25 +723,48 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                         n_ok = s.n;
                         failed_text = format!("{failed}/{n}");
                     }
-                    row.push(if s.ci_low.is_finite() { format!("{} [{}, {}]", sig(s.mean, TABLE_DIGITS), sig(s.ci_low, TABLE_DIGITS), sig(s.ci_high, TABLE_DIGITS)) } else { sig(s.mean, TABLE_DIGITS) });
+                    row.push(if s.ci_low.is_finite() {
+                        format!(
+                            "{} [{}, {}]",
+                            sig(s.mean, TABLE_DIGITS),
+                            sig(s.ci_low, TABLE_DIGITS),
+                            sig(s.ci_high, TABLE_DIGITS)
+                        )
+                    } else {
+                        sig(s.mean, TABLE_DIGITS)
+                    });
                 }
                 row.insert(row.len() - study.metrics.len(), n_ok.to_string());
                 row.push(failed_text);
                 // The reference ran the study's first algorithm.
-                let x = x_param.and_then(|k| study.value_at(p, k)).and_then(|v| ParamValue::from_toml(&v).as_f64());
-                let published = x.zip(x_param).filter(|_| Some(algorithm) == spec.algorithms.first()).and_then(|(x, k)| study.published(map, k, x));
+                let x = x_param
+                    .and_then(|k| study.value_at(p, k))
+                    .and_then(|v| ParamValue::from_toml(&v).as_f64());
+                let published = x
+                    .zip(x_param)
+                    .filter(|_| Some(algorithm) == spec.algorithms.first())
+                    .and_then(|(x, k)| study.published(map, k, x));
                 for (mi, m) in ref_metrics.iter().enumerate() {
                     row.push(match published.and_then(|r| r.metric(m.name)) {
                         None => String::new(),
                         Some(v) => {
                             let var = published.and_then(|r| r.metric(&format!("{}_var", m.name)));
-                            let compatible = study.compatible(v, var, &study.values(map, algorithm.name(), &p.label, m.name));
+                            let compatible = study.compatible(
+                                v,
+                                var,
+                                &study.values(map, algorithm.name(), &p.label, m.name),
+                            );
                             if let Some(c) = compatible {
                                 agreement[mi].1 += 1;
                                 agreement[mi].0 += c as usize;
                             }
-                            let var = var.map(|w| format!(" (σ² {})", sig(w, 2))).unwrap_or_default();
-                            format!("{}{var}{}", sig(v, TABLE_DIGITS), if compatible == Some(false) { " ≠" } else { "" })
+                            let var =
+                                var.map(|w| format!(" (σ² {})", sig(w, 2))).unwrap_or_default();
+                            format!(
+                                "{}{var}{}",
+                                sig(v, TABLE_DIGITS),
+                                if compatible == Some(false) { " ≠" } else { "" }
+                            )
                         }
                     });
                 }
@@ -597,7 +772,13 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
             }
         }
     }
-    let align = format!("{}{}r{}r{}", if show_algorithm { "ll" } else { "l" }, "l".repeat(group.params.len()), "r".repeat(study.metrics.len()), "r".repeat(ref_metrics.len()));
+    let align = format!(
+        "{}{}r{}r{}",
+        if show_algorithm { "ll" } else { "l" },
+        "l".repeat(group.params.len()),
+        "r".repeat(study.metrics.len()),
+        "r".repeat(ref_metrics.len())
+    );
     let table = TableView { columns, rows, align };
     let agreement: Vec<String> = ref_metrics
         .iter()
@@ -608,14 +789,21 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
 
     let mut figures = Vec::new();
     if let Some(x_param) = group.params.first() {
-        let x_values: Vec<toml::Value> =
-            if group.named { points.iter().map(|p| toml::Value::String(p.label.clone())).collect() } else { points.iter().filter_map(|p| study.value_at(p, x_param)).collect() };
+        let x_values: Vec<toml::Value> = if group.named {
+            points.iter().map(|p| toml::Value::String(p.label.clone())).collect()
+        } else {
+            points.iter().filter_map(|p| study.value_at(p, x_param)).collect()
+        };
         if x_values.len() == points.len() {
             let (axis, xs, mut ticks) = x_axis(&x_values, spec.report.log_x.contains(x_param));
             ticks.sort_by(|a, b| a.0.total_cmp(&b.0));
             ticks.dedup_by(|a, b| a.0 == b.0);
             // Series: (map, algorithm) and, for grids, the values of the other parameters.
-            let others: Vec<&String> = if group.kind == SweepKind::Grid { group.params[1..].iter().collect() } else { Vec::new() };
+            let others: Vec<&String> = if group.kind == SweepKind::Grid {
+                group.params[1..].iter().collect()
+            } else {
+                Vec::new()
+            };
             for m in &study.metrics {
                 let mut series: Vec<LineSeries> = Vec::new();
                 // our series take consecutive colours; a published series shares its own's
@@ -623,26 +811,43 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 let mut series_map: Vec<String> = Vec::new();
                 for (map, _) in &study.maps {
                     for algorithm in &spec.algorithms {
-                        let mut by_key: BTreeMap<usize, (String, Vec<SeriesPoint>)> = BTreeMap::new();
+                        let mut by_key: BTreeMap<usize, (String, Vec<SeriesPoint>)> =
+                            BTreeMap::new();
                         let mut keys: Vec<String> = Vec::new();
                         for (p, &x) in points.iter().zip(&xs) {
-                            let other = others.iter().map(|k| format!("{k}={}", study.value_at(p, k).map(|v| crate::plan::format_value(&v)).unwrap_or_default())).collect::<Vec<_>>().join(", ");
+                            let other = others
+                                .iter()
+                                .map(|k| {
+                                    format!(
+                                        "{k}={}",
+                                        study
+                                            .value_at(p, k)
+                                            .map(|v| crate::plan::format_value(&v))
+                                            .unwrap_or_default()
+                                    )
+                                })
+                                .collect::<Vec<_>>()
+                                .join(", ");
                             let ki = keys.iter().position(|k| *k == other).unwrap_or_else(|| {
                                 keys.push(other.clone());
                                 keys.len() - 1
                             });
                             let (s, ..) = study.cell(map, algorithm.name(), &p.label, m.name);
-                            let entry = by_key.entry(ki).or_insert_with(|| (other.clone(), Vec::new()));
+                            let entry =
+                                by_key.entry(ki).or_insert_with(|| (other.clone(), Vec::new()));
                             let (lo, hi) = match spec.report.bands {
                                 Bands::Ci => (s.ci_low, s.ci_high),
                                 // no metric can be negative: the band stops at 0
-                                Bands::TwoSigma => ((s.mean - 2.0 * s.std).max(0.0), s.mean + 2.0 * s.std),
+                                Bands::TwoSigma => {
+                                    ((s.mean - 2.0 * s.std).max(0.0), s.mean + 2.0 * s.std)
+                                }
                             };
                             entry.1.push(SeriesPoint { x, mean: s.mean, lo, hi });
                         }
                         for (_, (other, mut pts)) in by_key {
                             pts.sort_by(|a, b| a.x.total_cmp(&b.x));
-                            let mut label = match (study.maps.len() > 1, spec.algorithms.len() > 1) {
+                            let mut label = match (study.maps.len() > 1, spec.algorithms.len() > 1)
+                            {
                                 (true, true) => format!("{map} / {}", algorithm.title()),
                                 (false, true) => algorithm.title().to_string(),
                                 _ => map.clone(),
@@ -650,7 +855,13 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                             if !other.is_empty() {
                                 label = format!("{label} ({other})");
                             }
-                            series.push(LineSeries { label, color: ours, points: pts, dashed: false, scatter: false });
+                            series.push(LineSeries {
+                                label,
+                                color: ours,
+                                points: pts,
+                                dashed: false,
+                                scatter: false,
+                            });
                             series_map.push(map.clone());
                             ours += 1;
                         }
@@ -659,16 +870,40 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                             let pts: Vec<SeriesPoint> = points
                                 .iter()
                                 .zip(&xs)
-                                .filter_map(|(p, &x)| study.published_cell(map, algorithm.name(), &p.label, m.name).map(|(v, _)| SeriesPoint { x, mean: v, lo: f64::NAN, hi: f64::NAN }))
+                                .filter_map(|(p, &x)| {
+                                    study
+                                        .published_cell(map, algorithm.name(), &p.label, m.name)
+                                        .map(|(v, _)| SeriesPoint {
+                                            x,
+                                            mean: v,
+                                            lo: f64::NAN,
+                                            hi: f64::NAN,
+                                        })
+                                })
                                 .collect();
                             if !pts.is_empty() {
                                 let color = ours.saturating_sub(1);
-                                let label = match (study.maps.len() > 1, spec.algorithms.len() > 1) {
-                                    (true, true) => format!("{map} / {} ({})", algorithm.title(), study.reference_label()),
-                                    (false, true) => format!("{} ({})", algorithm.title(), study.reference_label()),
+                                let label = match (study.maps.len() > 1, spec.algorithms.len() > 1)
+                                {
+                                    (true, true) => format!(
+                                        "{map} / {} ({})",
+                                        algorithm.title(),
+                                        study.reference_label()
+                                    ),
+                                    (false, true) => format!(
+                                        "{} ({})",
+                                        algorithm.title(),
+                                        study.reference_label()
+                                    ),
                                     _ => format!("{map} ({})", study.reference_label()),
                                 };
-                                series.push(LineSeries { label, color, points: pts, dashed: true, scatter: false });
+                                series.push(LineSeries {
+                                    label,
+                                    color,
+                                    points: pts,
+                                    dashed: true,
+                                    scatter: false,
+                                });
                                 series_map.push(map.clone());
                             }
                         }
@@ -682,17 +917,28 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                             .iter()
                             .zip(&xs)
                             .filter_map(|(p, &x)| {
-                                let v = study.value_at(p, x_param).and_then(|v| ParamValue::from_toml(&v).as_f64())?;
+                                let v = study
+                                    .value_at(p, x_param)
+                                    .and_then(|v| ParamValue::from_toml(&v).as_f64())?;
                                 let row = study.published(map, x_param, v)?;
                                 let published = row.metric(m.name)?;
-                                let (lo, hi) = study.published_bars(published, row.metric(&format!("{}_var", m.name)));
+                                let (lo, hi) = study.published_bars(
+                                    published,
+                                    row.metric(&format!("{}_var", m.name)),
+                                );
                                 Some(SeriesPoint { x, mean: published, lo, hi })
                             })
                             .collect();
                         if !pts.is_empty() {
                             let mut pts = pts;
                             pts.sort_by(|a, b| a.x.total_cmp(&b.x));
-                            series.push(LineSeries { label: format!("{map} ({})", study.reference_label()), color, points: pts, dashed: true, scatter: false });
+                            series.push(LineSeries {
+                                label: format!("{map} ({})", study.reference_label()),
+                                color,
+                                points: pts,
+                                dashed: true,
+                                scatter: false,
+                            });
                             series_map.push(map.clone());
                         }
                     }
@@ -704,15 +950,25 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 } else {
                     x_param.clone()
                 };
-                let published_bars = series.iter().any(|s| s.dashed && s.points.iter().any(|p| p.lo.is_finite()));
-                let fig = LineFigure { x_label, y_label: format!("{} [{}]", m.title, m.unit), x_axis: axis.clone(), x_ticks: ticks.clone(), series };
+                let published_bars =
+                    series.iter().any(|s| s.dashed && s.points.iter().any(|p| p.lo.is_finite()));
+                let fig = LineFigure {
+                    x_label,
+                    y_label: format!("{} [{}]", m.title, m.unit),
+                    x_axis: axis.clone(),
+                    x_ticks: ticks.clone(),
+                    series,
+                };
                 let file = slug(&format!("{}--{}", group.params.join("-"), m.name));
                 let band = match spec.report.bands {
                     Bands::Ci => format!("band = {:.0} % confidence interval of the mean (Student t, cut at 0: no metric can be negative)", stats::CONFIDENCE * 100.0),
                     Bands::TwoSigma => "band = mean ± 2 sample standard deviations over the replicates (the spread of single runs, as the reference work's figures draw it; not a confidence interval)".to_string(),
                 };
                 let bars = if published_bars {
-                    format!("; dashed: published means with error bars = 95 % confidence interval of the published mean over its {} runs, from its printed variance", study.published_runs())
+                    format!(
+                        "; dashed: published means with error bars = 95 % confidence interval of the published mean over its {} runs, from its printed variance",
+                        study.published_runs()
+                    )
                 } else if fig.series.iter().any(|s| s.dashed) {
                     "; dashed: published values (no dispersion printed)".to_string()
                 } else {
@@ -727,7 +983,13 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 // each with its own published series, instead of every curve in one.
                 if study.maps.len() >= SMALL_MULTIPLES_MAPS && fig.series.iter().any(|s| s.dashed) {
                     for (k, (map, _)) in study.maps.iter().enumerate() {
-                        let series: Vec<LineSeries> = fig.series.iter().zip(&series_map).filter(|(_, m)| *m == map).map(|(s, _)| s.clone()).collect();
+                        let series: Vec<LineSeries> = fig
+                            .series
+                            .iter()
+                            .zip(&series_map)
+                            .filter(|(_, m)| *m == map)
+                            .map(|(s, _)| s.clone())
+                            .collect();
                         if series.is_empty() {
                             continue;
                         }
@@ -767,7 +1029,14 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
     if group.named && spec.algorithms.len() > 1 {
         figures.extend(cost_figure(study, &points, &slug(&group.params.join("-"))));
     }
-    GroupView { title, label_columns: if show_algorithm { 2 } else { 1 }, figures, table, agreement, matrices }
+    GroupView {
+        title,
+        label_columns: if show_algorithm { 2 } else { 1 },
+        figures,
+        table,
+        agreement,
+        matrices,
+    }
 }
 
 /// How far above every other series a baseline must reach before it gets a figure without it.
@@ -777,7 +1046,9 @@ const SQUASH_RATIO: f64 = 5.0;
 /// series' largest value is more than [`SQUASH_RATIO`] times every other series' and at least
 /// two other series remain: (the figure, the removed series' label, its largest value).
 fn zoomed(fig: &LineFigure) -> Option<(LineFigure, String, f64)> {
-    let top = |s: &LineSeries| s.points.iter().map(|p| p.mean).filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max);
+    let top = |s: &LineSeries| {
+        s.points.iter().map(|p| p.mean).filter(|v| v.is_finite()).fold(f64::NEG_INFINITY, f64::max)
+    };
     let mut by_color: BTreeMap<usize, f64> = BTreeMap::new();
     for s in &fig.series {
         let e = by_color.entry(s.color).or_insert(f64::NEG_INFINITY);
@@ -787,11 +1058,19 @@ fn zoomed(fig: &LineFigure) -> Option<(LineFigure, String, f64)> {
         return None;
     }
     let (&color, &max) = by_color.iter().max_by(|a, b| a.1.total_cmp(b.1))?;
-    let rest = by_color.iter().filter(|(c, _)| **c != color).map(|(_, v)| *v).fold(f64::NEG_INFINITY, f64::max);
+    let rest = by_color
+        .iter()
+        .filter(|(c, _)| **c != color)
+        .map(|(_, v)| *v)
+        .fold(f64::NEG_INFINITY, f64::max);
     if !(rest > 0.0 && max > SQUASH_RATIO * rest) {
         return None;
     }
-    let label = fig.series.iter().find(|s| s.color == color && !s.dashed).map_or_else(String::new, |s| s.label.clone());
+    let label = fig
+        .series
+        .iter()
+        .find(|s| s.color == color && !s.dashed)
+        .map_or_else(String::new, |s| s.label.clone());
     let series = fig.series.iter().filter(|s| s.color != color).cloned().collect();
     Some((LineFigure { series, ..fig.clone() }, label, max))
 }
@@ -817,15 +1096,27 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
                     let (s, ..) = study.cell(map, algorithm.name(), &p.label, m.name);
                     // the t interval's half-width (its lower end may be cut at 0)
                     let hw = s.ci_high - s.mean;
-                    ours.push(if hw.is_finite() { format!("{} ± {}", sig(s.mean, TABLE_DIGITS), sig(hw, 2)) } else { sig(s.mean, TABLE_DIGITS) });
+                    ours.push(if hw.is_finite() {
+                        format!("{} ± {}", sig(s.mean, TABLE_DIGITS), sig(hw, 2))
+                    } else {
+                        sig(s.mean, TABLE_DIGITS)
+                    });
                     match study.published_cell(map, algorithm.name(), &p.label, m.name) {
                         Some((v, table)) => {
-                            let compatible = study.compatible(v, None, &study.values(map, algorithm.name(), &p.label, m.name));
+                            let compatible = study.compatible(
+                                v,
+                                None,
+                                &study.values(map, algorithm.name(), &p.label, m.name),
+                            );
                             if let Some(c) = compatible {
                                 agreement.1 += 1;
                                 agreement.0 += c as usize;
                             }
-                            published.push(format!("{}{}", sig(v, TABLE_DIGITS), if compatible == Some(false) { " ≠" } else { "" }));
+                            published.push(format!(
+                                "{}{}",
+                                sig(v, TABLE_DIGITS),
+                                if compatible == Some(false) { " ≠" } else { "" }
+                            ));
                             if !tables.contains(&table) {
                                 tables.push(table);
                             }
@@ -851,7 +1142,11 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
         } else {
             "Mean ± half-width of the 95 % confidence interval over the replicates.".to_string()
         };
-        out.push(NamedTable { title: format!("{} [{}] per cell", m.title, m.unit), caption, table: TableView { columns, rows, align: format!("ll{}", "r".repeat(points.len())) } });
+        out.push(NamedTable {
+            title: format!("{} [{}] per cell", m.title, m.unit),
+            caption,
+            table: TableView { columns, rows, align: format!("ll{}", "r".repeat(points.len())) },
+        });
     }
     out
 }
@@ -859,7 +1154,11 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
 /// Cost against accuracy across the algorithms ([EP] Table 3's time/f trade-off): mean f against
 /// mean objective evaluations per match (log x), one point per (map, algorithm, cell). Evaluations
 /// stand in for time, which is not deterministic (times are measured by `make bench`).
-fn cost_figure(study: &Study<'_>, points: &[&crate::store::PointRecord], group_slug: &str) -> Option<FigureView> {
+fn cost_figure(
+    study: &Study<'_>,
+    points: &[&crate::store::PointRecord],
+    group_slug: &str,
+) -> Option<FigureView> {
     let spec = study.spec();
     let mut series = Vec::new();
     let mut all_x = Vec::new();
@@ -870,7 +1169,9 @@ fn cost_figure(study: &Study<'_>, points: &[&crate::store::PointRecord], group_s
                 .filter_map(|p| {
                     let (e, ..) = study.cell(map, algorithm.name(), &p.label, "evals_mean");
                     let (f, ..) = study.cell(map, algorithm.name(), &p.label, "f_mean");
-                    (e.mean > 0.0 && e.mean.is_finite() && f.mean.is_finite()).then_some(SeriesPoint { x: e.mean, mean: f.mean, lo: f64::NAN, hi: f64::NAN })
+                    (e.mean > 0.0 && e.mean.is_finite() && f.mean.is_finite()).then_some(
+                        SeriesPoint { x: e.mean, mean: f.mean, lo: f64::NAN, hi: f64::NAN },
+                    )
                 })
                 .collect();
             if pts.is_empty() {
@@ -878,16 +1179,35 @@ fn cost_figure(study: &Study<'_>, points: &[&crate::store::PointRecord], group_s
             }
             pts.sort_by(|a, b| a.x.total_cmp(&b.x));
             all_x.extend(pts.iter().map(|p| p.x));
-            let label = if study.maps.len() > 1 { format!("{map} / {}", algorithm.title()) } else { algorithm.title().to_string() };
-            series.push(LineSeries { label, color: series.len(), points: pts, dashed: false, scatter: true });
+            let label = if study.maps.len() > 1 {
+                format!("{map} / {}", algorithm.title())
+            } else {
+                algorithm.title().to_string()
+            };
+            series.push(LineSeries {
+                label,
+                color: series.len(),
+                points: pts,
+                dashed: false,
+                scatter: true,
+            });
         }
     }
     if series.is_empty() {
         return None;
     }
-    let (lo, hi) = all_x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
-    let ticks: Vec<(f64, String)> = (lo.log10().floor() as i32..=hi.log10().ceil() as i32).map(|e| (10f64.powi(e), sig(10f64.powi(e), 1))).collect();
-    let fig = LineFigure { x_label: "objective evaluations per match".into(), y_label: "Mean f [cm²]".into(), x_axis: XAxis::Log, x_ticks: ticks, series };
+    let (lo, hi) =
+        all_x.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+    let ticks: Vec<(f64, String)> = (lo.log10().floor() as i32..=hi.log10().ceil() as i32)
+        .map(|e| (10f64.powi(e), sig(10f64.powi(e), 1)))
+        .collect();
+    let fig = LineFigure {
+        x_label: "objective evaluations per match".into(),
+        y_label: "Mean f [cm²]".into(),
+        x_axis: XAxis::Log,
+        x_ticks: ticks,
+        series,
+    };
     Some(FigureView {
         panel: false,
         file: format!("{group_slug}--cost"),
@@ -901,28 +1221,55 @@ fn cost_figure(study: &Study<'_>, points: &[&crate::store::PointRecord], group_s
 fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
     let spec = study.spec();
     let points = &study.data.resolved.points;
-    let Some(reference) = crate::store::select::reference_point(points, &study.base) else { return Vec::new() };
+    let Some(reference) = crate::store::select::reference_point(points, &study.base) else {
+        return Vec::new();
+    };
     let headline = crate::store::select::headline(spec);
     let Some(first_algorithm) = spec.algorithms.first() else { return Vec::new() };
 
     let mut out = Vec::new();
     for (map_name, map) in &study.maps {
         let Some(map) = map else { continue };
-        let Some(chosen) = crate::store::select::median_run(&study.data.runs, map_name, first_algorithm.name(), &reference.label, headline) else { continue };
+        let Some(chosen) = crate::store::select::median_run(
+            &study.data.runs,
+            map_name,
+            first_algorithm.name(),
+            &reference.label,
+            headline,
+        ) else {
+            continue;
+        };
         let ids: Vec<String> = spec
             .algorithms
             .iter()
-            .filter_map(|a| study.runs_of(map_name, a.name(), &reference.label).find(|r| r.replicate == chosen.replicate).map(|r| r.run_id.clone()))
+            .filter_map(|a| {
+                study
+                    .runs_of(map_name, a.name(), &reference.label)
+                    .find(|r| r.replicate == chosen.replicate)
+                    .map(|r| r.run_id.clone())
+            })
             .collect();
         let (rows, maps, matches) = traces(&ids);
         let Some(truth) = rows.first() else { continue };
         // Real data may lack truth at some steps: the path joins the known positions.
         let finite = |p: &&crate::geom::Pose2| p.x.is_finite() && p.y.is_finite();
-        let mut paths = vec![PathSeries { label: "ground truth".into(), color: None, points: truth.truth.iter().filter(finite).map(|p| (p.x, p.y)).collect() }];
+        let mut paths = vec![PathSeries {
+            label: "ground truth".into(),
+            color: None,
+            points: truth.truth.iter().filter(finite).map(|p| (p.x, p.y)).collect(),
+        }];
         for (ai, id) in ids.iter().enumerate() {
             if let Some(t) = rows.iter().find(|t| &t.run_id == id) {
-                let label = spec.algorithms.iter().find(|a| id.contains(&format!("--{}--", a.name()))).map_or(id.clone(), |a| a.title().to_string());
-                paths.push(PathSeries { label, color: Some(ai), points: t.estimate.iter().filter(finite).map(|p| (p.x, p.y)).collect() });
+                let label = spec
+                    .algorithms
+                    .iter()
+                    .find(|a| id.contains(&format!("--{}--", a.name())))
+                    .map_or(id.clone(), |a| a.title().to_string());
+                paths.push(PathSeries {
+                    label,
+                    color: Some(ai),
+                    points: t.estimate.iter().filter(finite).map(|p| (p.x, p.y)).collect(),
+                });
             }
         }
         // Final maps, coloured like their algorithm's path.
@@ -930,8 +1277,12 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
         for (ai, id) in ids.iter().enumerate() {
             for l in maps.iter().filter(|m| &m.run_id == id).flat_map(|m| &m.landmarks) {
                 match *l {
-                    LandmarkRow::Corner { x_m, y_m } | LandmarkRow::Point { x_m, y_m, .. } => est_corners.push((ai, (x_m, y_m))),
-                    LandmarkRow::Line { rho_m, theta_rad } => est_lines.push((ai, rho_m, theta_rad)),
+                    LandmarkRow::Corner { x_m, y_m } | LandmarkRow::Point { x_m, y_m, .. } => {
+                        est_corners.push((ai, (x_m, y_m)))
+                    }
+                    LandmarkRow::Line { rho_m, theta_rad } => {
+                        est_lines.push((ai, rho_m, theta_rad))
+                    }
                 }
             }
         }
@@ -939,11 +1290,19 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
         let fig = TrajectoryFigure {
             walls: map.walls.iter().map(|s| ((s.a.x, s.a.y), (s.b.x, s.b.y))).collect(),
             // a point world's landmarks are its points; its wall corners are not landmarks
-            corners: if points_world { map.point_landmarks.iter().map(|c| (c.x, c.y)).collect() } else { map.corners.iter().map(|c| (c.x, c.y)).collect() },
+            corners: if points_world {
+                map.point_landmarks.iter().map(|c| (c.x, c.y)).collect()
+            } else {
+                map.corners.iter().map(|c| (c.x, c.y)).collect()
+            },
             point_landmarks: points_world,
             paths,
             // the true start pose (a dataset's first truth pose; the map's start for a simulation)
-            start: truth.truth.first().filter(|p| p.x.is_finite() && p.y.is_finite()).map_or((map.start.x, map.start.y), |p| (p.x, p.y)),
+            start: truth
+                .truth
+                .first()
+                .filter(|p| p.x.is_finite() && p.y.is_finite())
+                .map_or((map.start.x, map.start.y), |p| (p.x, p.y)),
             est_corners,
             est_lines,
         };
@@ -963,7 +1322,15 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
             svg: figure::trajectory_svg(&fig),
             pgf: super::pgf::trajectory_pgf(&fig),
         });
-        out.extend(match_error_views(study, map_name, &map.title, &ids, &matches, chosen.replicate, &reference.label));
+        out.extend(match_error_views(
+            study,
+            map_name,
+            &map.title,
+            &ids,
+            &matches,
+            chosen.replicate,
+            &reference.label,
+        ));
     }
     out
 }
@@ -974,19 +1341,34 @@ fn alignment_sentence(aligned: &[&str], maps: usize) -> String {
     const APE: &str = "Trajectory error is evo's APE (translation part, every step";
     match aligned.len() {
         0 => format!("{APE}, no alignment: estimate and truth start at the same pose)."),
-        n if n == maps => format!("{APE}) after aligning the estimate to the truth by the least-squares rigid transform (evo's --align, no scale): the truth of {} is positions only, in its own frame.", aligned.join(", ")),
-        _ => format!("{APE}): on {}, whose truth is positions only in its own frame, after aligning the estimate by the least-squares rigid transform (evo's --align, no scale); on the other maps with no alignment (estimate and truth start at the same pose).", aligned.join(", ")),
+        n if n == maps => format!(
+            "{APE}) after aligning the estimate to the truth by the least-squares rigid transform (evo's --align, no scale): the truth of {} is positions only, in its own frame.",
+            aligned.join(", ")
+        ),
+        _ => format!(
+            "{APE}): on {}, whose truth is positions only in its own frame, after aligning the estimate by the least-squares rigid transform (evo's --align, no scale); on the other maps with no alignment (estimate and truth start at the same pose).",
+            aligned.join(", ")
+        ),
     }
 }
 
 /// [EP] Figs 16–19: every match's error, in match order, for each scan matcher of the runs `ids`
 /// (one figure per component |ax|, |ay|, |aθ|). Empty when no run has matches.
-fn match_error_views(study: &Study<'_>, map_name: &str, map_title: &str, ids: &[String], matches: &[MatchRows], replicate: u32, cell: &str) -> Vec<FigureView> {
+fn match_error_views(
+    study: &Study<'_>,
+    map_name: &str,
+    map_title: &str,
+    ids: &[String],
+    matches: &[MatchRows],
+    replicate: u32,
+    cell: &str,
+) -> Vec<FigureView> {
     let spec = study.spec();
     let per_run: Vec<(usize, &MatchRows)> = ids
         .iter()
         .filter_map(|id| {
-            let ai = spec.algorithms.iter().position(|a| id.contains(&format!("--{}--", a.name())))?;
+            let ai =
+                spec.algorithms.iter().position(|a| id.contains(&format!("--{}--", a.name())))?;
             matches.iter().find(|m| &m.run_id == id && !m.matches.is_empty()).map(|m| (ai, m))
         })
         .collect();
@@ -1041,9 +1423,16 @@ fn match_distribution(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> 
     if !spec.algorithms.iter().any(|a| a.is_scan_matcher()) {
         return Vec::new();
     }
-    let ids: Vec<String> = study.data.runs.iter().filter(|r| r.status == RunStatus::Ok).map(|r| r.run_id.clone()).collect();
+    let ids: Vec<String> = study
+        .data
+        .runs
+        .iter()
+        .filter(|r| r.status == RunStatus::Ok)
+        .map(|r| r.run_id.clone())
+        .collect();
     let (_, _, matches) = traces(&ids);
-    let by_run: BTreeMap<&str, &MatchRows> = matches.iter().map(|m| (m.run_id.as_str(), m)).collect();
+    let by_run: BTreeMap<&str, &MatchRows> =
+        matches.iter().map(|m| (m.run_id.as_str(), m)).collect();
     let mut out = Vec::new();
     for (map, _) in &study.maps {
         let mut rows = Vec::new();
@@ -1069,7 +1458,17 @@ fn match_distribution(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> 
                     sig(q(0.9), 2),
                     sig(errors[errors.len() - 1], 2),
                     format!("{} %", sig(100.0 * far.len() as f64 / errors.len() as f64, 2)),
-                    if total > 0.0 { format!("{} %", sig(100.0 * far.iter().filter(|e| e.is_finite()).sum::<f64>() / total, 2)) } else { "—".into() },
+                    if total > 0.0 {
+                        format!(
+                            "{} %",
+                            sig(
+                                100.0 * far.iter().filter(|e| e.is_finite()).sum::<f64>() / total,
+                                2
+                            )
+                        )
+                    } else {
+                        "—".into()
+                    },
                 ]);
             }
         }
@@ -1097,16 +1496,25 @@ fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
     let Some(algorithm) = spec.algorithms.first() else { return Vec::new() };
     let mut out = Vec::new();
     // each published table's sweep point, resolved by the plan
-    for (reference, label) in spec.report.landmark_reference.iter().zip(&study.data.resolved.landmark_points) {
-        let Some(point) = study.data.resolved.points.iter().find(|p| &p.label == label) else { continue };
+    for (reference, label) in
+        spec.report.landmark_reference.iter().zip(&study.data.resolved.landmark_points)
+    {
+        let Some(point) = study.data.resolved.points.iter().find(|p| &p.label == label) else {
+            continue;
+        };
         for (map_name, map) in &study.maps {
             let Some(map) = map else { continue };
-            let ids: Vec<String> = study.runs_of(map_name, algorithm.name(), &point.label).filter(|r| r.status == RunStatus::Ok).map(|r| r.run_id.clone()).collect();
+            let ids: Vec<String> = study
+                .runs_of(map_name, algorithm.name(), &point.label)
+                .filter(|r| r.status == RunStatus::Ok)
+                .map(|r| r.run_id.clone())
+                .collect();
             if ids.is_empty() || map.point_landmarks.is_empty() {
                 continue;
             }
             let (_, maps, _) = traces(&ids);
-            let cm = |v: f64| if v.is_finite() { format!("{:.1}", v * 100.0) } else { "—".into() };
+            let cm =
+                |v: f64| if v.is_finite() { format!("{:.1}", v * 100.0) } else { "—".into() };
             let rows = map
                 .point_landmarks
                 .iter()
@@ -1114,15 +1522,40 @@ fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
                 .map(|(i, truth)| {
                     let estimates: Vec<(f64, f64)> = maps
                         .iter()
-                        .filter_map(|m| m.landmarks.iter().find_map(|l| match *l {
-                            LandmarkRow::Point { x_m, y_m, id: Some(id) } if id as usize == i => Some((x_m, y_m)),
-                            _ => None,
-                        }))
+                        .filter_map(|m| {
+                            m.landmarks.iter().find_map(|l| match *l {
+                                LandmarkRow::Point { x_m, y_m, id: Some(id) }
+                                    if id as usize == i =>
+                                {
+                                    Some((x_m, y_m))
+                                }
+                                _ => None,
+                            })
+                        })
                         .collect();
                     let n = estimates.len() as f64;
-                    let (ex, ey) = if estimates.is_empty() { (f64::NAN, f64::NAN) } else { (estimates.iter().map(|e| e.0).sum::<f64>() / n, estimates.iter().map(|e| e.1).sum::<f64>() / n) };
-                    let rms = if estimates.is_empty() { f64::NAN } else { (estimates.iter().map(|e| (e.0 - truth.x).powi(2) + (e.1 - truth.y).powi(2)).sum::<f64>() / n).sqrt() };
-                    let published = reference.landmarks.iter().find(|l| (l[0] - truth.x).hypot(l[1] - truth.y) < LANDMARK_MATCH_M);
+                    let (ex, ey) = if estimates.is_empty() {
+                        (f64::NAN, f64::NAN)
+                    } else {
+                        (
+                            estimates.iter().map(|e| e.0).sum::<f64>() / n,
+                            estimates.iter().map(|e| e.1).sum::<f64>() / n,
+                        )
+                    };
+                    let rms = if estimates.is_empty() {
+                        f64::NAN
+                    } else {
+                        (estimates
+                            .iter()
+                            .map(|e| (e.0 - truth.x).powi(2) + (e.1 - truth.y).powi(2))
+                            .sum::<f64>()
+                            / n)
+                            .sqrt()
+                    };
+                    let published = reference
+                        .landmarks
+                        .iter()
+                        .find(|l| (l[0] - truth.x).hypot(l[1] - truth.y) < LANDMARK_MATCH_M);
                     vec![
                         format!("{}", i + 1),
                         cm(truth.x),
@@ -1163,7 +1596,11 @@ fn contrast_tables(study: &Study<'_>) -> Vec<NamedTable> {
     let spec = study.spec();
     let mut out = Vec::new();
     for c in &spec.report.contrasts {
-        let metrics: Vec<&str> = if c.metrics.is_empty() { spec.report.metrics.iter().map(String::as_str).collect() } else { c.metrics.iter().map(String::as_str).collect() };
+        let metrics: Vec<&str> = if c.metrics.is_empty() {
+            spec.report.metrics.iter().map(String::as_str).collect()
+        } else {
+            c.metrics.iter().map(String::as_str).collect()
+        };
         for metric in metrics {
             let Some(def) = metric_def(metric) else { continue };
             for algorithm in &spec.algorithms {
@@ -1173,14 +1610,22 @@ fn contrast_tables(study: &Study<'_>) -> Vec<NamedTable> {
                     .map(|[cell, against]| {
                         let mut row = vec![format!("{cell} − {against}")];
                         for (map, _) in &study.maps {
-                            let a = study.data.replicate_values(map, algorithm.name(), cell, metric);
-                            let b = study.data.replicate_values(map, algorithm.name(), against, metric);
-                            row.push(contrast_entry(&stats::compare::paired_contrast(&a, &b, 0.95)));
+                            let a =
+                                study.data.replicate_values(map, algorithm.name(), cell, metric);
+                            let b =
+                                study.data.replicate_values(map, algorithm.name(), against, metric);
+                            row.push(contrast_entry(&stats::compare::paired_contrast(
+                                &a, &b, 0.95,
+                            )));
                         }
                         row
                     })
                     .collect();
-                let algorithm_title = if spec.algorithms.len() > 1 { format!(" — {}", algorithm.title()) } else { String::new() };
+                let algorithm_title = if spec.algorithms.len() > 1 {
+                    format!(" — {}", algorithm.title())
+                } else {
+                    String::new()
+                };
                 out.push(NamedTable {
                     title: format!("{}: {} [{}]{algorithm_title}", c.title, def.title, def.unit),
                     caption: format!(
@@ -1224,7 +1669,18 @@ const LANDMARK_MATCH_M: f64 = 0.02;
 fn failures_table(data: &StudyData) -> TableView {
     TableView {
         columns: vec!["Run".into(), "Status".into(), "Error".into()],
-        rows: data.runs.iter().filter(|r| r.status != RunStatus::Ok).map(|r| vec![r.run_id.clone(), r.status.as_str().into(), r.error.clone().unwrap_or_default()]).collect(),
+        rows: data
+            .runs
+            .iter()
+            .filter(|r| r.status != RunStatus::Ok)
+            .map(|r| {
+                vec![
+                    r.run_id.clone(),
+                    r.status.as_str().into(),
+                    r.error.clone().unwrap_or_default(),
+                ]
+            })
+            .collect(),
         align: "llp{0.5\\linewidth}".into(),
     }
 }
@@ -1233,13 +1689,23 @@ fn provenance(data: &StudyData) -> Vec<Kv> {
     let m = &data.manifest;
     let mut out = vec![
         kv("slamlab version", &m.crate_version),
-        kv("git commit (inputs)", format!("{}{}", m.git_commit, if m.git_dirty { " + uncommitted changes" } else { "" })),
+        kv(
+            "git commit (inputs)",
+            format!("{}{}", m.git_commit, if m.git_dirty { " + uncommitted changes" } else { "" }),
+        ),
         kv("rustc", &m.rustc),
-        kv("spec", format!("{} (blake3 {})", m.spec_path, &m.spec_blake3[..m.spec_blake3.len().min(16)])),
+        kv(
+            "spec",
+            format!("{} (blake3 {})", m.spec_path, &m.spec_blake3[..m.spec_blake3.len().min(16)]),
+        ),
         kv("results schema", &m.schema_version),
     ];
     out.extend(m.code_versions.iter().map(|(k, v)| kv(&format!("code version: {k}"), v)));
-    out.extend(m.maps.iter().map(|(k, v)| kv(&format!("map {k}"), format!("blake3 {}", &v[..v.len().min(16)]))));
+    out.extend(
+        m.maps
+            .iter()
+            .map(|(k, v)| kv(&format!("map {k}"), format!("blake3 {}", &v[..v.len().min(16)]))),
+    );
     out
 }
 
@@ -1268,11 +1734,31 @@ fn summary_csv(study: &Study<'_>) -> String {
             for p in &study.data.resolved.points {
                 for m in &study.metrics {
                     let (s, failed, n) = study.cell(map, algorithm.name(), &p.label, m.name);
-                    let mut fields = vec![spec.id.clone(), map.clone(), algorithm.name().to_string(), p.label.clone()];
-                    fields.extend(swept.iter().map(|k| study.value_at(p, k).map(|v| crate::plan::format_value(&v)).unwrap_or_default()));
-                    fields.extend([m.name.to_string(), s.n.to_string(), failed.to_string(), n.to_string()]);
-                    fields.extend([s.mean, s.std, s.ci_low, s.ci_high, s.median, s.min, s.max].map(|v| sig_ascii(v, CSV_DIGITS)));
-                    out.push_str(&fields.iter().map(|f| csv_field(f)).collect::<Vec<_>>().join(","));
+                    let mut fields = vec![
+                        spec.id.clone(),
+                        map.clone(),
+                        algorithm.name().to_string(),
+                        p.label.clone(),
+                    ];
+                    fields.extend(swept.iter().map(|k| {
+                        study
+                            .value_at(p, k)
+                            .map(|v| crate::plan::format_value(&v))
+                            .unwrap_or_default()
+                    }));
+                    fields.extend([
+                        m.name.to_string(),
+                        s.n.to_string(),
+                        failed.to_string(),
+                        n.to_string(),
+                    ]);
+                    fields.extend(
+                        [s.mean, s.std, s.ci_low, s.ci_high, s.median, s.min, s.max]
+                            .map(|v| sig_ascii(v, CSV_DIGITS)),
+                    );
+                    out.push_str(
+                        &fields.iter().map(|f| csv_field(f)).collect::<Vec<_>>().join(","),
+                    );
                     out.push('\n');
                 }
             }
@@ -1282,7 +1768,11 @@ fn summary_csv(study: &Study<'_>) -> String {
 }
 
 fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() }
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
 }
 
 #[cfg(test)]
@@ -1291,11 +1781,17 @@ mod tests {
 
     #[test]
     fn log_axis_only_for_positive_wide_ranges() {
-        let f = |v: &[f64]| x_axis(&v.iter().map(|&x| toml::Value::Float(x)).collect::<Vec<_>>(), false).0;
+        let f = |v: &[f64]| {
+            x_axis(&v.iter().map(|&x| toml::Value::Float(x)).collect::<Vec<_>>(), false).0
+        };
         assert_eq!(f(&[0.001, 0.01, 0.1]), XAxis::Log);
         assert_eq!(f(&[0.0, 0.05, 0.1]), XAxis::Linear);
         assert_eq!(f(&[1.0, 2.0, 5.0]), XAxis::Linear);
-        let cat = x_axis(&[toml::Value::String("pose".into()), toml::Value::String("none".into())], false).0;
+        let cat = x_axis(
+            &[toml::Value::String("pose".into()), toml::Value::String("none".into())],
+            false,
+        )
+        .0;
         assert_eq!(cat, XAxis::Categorical(vec!["pose".into(), "none".into()]));
         // a grid repeats values: positions follow the distinct values
         let s = |v: &str| toml::Value::String(v.into());
@@ -1307,16 +1803,45 @@ mod tests {
 
     #[test]
     fn a_squashing_baseline_gets_a_figure_without_it() {
-        let series = |label: &str, color: usize, v: f64, dashed: bool| LineSeries { label: label.into(), color, points: vec![SeriesPoint { x: 1.0, mean: v, lo: v, hi: v }], dashed, scatter: false };
-        let fig = |s: Vec<LineSeries>| LineFigure { x_label: "x".into(), y_label: "y".into(), x_axis: XAxis::Linear, x_ticks: Vec::new(), series: s };
+        let series = |label: &str, color: usize, v: f64, dashed: bool| LineSeries {
+            label: label.into(),
+            color,
+            points: vec![SeriesPoint { x: 1.0, mean: v, lo: v, hi: v }],
+            dashed,
+            scatter: false,
+        };
+        let fig = |s: Vec<LineSeries>| LineFigure {
+            x_label: "x".into(),
+            y_label: "y".into(),
+            x_axis: XAxis::Linear,
+            x_ticks: Vec::new(),
+            series: s,
+        };
         // PSM (and its published series) at 95, the others at most 15: a zoom without PSM
-        let f = fig(vec![series("PSM", 0, 95.0, false), series("PSM (pub)", 0, 40.0, true), series("E-PSM", 1, 2.0, false), series("CRS2", 2, 15.0, false)]);
+        let f = fig(vec![
+            series("PSM", 0, 95.0, false),
+            series("PSM (pub)", 0, 40.0, true),
+            series("E-PSM", 1, 2.0, false),
+            series("CRS2", 2, 15.0, false),
+        ]);
         let (z, label, top) = zoomed(&f).expect("PSM squashes the others");
         assert_eq!((label.as_str(), top), ("PSM", 95.0));
-        assert_eq!(z.series.iter().map(|s| s.label.as_str()).collect::<Vec<_>>(), ["E-PSM", "CRS2"]);
+        assert_eq!(
+            z.series.iter().map(|s| s.label.as_str()).collect::<Vec<_>>(),
+            ["E-PSM", "CRS2"]
+        );
         // within the ratio, or fewer than three groups: no zoom
-        assert!(zoomed(&fig(vec![series("A", 0, 90.0, false), series("B", 1, 20.0, false), series("C", 2, 5.0, false)])).is_none());
-        assert!(zoomed(&fig(vec![series("A", 0, 900.0, false), series("B", 1, 2.0, false)])).is_none());
+        assert!(
+            zoomed(&fig(vec![
+                series("A", 0, 90.0, false),
+                series("B", 1, 20.0, false),
+                series("C", 2, 5.0, false)
+            ]))
+            .is_none()
+        );
+        assert!(
+            zoomed(&fig(vec![series("A", 0, 900.0, false), series("B", 1, 2.0, false)])).is_none()
+        );
     }
 
     #[test]
@@ -1326,12 +1851,29 @@ mod tests {
         // the alignment the metrics used is the one the report states
         assert!(alignment_sentence(&[], 2).contains("no alignment"));
         let all = alignment_sentence(&["victoria_park"], 1);
-        assert!(all.contains("--align") && all.contains("victoria_park") && !all.contains("no alignment"), "{all}");
-        assert!(alignment_sentence(&["victoria_park"], 2).contains("on the other maps with no alignment"));
+        assert!(
+            all.contains("--align")
+                && all.contains("victoria_park")
+                && !all.contains("no alignment"),
+            "{all}"
+        );
+        assert!(
+            alignment_sentence(&["victoria_park"], 2)
+                .contains("on the other maps with no alignment")
+        );
         // a 15-parameter sweep's figure names stay within file-name limits, distinct and stable
         let long: Vec<String> = (0..15).map(|i| format!("fastslam.parameter_number_{i}")).collect();
-        let (a, b) = (slug(&format!("{}--ate_rmse_m", long.join("-"))), slug(&format!("{}--landmark_error_m", long.join("-"))));
-        assert!(a.len() <= 120 && b.len() <= 120 && a != b && a.starts_with("fastslam-parameter-number-0"), "{a} {b}");
+        let (a, b) = (
+            slug(&format!("{}--ate_rmse_m", long.join("-"))),
+            slug(&format!("{}--landmark_error_m", long.join("-"))),
+        );
+        assert!(
+            a.len() <= 120
+                && b.len() <= 120
+                && a != b
+                && a.starts_with("fastslam-parameter-number-0"),
+            "{a} {b}"
+        );
         assert_eq!(a, slug(&format!("{}--ate_rmse_m", long.join("-"))));
     }
 
@@ -1348,7 +1890,10 @@ mod tests {
         assert_eq!(contrast_entry(&c), "+0.052 [+0.031, +0.073] (+21 %)");
         let fall = PairedContrast { mean: -0.1, ci: (-0.2, 0.01), ..c };
         assert_eq!(contrast_entry(&fall), "−0.10 [−0.20, +0.010] (−40 %)");
-        assert_eq!(contrast_entry(&PairedContrast { mean: -0.0004, ci: (-0.001, 0.0002), ..c }), "−0.00040 [−0.0010, +0.00020] (0 %)");
+        assert_eq!(
+            contrast_entry(&PairedContrast { mean: -0.0004, ci: (-0.001, 0.0002), ..c }),
+            "−0.00040 [−0.0010, +0.00020] (0 %)"
+        );
         assert_eq!(contrast_entry(&PairedContrast { ci: (f64::NAN, f64::NAN), ..c }), "—");
     }
 }

@@ -11,10 +11,13 @@ pub mod worlds;
 use crate::metrics;
 use crate::plan::{ExperimentPlan, RunSpec, SCHEMA_VERSION};
 use crate::slam::{self, AlgorithmKind, SlamError, Trace};
-use crate::world::WorldKind;
 use crate::spec::params::flatten;
-use crate::store::{self, Cache, CachedRun, GroupRecord, LandmarkRow, Manifest, MatchRows, ParamValue, PointRecord, ResolvedStudy, RunLandmarks, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows};
-use crate::world::{self, WorldError, WorldSpec, WORLD_CODE_VERSION};
+use crate::store::{
+    self, Cache, CachedRun, GroupRecord, LandmarkRow, Manifest, MatchRows, ParamValue, PointRecord,
+    ResolvedStudy, RunLandmarks, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows,
+};
+use crate::world::WorldKind;
+use crate::world::{self, WORLD_CODE_VERSION, WorldError, WorldSpec};
 use progress::Progress;
 pub use provenance::Provenance;
 use rand::SeedableRng;
@@ -74,8 +77,14 @@ pub fn reasons(plan: &ExperimentPlan, opts: &RunOptions) -> Vec<Reason> {
 }
 
 /// The pure part of [`reasons`].
-pub fn explain(runs: &[RunSpec], cached: &dyn Fn(&str) -> bool, previous: &[RunRow], force: bool) -> Vec<Reason> {
-    let previous: BTreeMap<&str, &RunRow> = previous.iter().map(|r| (r.run_id.as_str(), r)).collect();
+pub fn explain(
+    runs: &[RunSpec],
+    cached: &dyn Fn(&str) -> bool,
+    previous: &[RunRow],
+    force: bool,
+) -> Vec<Reason> {
+    let previous: BTreeMap<&str, &RunRow> =
+        previous.iter().map(|r| (r.run_id.as_str(), r)).collect();
     runs.iter()
         .map(|run| {
             if force {
@@ -86,7 +95,10 @@ pub fn explain(runs: &[RunSpec], cached: &dyn Fn(&str) -> bool, previous: &[RunR
             }
             match previous.get(run.run_id.as_str()) {
                 None => Reason::New,
-                Some(prev) => match (prev.params_hash != run.params_hash, prev.code_version != run.code_version) {
+                Some(prev) => match (
+                    prev.params_hash != run.params_hash,
+                    prev.code_version != run.code_version,
+                ) {
                     (true, true) => Reason::ParametersAndCodeVersionChanged,
                     (true, false) => Reason::ParametersChanged,
                     (false, true) => Reason::CodeVersionChanged,
@@ -119,7 +131,11 @@ pub enum RunError {
 }
 
 /// Runs (or takes from the cache) every run of `plan` and writes the study's results.
-pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenance) -> Result<StudySummary, RunError> {
+pub fn run_study(
+    plan: &ExperimentPlan,
+    opts: &RunOptions,
+    provenance: &Provenance,
+) -> Result<StudySummary, RunError> {
     let cache = Cache::new(&opts.cache_dir);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
@@ -128,19 +144,37 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     let reasons = reasons(plan, opts);
     let to_compute = reasons.iter().filter(|r| **r != Reason::Cached).count();
     let dir = opts.results_dir.join(plan.id());
-    let maps: Vec<(String, String)> = plan.maps.iter().map(|m| (m.name.clone(), m.text.clone())).collect();
+    let maps: Vec<(String, String)> =
+        plan.maps.iter().map(|m| (m.name.clone(), m.text.clone())).collect();
     let resolved = resolved(plan);
 
     // Nothing to compute and the stored study is exactly this one: leave it as it is.
     if to_compute == 0 {
-        let ids: Vec<(String, String)> = plan.runs.iter().map(|r| (r.run_id.clone(), r.hash.clone())).collect();
+        let ids: Vec<(String, String)> =
+            plan.runs.iter().map(|r| (r.run_id.clone(), r.hash.clone())).collect();
         let stored = store::read_runs(&dir).unwrap_or_default();
         let bad = stored.iter().filter(|r| r.status != RunStatus::Ok).count();
         let manifest = manifest(plan, provenance, plan.runs.len(), bad);
         let diagnosed = plan.spec.spec.algorithms.iter().any(|a| a.is_scan_matcher());
-        if store::is_up_to_date(&dir, &ids, &resolved, &manifest, &maps, plan.reference.as_deref(), diagnosed) {
+        if store::is_up_to_date(
+            &dir,
+            &ids,
+            &resolved,
+            &manifest,
+            &maps,
+            plan.reference.as_deref(),
+            diagnosed,
+        ) {
             let count = |s: RunStatus| stored.iter().filter(|r| r.status == s).count();
-            return Ok(StudySummary { study: plan.id().to_string(), dir, runs: plan.runs.len(), computed: 0, recomputed_corrupt: 0, failed: count(RunStatus::Failed), diverged: count(RunStatus::Diverged) });
+            return Ok(StudySummary {
+                study: plan.id().to_string(),
+                dir,
+                runs: plan.runs.len(),
+                computed: 0,
+                recomputed_corrupt: 0,
+                failed: count(RunStatus::Failed),
+                diverged: count(RunStatus::Diverged),
+            });
         }
     }
     // Each distinct content hash is computed (or read) once, even when two runs share it.
@@ -158,7 +192,12 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     }
     // planned cost of each unique hash to compute: its compute time last time, else its
     // algorithm's mean then, else the cost model's expectation
-    let previous_ms: BTreeMap<String, f64> = store::read_timings(&dir).unwrap_or_default().into_iter().filter(|t| t.wall_ms.is_finite()).map(|t| (t.run_id, t.wall_ms)).collect();
+    let previous_ms: BTreeMap<String, f64> = store::read_timings(&dir)
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|t| t.wall_ms.is_finite())
+        .map(|t| (t.run_id, t.wall_ms))
+        .collect();
     let mut by_algorithm: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
     for r in &plan.runs {
         if let Some(ms) = previous_ms.get(&r.run_id) {
@@ -166,10 +205,22 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
             *e = (e.0 + ms, e.1 + 1);
         }
     }
-    let planned = |r: &RunSpec| previous_ms.get(&r.run_id).copied().or_else(|| by_algorithm.get(r.algorithm.name()).map(|(s, n)| s / *n as f64)).unwrap_or_else(|| crate::plan::cost::expected_s(plan, r) * 1e3);
-    let planned_cost: BTreeMap<&str, f64> = unique.iter().map(|&i| (plan.runs[i].hash.as_str(), planned(&plan.runs[i]))).collect();
-    let to_compute_cost: f64 = unique.iter().filter(|&&i| reasons[i] != Reason::Cached).map(|&i| planned_cost[plan.runs[i].hash.as_str()]).sum();
-    let mut progress = Progress::new(plan.id(), plan.runs.len(), to_compute, to_compute_cost, opts.progress);
+    let planned = |r: &RunSpec| {
+        previous_ms
+            .get(&r.run_id)
+            .copied()
+            .or_else(|| by_algorithm.get(r.algorithm.name()).map(|(s, n)| s / *n as f64))
+            .unwrap_or_else(|| crate::plan::cost::expected_s(plan, r) * 1e3)
+    };
+    let planned_cost: BTreeMap<&str, f64> =
+        unique.iter().map(|&i| (plan.runs[i].hash.as_str(), planned(&plan.runs[i]))).collect();
+    let to_compute_cost: f64 = unique
+        .iter()
+        .filter(|&&i| reasons[i] != Reason::Cached)
+        .map(|&i| planned_cost[plan.runs[i].hash.as_str()])
+        .sum();
+    let mut progress =
+        Progress::new(plan.id(), plan.runs.len(), to_compute, to_compute_cost, opts.progress);
     // Cache IO (Parquet, through polars' own thread pool) stays on this thread: a worker of ours
     // waiting on polars would run further jobs of ours meanwhile, nesting without bound. So cached
     // runs are read first, and computed runs are cached here as the workers send them.
@@ -178,7 +229,11 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     let mut corrupt = 0usize;
     for &i in &unique {
         let run = &plan.runs[i];
-        let lookup = if reasons[i] == Reason::Cached { cache.lookup(&run.hash) } else { store::Lookup::Absent };
+        let lookup = if reasons[i] == Reason::Cached {
+            cache.lookup(&run.hash)
+        } else {
+            store::Lookup::Absent
+        };
         match lookup {
             store::Lookup::Hit(c) => {
                 progress.finished(c.row.status, true, multiplicity[run.hash.as_str()], 0.0);
@@ -193,7 +248,10 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
                 computed.insert(run.hash.as_str(), (c, true));
             }
             store::Lookup::Corrupt(why) => {
-                progress.warn(&format!("{}: its cache entry failed verification ({why}); recomputing it", run.run_id));
+                progress.warn(&format!(
+                    "{}: its cache entry failed verification ({why}); recomputing it",
+                    run.run_id
+                ));
                 corrupt += 1;
                 missing.push(i);
             }
@@ -207,7 +265,12 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
         if let Err(e) = cache.put(&run.hash, &c, true) {
             progress.warn(&format!("cannot cache {}: {e}", run.run_id));
         }
-        progress.finished(c.row.status, false, multiplicity[run.hash.as_str()], planned_cost[run.hash.as_str()]);
+        progress.finished(
+            c.row.status,
+            false,
+            multiplicity[run.hash.as_str()],
+            planned_cost[run.hash.as_str()],
+        );
         computed.insert(run.hash.as_str(), (c, false));
     });
     let outcomes: Vec<(CachedRun, bool)> = plan
@@ -225,8 +288,15 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
     let mut outcomes = outcomes;
     outcomes.sort_by(|a, b| a.0.row.run_id.cmp(&b.0.row.run_id));
     let rows: Vec<RunRow> = outcomes.iter().map(|(o, _)| o.row.clone()).collect();
-    let timings: Vec<Timing> =
-        outcomes.iter().map(|(o, cached)| Timing { run_id: o.row.run_id.clone(), wall_ms: o.wall_ms, steps: o.trace.truth.len().saturating_sub(1) as u32, cached: *cached }).collect();
+    let timings: Vec<Timing> = outcomes
+        .iter()
+        .map(|(o, cached)| Timing {
+            run_id: o.row.run_id.clone(),
+            wall_ms: o.wall_ms,
+            steps: o.trace.truth.len().saturating_sub(1) as u32,
+            cached: *cached,
+        })
+        .collect();
     let landmarks: Vec<RunLandmarks> = outcomes.iter().map(|(o, _)| o.landmarks.clone()).collect();
     let matches: Vec<MatchRows> = outcomes.iter().map(|(o, _)| o.matches.clone()).collect();
     let traces: Vec<TraceRows> = outcomes.into_iter().map(|(o, _)| o.trace).collect();
@@ -235,23 +305,47 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
 
     // Diagnostics are an addition to the results: when they cannot be made, say why and go on.
     let diagnosed = plan.spec.spec.algorithms.iter().any(|a| a.is_scan_matcher());
-    let diagnostics = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| diagnostics::build(plan, &resolved, &rows, &traces, &matches))) {
+    let diagnostics = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        diagnostics::build(plan, &resolved, &rows, &traces, &matches)
+    })) {
         Ok(Ok(d)) => d,
         Ok(Err(why)) => {
             progress.warn(&format!("{}: no match diagnostics: {why}", plan.id()));
             None
         }
         Err(_) => {
-            progress.warn(&format!("{}: no match diagnostics: they panicked (a defect: please report it)", plan.id()));
+            progress.warn(&format!(
+                "{}: no match diagnostics: they panicked (a defect: please report it)",
+                plan.id()
+            ));
             None
         }
     };
     let manifest = manifest(plan, provenance, rows.len(), failed + diverged);
     store::write_study(
         &dir,
-        &StudyOutput { runs: &rows, traces: &traces, landmarks: &landmarks, matches: &matches, timings: &timings, resolved: &resolved, manifest: &manifest, maps: &maps, reference: plan.reference.as_deref(), diagnostics: diagnosed.then_some(diagnostics.as_ref()) },
+        &StudyOutput {
+            runs: &rows,
+            traces: &traces,
+            landmarks: &landmarks,
+            matches: &matches,
+            timings: &timings,
+            resolved: &resolved,
+            manifest: &manifest,
+            maps: &maps,
+            reference: plan.reference.as_deref(),
+            diagnostics: diagnosed.then_some(diagnostics.as_ref()),
+        },
     )?;
-    Ok(StudySummary { study: plan.id().to_string(), dir, runs: rows.len(), computed: to_compute + corrupt, recomputed_corrupt: corrupt, failed, diverged })
+    Ok(StudySummary {
+        study: plan.id().to_string(),
+        dir,
+        runs: rows.len(),
+        computed: to_compute + corrupt,
+        recomputed_corrupt: corrupt,
+        failed,
+        diverged,
+    })
 }
 
 /// Computes the runs `todo` (indices into `plan.runs`) on `pool`, calling `done` on this thread
@@ -261,7 +355,13 @@ pub fn run_study(plan: &ExperimentPlan, opts: &RunOptions, provenance: &Provenan
 /// changes nothing computed. Cache IO (Parquet, through polars' own thread pool) belongs in
 /// `done`, on this thread: a worker of ours waiting on polars would run further jobs of ours
 /// meanwhile, nesting without bound.
-fn compute(plan: &ExperimentPlan, todo: &[usize], cost: &dyn Fn(usize) -> f64, pool: &rayon::ThreadPool, mut done: impl FnMut(usize, CachedRun)) {
+fn compute(
+    plan: &ExperimentPlan,
+    todo: &[usize],
+    cost: &dyn Fn(usize) -> f64,
+    pool: &rayon::ThreadPool,
+    mut done: impl FnMut(usize, CachedRun),
+) {
     let order = schedule(plan, todo, cost);
     let worlds = worlds::Worlds::new(plan, todo);
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -275,7 +375,9 @@ fn compute(plan: &ExperimentPlan, todo: &[usize], cost: &dyn Fn(usize) -> f64, p
                     let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                     let Some(&i) = order.get(k) else { break };
                     let run = &plan.runs[i];
-                    sender.send((i, execute_with(plan, run, || worlds.take(run)))).expect("the receiver outlives the workers");
+                    sender
+                        .send((i, execute_with(plan, run, || worlds.take(run))))
+                        .expect("the receiver outlives the workers");
                 }
             });
             drop(sender);
@@ -318,7 +420,9 @@ pub struct ShardSummary {
 /// The shard (1-based) of every distinct run of `plans`: the partition every task of an array
 /// computes alike (see [`crate::plan::shard`]).
 pub fn shards(plans: &[ExperimentPlan], count: usize) -> BTreeMap<&str, usize> {
-    let items = plans.iter().filter(|p| !skipped(p)).flat_map(|p| p.runs.iter().map(move |r| (r.hash.as_str(), crate::plan::cost::expected_s(p, r))));
+    let items = plans.iter().filter(|p| !skipped(p)).flat_map(|p| {
+        p.runs.iter().map(move |r| (r.hash.as_str(), crate::plan::cost::expected_s(p, r)))
+    });
     crate::plan::shard::partition(items, count)
 }
 
@@ -333,12 +437,18 @@ pub struct ShardLoad {
 
 /// The load of each shard (index k − 1) of the partition `owner` ([`shards`]); `cached` says
 /// whether a content hash needs no computing.
-pub fn shard_loads(plans: &[ExperimentPlan], owner: &BTreeMap<&str, usize>, count: usize, cached: &dyn Fn(&str) -> bool) -> Vec<ShardLoad> {
+pub fn shard_loads(
+    plans: &[ExperimentPlan],
+    owner: &BTreeMap<&str, usize>,
+    count: usize,
+    cached: &dyn Fn(&str) -> bool,
+) -> Vec<ShardLoad> {
     let mut loads = vec![ShardLoad::default(); count];
     let mut seen = std::collections::BTreeSet::new();
     for plan in plans.iter().filter(|p| !skipped(p)) {
         for r in plan.runs.iter().filter(|r| seen.insert(r.hash.as_str())) {
-            let (load, cost) = (&mut loads[owner[r.hash.as_str()] - 1], crate::plan::cost::expected_s(plan, r));
+            let (load, cost) =
+                (&mut loads[owner[r.hash.as_str()] - 1], crate::plan::cost::expected_s(plan, r));
             load.runs += 1;
             load.cost_s += cost;
             if !cached(&r.hash) {
@@ -358,7 +468,11 @@ pub fn skipped(plan: &ExperimentPlan) -> bool {
 /// Computes shard `shard` of the runs of `plans` into the cache: the runs of that shard that are
 /// not cached yet (all of them with `force`). Writes no study results: once every shard is done,
 /// `run` without `--shard` finds every run cached and writes them.
-pub fn run_shard(plans: &[ExperimentPlan], shard: crate::plan::shard::Shard, opts: &RunOptions) -> Result<ShardSummary, RunError> {
+pub fn run_shard(
+    plans: &[ExperimentPlan],
+    shard: crate::plan::shard::Shard,
+    opts: &RunOptions,
+) -> Result<ShardSummary, RunError> {
     let cache = Cache::new(&opts.cache_dir);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
@@ -368,25 +482,53 @@ pub fn run_shard(plans: &[ExperimentPlan], shard: crate::plan::shard::Shard, opt
     let mut summary = ShardSummary { runs: 0, computed: 0, cached: 0, failed: 0, expected_s: 0.0 };
     let mut seen = std::collections::BTreeSet::new();
     for plan in plans.iter().filter(|p| !skipped(p)) {
-        let mine: Vec<usize> = (0..plan.runs.len()).filter(|&i| owner.get(plan.runs[i].hash.as_str()) == Some(&shard.index) && seen.insert(plan.runs[i].hash.as_str())).collect();
+        let mine: Vec<usize> = (0..plan.runs.len())
+            .filter(|&i| {
+                owner.get(plan.runs[i].hash.as_str()) == Some(&shard.index)
+                    && seen.insert(plan.runs[i].hash.as_str())
+            })
+            .collect();
         summary.runs += mine.len();
-        summary.expected_s += mine.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i])).sum::<f64>();
-        let todo: Vec<usize> = mine.iter().copied().filter(|&i| opts.force || !cache.contains(&plan.runs[i].hash)).collect();
+        summary.expected_s +=
+            mine.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i])).sum::<f64>();
+        let todo: Vec<usize> = mine
+            .iter()
+            .copied()
+            .filter(|&i| opts.force || !cache.contains(&plan.runs[i].hash))
+            .collect();
         summary.cached += mine.len() - todo.len();
         if todo.is_empty() {
             continue;
         }
-        let cost: f64 = todo.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i]) * 1e3).sum();
-        let mut progress = Progress::new(&format!("{} (shard {shard})", plan.id()), todo.len(), todo.len(), cost, opts.progress);
-        compute(plan, &todo, &|i| crate::plan::cost::expected_s(plan, &plan.runs[i]), &pool, |i, c| {
-            let run = &plan.runs[i];
-            if let Err(e) = cache.put(&run.hash, &c, true) {
-                progress.warn(&format!("cannot cache {}: {e}", run.run_id));
-            }
-            summary.computed += 1;
-            summary.failed += usize::from(c.row.status != RunStatus::Ok);
-            progress.finished(c.row.status, false, 1, crate::plan::cost::expected_s(plan, run) * 1e3);
-        });
+        let cost: f64 =
+            todo.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i]) * 1e3).sum();
+        let mut progress = Progress::new(
+            &format!("{} (shard {shard})", plan.id()),
+            todo.len(),
+            todo.len(),
+            cost,
+            opts.progress,
+        );
+        compute(
+            plan,
+            &todo,
+            &|i| crate::plan::cost::expected_s(plan, &plan.runs[i]),
+            &pool,
+            |i, c| {
+                let run = &plan.runs[i];
+                if let Err(e) = cache.put(&run.hash, &c, true) {
+                    progress.warn(&format!("cannot cache {}: {e}", run.run_id));
+                }
+                summary.computed += 1;
+                summary.failed += usize::from(c.row.status != RunStatus::Ok);
+                progress.finished(
+                    c.row.status,
+                    false,
+                    1,
+                    crate::plan::cost::expected_s(plan, run) * 1e3,
+                );
+            },
+        );
         progress.done();
     }
     Ok(summary)
@@ -398,9 +540,14 @@ pub fn execute(plan: &ExperimentPlan, run: &RunSpec) -> CachedRun {
 }
 
 /// [`execute`] with the run's world from `world` (shared with other runs, see [`worlds`]).
-pub fn execute_with(plan: &ExperimentPlan, run: &RunSpec, world: impl FnOnce() -> worlds::Shared) -> CachedRun {
+pub fn execute_with(
+    plan: &ExperimentPlan,
+    run: &RunSpec,
+    world: impl FnOnce() -> worlds::Shared,
+) -> CachedRun {
     let start = Instant::now();
-    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| simulate(plan, run, world)));
+    let result =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| simulate(plan, run, world)));
     let wall_ms = start.elapsed().as_secs_f64() * 1e3;
     let mut row = base_row(plan, run);
     let no_map = || RunLandmarks { run_id: run.run_id.clone(), landmarks: Vec::new() };
@@ -411,7 +558,9 @@ pub fn execute_with(plan: &ExperimentPlan, run: &RunSpec, world: impl FnOnce() -
             // a metric out of its range is a defect of ours: the run says so instead of storing it
             if let Some((name, value)) = crate::metrics::out_of_range(metrics.iter().copied()) {
                 row.status = RunStatus::Failed;
-                row.error = Some(format!("metric {name} = {value} is negative, which no metric can be (a defect: please report it)"));
+                row.error = Some(format!(
+                    "metric {name} = {value} is negative, which no metric can be (a defect: please report it)"
+                ));
             }
             row.metrics = metrics.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
             (trace_rows, landmarks, matches)
@@ -422,7 +571,11 @@ pub fn execute_with(plan: &ExperimentPlan, run: &RunSpec, world: impl FnOnce() -
             (TraceRows::empty(&run.run_id), no_map(), no_matches())
         }
         Err(panic) => {
-            let message = panic.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| panic.downcast_ref::<String>().cloned()).unwrap_or_else(|| "panic".into());
+            let message = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "panic".into());
             row.status = RunStatus::Failed;
             row.error = Some(format!("panicked: {message}"));
             (TraceRows::empty(&run.run_id), no_map(), no_matches())
@@ -451,7 +604,8 @@ pub fn world_of(plan: &ExperimentPlan, run: &RunSpec) -> Result<world::World, Si
     let mut world = match &map.dataset {
         // Real data: read from its files (relative paths from the working directory, the
         // repository); the plan hashed their bytes.
-        Some(dataset) => crate::dataset::load(dataset, Path::new(".")).map_err(|e| SimError::Dataset(e.to_string()))?,
+        Some(dataset) => crate::dataset::load(dataset, Path::new("."))
+            .map_err(|e| SimError::Dataset(e.to_string()))?,
         None => {
             let spec = WorldSpec {
                 map,
@@ -474,7 +628,11 @@ pub fn world_of(plan: &ExperimentPlan, run: &RunSpec) -> Result<world::World, Si
 
 /// World → algorithm → metrics. Returns the trace, the final map, the metrics, and whether the
 /// estimate diverged.
-fn simulate(plan: &ExperimentPlan, run: &RunSpec, world: impl FnOnce() -> worlds::Shared) -> Result<(TraceRows, RunLandmarks, MatchRows, metrics::RunMetrics, bool), String> {
+fn simulate(
+    plan: &ExperimentPlan,
+    run: &RunSpec,
+    world: impl FnOnce() -> worlds::Shared,
+) -> Result<(TraceRows, RunLandmarks, MatchRows, metrics::RunMetrics, bool), String> {
     let shared = world()?;
     (|| -> Result<_, SimError> {
         let params = &plan.points[run.point].params;
@@ -483,7 +641,13 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec, world: impl FnOnce() -> worlds
         let (trace, cut) = if run.algorithm.is_scan_matcher() {
             let start = Instant::now();
             let mut clock = || start.elapsed().as_secs_f64();
-            let tracked = crate::scanmatch::track::track(&shared.world, scan_matcher(run.algorithm, params), &params.scan_matching, run.filter_seed, &mut clock)?;
+            let tracked = crate::scanmatch::track::track(
+                &shared.world,
+                scan_matcher(run.algorithm, params),
+                &params.scan_matching,
+                run.filter_seed,
+                &mut clock,
+            )?;
             // The metrics cover the steps up to the last match: a copy of the world cut there.
             let mut cut = shared.world.clone();
             cut.truth.truncate(tracked.steps);
@@ -500,7 +664,10 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec, world: impl FnOnce() -> worlds
             let mut steps = crate::scanmatch::track::matched_steps(&trace.matches);
             steps.sort_unstable();
             steps.dedup();
-            metrics.push((metrics::MAP_WALL_RMS, metrics::map_wall_rms(world, &trace.estimate, &steps, &map.walls)));
+            metrics.push((
+                metrics::MAP_WALL_RMS,
+                metrics::map_wall_rms(world, &trace.estimate, &steps, &map.walls),
+            ));
         }
         let diverged = trace.estimate.iter().any(|p| !p.is_finite());
         let landmarks = RunLandmarks {
@@ -509,54 +676,131 @@ fn simulate(plan: &ExperimentPlan, run: &RunSpec, world: impl FnOnce() -> worlds
                 .map
                 .iter()
                 .flat_map(|m| {
-                    let lines = m.lines.iter().map(|l| LandmarkRow::Line { rho_m: l.rho, theta_rad: l.theta });
-                    let corners = m.corners.iter().map(|c| LandmarkRow::Corner { x_m: c.x, y_m: c.y });
-                    let points = m.points.iter().enumerate().map(|(i, p)| LandmarkRow::Point { x_m: p.x, y_m: p.y, id: m.point_ids.get(i).copied().flatten().map(|id| id as u32) });
+                    let lines = m
+                        .lines
+                        .iter()
+                        .map(|l| LandmarkRow::Line { rho_m: l.rho, theta_rad: l.theta });
+                    let corners =
+                        m.corners.iter().map(|c| LandmarkRow::Corner { x_m: c.x, y_m: c.y });
+                    let points = m.points.iter().enumerate().map(|(i, p)| LandmarkRow::Point {
+                        x_m: p.x,
+                        y_m: p.y,
+                        id: m.point_ids.get(i).copied().flatten().map(|id| id as u32),
+                    });
                     lines.chain(corners).chain(points)
                 })
                 .collect(),
         };
         let matches = MatchRows { run_id: run.run_id.clone(), matches: trace.matches };
-        let rows = TraceRows { run_id: run.run_id.clone(), dt_s: world.dt_s, truth: world.truth.clone(), estimate: trace.estimate, neff: trace.neff };
+        let rows = TraceRows {
+            run_id: run.run_id.clone(),
+            dt_s: world.dt_s,
+            truth: world.truth.clone(),
+            estimate: trace.estimate,
+            neff: trace.neff,
+        };
         Ok((rows, landmarks, matches, metrics, diverged))
     })()
     .map_err(|e| e.to_string())
 }
 
 /// A scan-matching algorithm with its parameters.
-pub fn scan_matcher(algorithm: AlgorithmKind, params: &crate::spec::Params) -> crate::scanmatch::track::Matcher<'_> {
+pub fn scan_matcher(
+    algorithm: AlgorithmKind,
+    params: &crate::spec::Params,
+) -> crate::scanmatch::track::Matcher<'_> {
     use crate::scanmatch::track::Matcher;
     match algorithm {
         AlgorithmKind::PsmOriginal => Matcher::Psm { params: &params.psm, own_heuristics: true },
         AlgorithmKind::Epsm => Matcher::Epsm(&params.epsm),
         AlgorithmKind::BruteForce => Matcher::BruteForce(&params.brute_force),
-        AlgorithmKind::PoseSearch(optimizer) => Matcher::PoseSearch { optimizer, params: &params.pose_search },
+        AlgorithmKind::PoseSearch(optimizer) => {
+            Matcher::PoseSearch { optimizer, params: &params.pose_search }
+        }
         _ => Matcher::Psm { params: &params.psm, own_heuristics: false },
     }
 }
 
 /// The one place that maps an algorithm name to its implementation and its parameters: which
 /// observations it reads (laser features or point landmarks) follows the world's kind.
-fn run_algorithm(algorithm: AlgorithmKind, shared: &worlds::SharedWorld, params: &crate::spec::Params, kind: WorldKind, filter_rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
-    use slam::observations::{stream, Source};
+fn run_algorithm(
+    algorithm: AlgorithmKind,
+    shared: &worlds::SharedWorld,
+    params: &crate::spec::Params,
+    kind: WorldKind,
+    filter_rng: &mut ChaCha8Rng,
+) -> Result<Trace, SlamError> {
+    use slam::observations::{Source, stream};
     let world = &shared.world;
-    let fastslam_line_r = || nalgebra::Matrix2::new(params.fastslam.obs_var_rho_m2, 0.0, 0.0, params.fastslam.obs_var_theta_rad2);
+    let fastslam_line_r = || {
+        nalgebra::Matrix2::new(
+            params.fastslam.obs_var_rho_m2,
+            0.0,
+            0.0,
+            params.fastslam.obs_var_theta_rad2,
+        )
+    };
     // the scans' features, extracted once per world and `[features]` (see `worlds`)
-    let laser = |line_r| -> Result<_, SlamError> { stream(world, Source::Extracted { features: &shared.features(&params.features)?, line_r }) };
+    let laser = |line_r| -> Result<_, SlamError> {
+        stream(world, Source::Extracted { features: &shared.features(&params.features)?, line_r })
+    };
     let is_laser = kind == WorldKind::Laser;
     match (algorithm, kind) {
         (AlgorithmKind::Odometry, _) => Ok(slam::odometry::run(world)),
-        (AlgorithmKind::Psm | AlgorithmKind::PsmOriginal | AlgorithmKind::Epsm | AlgorithmKind::BruteForce | AlgorithmKind::PoseSearch(_), _) => unreachable!("scan matchers run through scanmatch::track"),
-        (AlgorithmKind::OdometryMap, WorldKind::Laser) => slam::odometry::run_with_map_on(world, &params.fastslam, &laser(fastslam_line_r())?, filter_rng),
-        (AlgorithmKind::OdometryMap, WorldKind::Points) => slam::odometry::run_with_point_map(world, &params.fastslam, &stream(world, Source::Points)?, filter_rng),
-        (AlgorithmKind::Fastslam1, WorldKind::Laser) => slam::fastslam::run_on(world, &params.fastslam, None, &laser(fastslam_line_r())?, true, filter_rng),
-        (AlgorithmKind::Fastslam1, WorldKind::Points) => slam::fastslam::run_on(world, &params.fastslam, Some(&params.motion_model), &stream(world, Source::Points)?, false, filter_rng),
+        (
+            AlgorithmKind::Psm
+            | AlgorithmKind::PsmOriginal
+            | AlgorithmKind::Epsm
+            | AlgorithmKind::BruteForce
+            | AlgorithmKind::PoseSearch(_),
+            _,
+        ) => unreachable!("scan matchers run through scanmatch::track"),
+        (AlgorithmKind::OdometryMap, WorldKind::Laser) => slam::odometry::run_with_map_on(
+            world,
+            &params.fastslam,
+            &laser(fastslam_line_r())?,
+            filter_rng,
+        ),
+        (AlgorithmKind::OdometryMap, WorldKind::Points) => slam::odometry::run_with_point_map(
+            world,
+            &params.fastslam,
+            &stream(world, Source::Points)?,
+            filter_rng,
+        ),
+        (AlgorithmKind::Fastslam1, WorldKind::Laser) => slam::fastslam::run_on(
+            world,
+            &params.fastslam,
+            None,
+            &laser(fastslam_line_r())?,
+            true,
+            filter_rng,
+        ),
+        (AlgorithmKind::Fastslam1, WorldKind::Points) => slam::fastslam::run_on(
+            world,
+            &params.fastslam,
+            Some(&params.motion_model),
+            &stream(world, Source::Points)?,
+            false,
+            filter_rng,
+        ),
         (AlgorithmKind::Fastslam2, _) => {
-            let observations = if is_laser { laser(fastslam_line_r())? } else { stream(world, Source::Points)? };
-            slam::fastslam2::run(world, &params.fastslam, &params.motion_model, &observations, is_laser, filter_rng)
+            let observations =
+                if is_laser { laser(fastslam_line_r())? } else { stream(world, Source::Points)? };
+            slam::fastslam2::run(
+                world,
+                &params.fastslam,
+                &params.motion_model,
+                &observations,
+                is_laser,
+                filter_rng,
+            )
         }
         (AlgorithmKind::EkfSlam, _) => {
-            let observations = if is_laser { laser(params.ekf.laser_covariance())? } else { stream(world, Source::Points)? };
+            let observations = if is_laser {
+                laser(params.ekf.laser_covariance())?
+            } else {
+                stream(world, Source::Points)?
+            };
             slam::ekf::run(world, &params.motion_model, &params.ekf, &observations, is_laser)
         }
     }
@@ -567,16 +811,28 @@ fn run_algorithm(algorithm: AlgorithmKind, shared: &worlds::SharedWorld, params:
 pub fn changed_parameters(plan: &ExperimentPlan, run: &RunSpec, previous: &RunRow) -> Vec<String> {
     let params = base_row(plan, run).params;
     let now: BTreeMap<&str, &ParamValue> = params.iter().map(|(k, v)| (k.as_str(), v)).collect();
-    let before: BTreeMap<&str, &ParamValue> = previous.params.iter().map(|(k, v)| (k.as_str(), v)).collect();
+    let before: BTreeMap<&str, &ParamValue> =
+        previous.params.iter().map(|(k, v)| (k.as_str(), v)).collect();
     let keys: std::collections::BTreeSet<&str> = now.keys().chain(before.keys()).copied().collect();
     let show = |v: Option<&&ParamValue>| v.map_or("—".to_string(), |v| v.to_string());
-    keys.into_iter().filter(|k| now.get(k) != before.get(k)).map(|k| format!("{k}: {} → {}", show(before.get(k)), show(now.get(k)))).collect()
+    keys.into_iter()
+        .filter(|k| now.get(k) != before.get(k))
+        .map(|k| format!("{k}: {} → {}", show(before.get(k)), show(now.get(k))))
+        .collect()
 }
 
 /// The study-specific fields of a run's row (status and metrics are filled by the caller).
 fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
     let mut leaves = Vec::new();
-    flatten("", &toml::Value::Table(plan.points[run.point].params.sections_read_by(run.algorithm, plan.maps[run.map].map.world_kind())), &mut leaves);
+    flatten(
+        "",
+        &toml::Value::Table(
+            plan.points[run.point]
+                .params
+                .sections_read_by(run.algorithm, plan.maps[run.map].map.world_kind()),
+        ),
+        &mut leaves,
+    );
     RunRow {
         study: plan.id().to_string(),
         run_id: run.run_id.clone(),
@@ -600,7 +856,12 @@ fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
 /// run's identity.
 fn relabel(cached: &mut CachedRun, plan: &ExperimentPlan, run: &RunSpec) {
     let fresh = base_row(plan, run);
-    cached.row = RunRow { status: cached.row.status, error: cached.row.error.take(), metrics: std::mem::take(&mut cached.row.metrics), ..fresh };
+    cached.row = RunRow {
+        status: cached.row.status,
+        error: cached.row.error.take(),
+        metrics: std::mem::take(&mut cached.row.metrics),
+        ..fresh
+    };
     cached.trace.run_id = run.run_id.clone();
     cached.landmarks.run_id = run.run_id.clone();
     cached.matches.run_id = run.run_id.clone();
@@ -615,10 +876,15 @@ fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -
         code_versions.insert(a.name().to_string(), a.code_version().to_string());
     }
     if plan.maps.iter().any(|m| m.map.dataset.is_some()) {
-        code_versions.insert("datasets".to_string(), crate::dataset::DATASET_CODE_VERSION.to_string());
+        code_versions
+            .insert("datasets".to_string(), crate::dataset::DATASET_CODE_VERSION.to_string());
     }
-    if plan.maps.iter().any(|m| m.map.dataset.is_none() && m.map.world_kind() == WorldKind::Points) {
-        code_versions.insert("point sensor".to_string(), crate::world::point_sensor::POINT_SENSOR_CODE_VERSION.to_string());
+    if plan.maps.iter().any(|m| m.map.dataset.is_none() && m.map.world_kind() == WorldKind::Points)
+    {
+        code_versions.insert(
+            "point sensor".to_string(),
+            crate::world::point_sensor::POINT_SENSOR_CODE_VERSION.to_string(),
+        );
     }
     Manifest {
         study: plan.id().to_string(),
@@ -639,8 +905,15 @@ fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -
 /// The spec's path relative to the working directory (the repository) when it lies below it,
 /// else only its file name: no absolute path reaches manifests and reports.
 fn display_path(p: &Path) -> String {
-    let absolute = if p.is_absolute() { Some(p.to_path_buf()) } else { std::env::current_dir().ok().map(|c| c.join(p)) };
-    let below_cwd = absolute.as_ref().zip(std::env::current_dir().ok()).and_then(|(a, cwd)| a.strip_prefix(&cwd).ok().map(Path::to_path_buf));
+    let absolute = if p.is_absolute() {
+        Some(p.to_path_buf())
+    } else {
+        std::env::current_dir().ok().map(|c| c.join(p))
+    };
+    let below_cwd = absolute
+        .as_ref()
+        .zip(std::env::current_dir().ok())
+        .and_then(|(a, cwd)| a.strip_prefix(&cwd).ok().map(Path::to_path_buf));
     let shown = match below_cwd {
         Some(rel) => rel,
         None => PathBuf::from(p.file_name().unwrap_or_default()),
@@ -652,11 +925,24 @@ fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
     // `spec.base` is already resolved: serialising it writes every default out.
     ResolvedStudy {
         spec: plan.spec.spec.clone(),
-        groups: plan.groups.iter().map(|g| GroupRecord { kind: g.kind, params: g.params.clone(), named: g.named, design: g.design.clone() }).collect(),
+        groups: plan
+            .groups
+            .iter()
+            .map(|g| GroupRecord {
+                kind: g.kind,
+                params: g.params.clone(),
+                named: g.named,
+                design: g.design.clone(),
+            })
+            .collect(),
         points: plan
             .points
             .iter()
-            .map(|p| PointRecord { label: p.label.clone(), groups: p.groups.clone(), assignments: p.assignments.iter().cloned().collect() })
+            .map(|p| PointRecord {
+                label: p.label.clone(),
+                groups: p.groups.clone(),
+                assignments: p.assignments.iter().cloned().collect(),
+            })
             .collect(),
         claims: plan.claims.clone(),
         landmark_points: plan.landmark_points.clone(),
@@ -705,12 +991,35 @@ mod tests {
 
     #[test]
     fn every_reason_is_told_apart() {
-        let runs = [run("a", "p1", "c1"), run("b", "p2", "c1"), run("c", "p1", "c2"), run("d", "p2", "c2"), run("e", "p1", "c1"), run("f", "p1", "c1")];
-        let previous = [row("b", "p1", "c1"), row("c", "p1", "c1"), row("d", "p1", "c1"), row("e", "p1", "c1"), row("f", "p1", "c1")];
+        let runs = [
+            run("a", "p1", "c1"),
+            run("b", "p2", "c1"),
+            run("c", "p1", "c2"),
+            run("d", "p2", "c2"),
+            run("e", "p1", "c1"),
+            run("f", "p1", "c1"),
+        ];
+        let previous = [
+            row("b", "p1", "c1"),
+            row("c", "p1", "c1"),
+            row("d", "p1", "c1"),
+            row("e", "p1", "c1"),
+            row("f", "p1", "c1"),
+        ];
         let cached = |h: &str| h == "p1/c1";
         // "a" and "f" have the cached hash; "e" too — it is the same content
         let got = explain(&runs, &cached, &previous, false);
-        assert_eq!(got, [Reason::Cached, Reason::ParametersChanged, Reason::CodeVersionChanged, Reason::ParametersAndCodeVersionChanged, Reason::Cached, Reason::Cached]);
+        assert_eq!(
+            got,
+            [
+                Reason::Cached,
+                Reason::ParametersChanged,
+                Reason::CodeVersionChanged,
+                Reason::ParametersAndCodeVersionChanged,
+                Reason::Cached,
+                Reason::Cached
+            ]
+        );
         // the cache entry is gone although nothing changed
         assert_eq!(explain(&runs[4..5], &|_| false, &previous, false), [Reason::CacheMissing]);
         assert!(explain(&runs, &cached, &previous, true).iter().all(|r| *r == Reason::Forced));

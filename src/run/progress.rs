@@ -37,7 +37,8 @@ struct Counts {
 
 impl Counts {
     fn line(&self) -> String {
-        let (done, computed) = (self.done.load(Ordering::Relaxed), self.computed.load(Ordering::Relaxed));
+        let (done, computed) =
+            (self.done.load(Ordering::Relaxed), self.computed.load(Ordering::Relaxed));
         format!(
             "{}: {done}/{} runs ({} computed of {}, {} cached, {} failed{})",
             self.study,
@@ -46,7 +47,12 @@ impl Counts {
             self.to_compute,
             self.cached.load(Ordering::Relaxed),
             self.failed.load(Ordering::Relaxed),
-            eta(self.start.elapsed(), self.cost_done.load(Ordering::Relaxed), self.cost_total as usize).map_or(String::new(), |e| format!(", about {e} left"))
+            eta(
+                self.start.elapsed(),
+                self.cost_done.load(Ordering::Relaxed),
+                self.cost_total as usize
+            )
+            .map_or(String::new(), |e| format!(", about {e} left"))
         )
     }
 }
@@ -59,7 +65,13 @@ pub fn eta(elapsed: Duration, computed: usize, to_compute: usize) -> Option<Stri
     }
     let left = elapsed.as_secs_f64() / computed as f64 * (to_compute - computed) as f64;
     let s = left.round() as u64;
-    Some(if s >= 3600 { format!("{}h{:02}m", s / 3600, s / 60 % 60) } else if s >= 60 { format!("{}m{:02}s", s / 60, s % 60) } else { format!("{s}s") })
+    Some(if s >= 3600 {
+        format!("{}h{:02}m", s / 3600, s / 60 % 60)
+    } else if s >= 60 {
+        format!("{}m{:02}s", s / 60, s % 60)
+    } else {
+        format!("{s}s")
+    })
 }
 
 /// A planned cost [ms] as an integer count of 10 µs (atomics hold integers).
@@ -101,7 +113,11 @@ impl Progress {
         });
         let bar = (enabled && tty).then(|| {
             let bar = ProgressBar::new(total as u64);
-            bar.set_style(ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} runs {msg}").expect("valid template").progress_chars("=> "));
+            bar.set_style(
+                ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} runs {msg}")
+                    .expect("valid template")
+                    .progress_chars("=> "),
+            );
             bar.set_prefix(study.to_string());
             bar
         });
@@ -144,7 +160,8 @@ impl Progress {
                 "({} cached, {} failed{})",
                 c.cached.load(Ordering::Relaxed),
                 c.failed.load(Ordering::Relaxed),
-                eta(c.start.elapsed(), computed, c.cost_total as usize).map_or(String::new(), |e| format!("; about {e} left"))
+                eta(c.start.elapsed(), computed, c.cost_total as usize)
+                    .map_or(String::new(), |e| format!("; about {e} left"))
             ));
             bar.inc(runs as u64);
         }

@@ -7,7 +7,7 @@
 //! run that needs it has finished. Likewise the features extracted from its laser scans: every
 //! run on that world with the same `[features]` parameters uses one extraction.
 
-use super::{world_of, SimError};
+use super::{SimError, world_of};
 use crate::features::{FeatureParams, ScanFeatures};
 use crate::plan::{ExperimentPlan, RunSpec};
 use crate::slam::SlamError;
@@ -35,8 +35,19 @@ impl SharedWorld {
         if self.world.laser.is_none() {
             return Err(SlamError::MissingSensor("laser"));
         }
-        let cell = Arc::clone(self.extracted.lock().unwrap_or_else(|e| e.into_inner()).entry(json(params)).or_default());
-        Ok(Arc::clone(cell.get_or_init(|| Arc::new(crate::slam::observations::extract_all(&self.world, params).expect("the world has a laser")))))
+        let cell = Arc::clone(
+            self.extracted
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .entry(json(params))
+                .or_default(),
+        );
+        Ok(Arc::clone(cell.get_or_init(|| {
+            Arc::new(
+                crate::slam::observations::extract_all(&self.world, params)
+                    .expect("the world has a laser"),
+            )
+        })))
     }
 }
 
@@ -83,7 +94,10 @@ impl<'p> Worlds<'p> {
     pub fn new(plan: &'p ExperimentPlan, todo: &[usize]) -> Self {
         let mut slots: HashMap<String, Slot> = HashMap::new();
         for &i in todo {
-            slots.entry(key(plan, &plan.runs[i])).or_insert_with(|| Slot { world: Arc::new(OnceLock::new()), users: 0 }).users += 1;
+            slots
+                .entry(key(plan, &plan.runs[i]))
+                .or_insert_with(|| Slot { world: Arc::new(OnceLock::new()), users: 0 })
+                .users += 1;
         }
         Self { plan, slots: Mutex::new(slots) }
     }
@@ -119,7 +133,11 @@ mod tests {
     use super::*;
 
     fn plan(spec: &str) -> ExperimentPlan {
-        crate::plan::build(crate::spec::load(std::path::Path::new(spec)).expect("spec loads"), std::path::Path::new("data/maps")).expect("spec plans")
+        crate::plan::build(
+            crate::spec::load(std::path::Path::new(spec)).expect("spec loads"),
+            std::path::Path::new("data/maps"),
+        )
+        .expect("spec plans")
     }
 
     #[test]
@@ -127,17 +145,33 @@ mod tests {
         let p = plan("experiments/ft-p0.toml");
         let todo: Vec<usize> = (0..p.runs.len()).collect();
         let keys: std::collections::BTreeSet<String> = p.runs.iter().map(|r| key(&p, r)).collect();
-        assert_eq!(keys.len(), p.spec.spec.replicates as usize, "one world per replicate: P0 is no world parameter");
+        assert_eq!(
+            keys.len(),
+            p.spec.spec.replicates as usize,
+            "one world per replicate: P0 is no world parameter"
+        );
         let worlds = Worlds::new(&p, &todo);
-        let of = |replicate: u32, point: usize| p.runs.iter().position(|r| r.replicate == replicate && r.point == point).unwrap();
-        let (a, b, other) = (worlds.take(&p.runs[of(0, 0)]).unwrap(), worlds.take(&p.runs[of(0, 3)]).unwrap(), worlds.take(&p.runs[of(1, 0)]).unwrap());
+        let of = |replicate: u32, point: usize| {
+            p.runs.iter().position(|r| r.replicate == replicate && r.point == point).unwrap()
+        };
+        let (a, b, other) = (
+            worlds.take(&p.runs[of(0, 0)]).unwrap(),
+            worlds.take(&p.runs[of(0, 3)]).unwrap(),
+            worlds.take(&p.runs[of(1, 0)]).unwrap(),
+        );
         assert!(Arc::ptr_eq(&a, &b), "two P0 points of replicate 0 see one world");
         assert!(!Arc::ptr_eq(&a, &other), "replicate 1 sees its own");
         let params = &p.points[0].params.features;
-        assert!(Arc::ptr_eq(&a.features(params).unwrap(), &b.features(params).unwrap()), "one extraction");
+        assert!(
+            Arc::ptr_eq(&a.features(params).unwrap(), &b.features(params).unwrap()),
+            "one extraction"
+        );
         // the shared world is the one `world_of` makes for the run alone
         let alone = world_of(&p, &p.runs[of(0, 3)]).unwrap();
-        assert_eq!((alone.truth.clone(), alone.odometry.clone(), alone.scans.len()), (b.world.truth.clone(), b.world.odometry.clone(), b.world.scans.len()));
+        assert_eq!(
+            (alone.truth.clone(), alone.odometry.clone(), alone.scans.len()),
+            (b.world.truth.clone(), b.world.odometry.clone(), b.world.scans.len())
+        );
         assert!(alone.scans.iter().zip(&b.world.scans).all(|(x, y)| x.ranges_m == y.ranges_m));
         // every run takes its world once; after the last, nothing is held
         for (i, r) in p.runs.iter().enumerate() {

@@ -18,7 +18,7 @@
 //! A plain alternation (grid at fixed θ ↔ θ at the best cell) was tried and rejected: θ and the
 //! lateral position are strongly coupled, and on the 10 mm grid it stalls 1–2 cells and 0.3° off.
 
-use super::epsm::{orientation_search, OrientationParams};
+use super::epsm::{OrientationParams, orientation_search};
 use super::search::pairs_at;
 use super::{Cost, MatchResult, Stop};
 use crate::config::{Checks, Violation};
@@ -180,7 +180,9 @@ fn descent(cost: &mut impl Cost, grid: &Grid, profile: &mut Profile, max_moves: 
     };
     for moves in 0..max_moves {
         let g_current = profile.at(cost, grid, current);
-        let Some((best, g_best)) = grid.argmin(grid.neighbourhood(current), |c| profile.at(cost, grid, c).f) else {
+        let Some((best, g_best)) =
+            grid.argmin(grid.neighbourhood(current), |c| profile.at(cost, grid, c).f)
+        else {
             return Outcome { best: None, moves, stop: Stop::TooFewPairs };
         };
         if g_best >= g_current.f {
@@ -248,12 +250,18 @@ impl Grid {
     /// The cell and its (up to) 8 neighbours inside the grid, in row order.
     fn neighbourhood(&self, (i, j): Cell) -> impl Iterator<Item = Cell> + use<> {
         let n = self.n;
-        (i - 1..=i + 1).flat_map(move |a| (j - 1..=j + 1).map(move |b| (a, b))).filter(move |&(a, b)| a.abs() <= n && b.abs() <= n)
+        (i - 1..=i + 1)
+            .flat_map(move |a| (j - 1..=j + 1).map(move |b| (a, b)))
+            .filter(move |&(a, b)| a.abs() <= n && b.abs() <= n)
     }
 
     /// The cell of `cells` with the lowest finite `value`; ties go to the cell nearest the
     /// centre, then to the first. None when no value is finite.
-    fn argmin(&self, cells: impl Iterator<Item = Cell>, mut value: impl FnMut(Cell) -> f64) -> Option<(Cell, f64)> {
+    fn argmin(
+        &self,
+        cells: impl Iterator<Item = Cell>,
+        mut value: impl FnMut(Cell) -> f64,
+    ) -> Option<(Cell, f64)> {
         let mut best: Option<(Cell, f64)> = None;
         for c in cells {
             let v = value(c);
@@ -278,12 +286,14 @@ fn norm2((i, j): Cell) -> i32 {
 
 #[cfg(test)]
 mod tests {
-    use super::super::search::synthetic::{truth, NanCost, PointCost};
+    use super::super::search::synthetic::{NanCost, PointCost, truth};
     use super::*;
 
     #[test]
     fn describe_names_the_grid() {
-        let s = BruteForceParams { step_m: 0.02, half_window_m: 0.3, ..BruteForceParams::default() }.describe();
+        let s =
+            BruteForceParams { step_m: 0.02, half_window_m: 0.3, ..BruteForceParams::default() }
+                .describe();
         assert!(s.contains("every cell of a 0.02 m grid over ±0.3 m around the guess"), "{s}");
     }
 
@@ -335,7 +345,11 @@ mod tests {
     fn descent_agrees_with_nested_on_a_small_grid() {
         let params = BruteForceParams { half_window_m: 0.08, ..Default::default() };
         let d = brute_force(&mut PointCost::new(truth()), guess(), &params);
-        let n = brute_force(&mut PointCost::new(truth()), guess(), &BruteForceParams { mode: BruteForceMode::Nested, ..params });
+        let n = brute_force(
+            &mut PointCost::new(truth()),
+            guess(),
+            &BruteForceParams { mode: BruteForceMode::Nested, ..params },
+        );
         assert_eq!((d.pose, d.f, d.f_initial), (n.pose, n.f, n.f_initial));
         assert!(d.evaluations < n.evaluations / 4, "{} vs {}", d.evaluations, n.evaluations);
     }
@@ -362,12 +376,18 @@ mod tests {
         fn descent_lands_within_the_grid_step() {
             let (reference, current) = room_pair(TRUTH);
             // Neither guess puts a grid cell on the truth: the nearest cells are 3–5 mm away.
-            for guess in [Pose2::new(0.165, -0.065, TRUTH.theta + 2f64.to_radians()), Pose2::new(0.213, -0.147, TRUTH.theta - 1.7f64.to_radians())] {
+            for guess in [
+                Pose2::new(0.165, -0.065, TRUTH.theta + 2f64.to_radians()),
+                Pose2::new(0.213, -0.147, TRUTH.theta - 1.7f64.to_radians()),
+            ] {
                 let mut cost = Objective::new(&reference, &current, &ObjectiveParams::default());
                 let r = brute_force(&mut cost, guess, &BruteForceParams::default());
                 let (dx, dy) = (r.pose.x - TRUTH.x, r.pose.y - TRUTH.y);
                 let dtheta = (r.pose.theta - TRUTH.theta).to_degrees();
-                assert!(dx.abs() <= 0.005 + 1e-9 && dy.abs() <= 0.005 + 1e-9 && dtheta.abs() < 0.1, "{dx:+.5} {dy:+.5} {dtheta:+.4}° {r:?}");
+                assert!(
+                    dx.abs() <= 0.005 + 1e-9 && dy.abs() <= 0.005 + 1e-9 && dtheta.abs() < 0.1,
+                    "{dx:+.5} {dy:+.5} {dtheta:+.4}° {r:?}"
+                );
                 assert_eq!(r.stop, Stop::Converged);
                 assert!(r.evaluations < 20_000, "{r:?}");
             }

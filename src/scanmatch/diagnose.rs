@@ -18,10 +18,10 @@
 //! whether the re-run reproduced the stored estimate bit for bit.
 
 use super::objective::{Objective, ObjectiveParams};
-use super::psm::{orientation_profile, PsmParams};
+use super::psm::{PsmParams, orientation_profile};
 use super::scan::PolarScan;
 use super::track::Matcher;
-use super::{epsm, Cost, MatchResult};
+use super::{Cost, MatchResult, epsm};
 use crate::geom::Pose2;
 use serde::{Deserialize, Serialize};
 
@@ -167,13 +167,31 @@ pub fn diagnose(
     for s in subjects {
         let (result, path) = observe(s, initial, objective);
         match s.matcher {
-            Matcher::Psm { params, .. } => psm_profiles.extend(psm_criterion(&s.algorithm, s.reference, s.current, initial, result.pose, params)),
-            Matcher::Epsm(params) if orientation.is_none() => orientation = Some(orientation_slices(&mut Objective::new(reference, current, objective), initial, &params.orientation)),
+            Matcher::Psm { params, .. } => psm_profiles.extend(psm_criterion(
+                &s.algorithm,
+                s.reference,
+                s.current,
+                initial,
+                result.pose,
+                params,
+            )),
+            Matcher::Epsm(params) if orientation.is_none() => {
+                orientation = Some(orientation_slices(
+                    &mut Objective::new(reference, current, objective),
+                    initial,
+                    &params.orientation,
+                ))
+            }
             _ => {}
         }
         paths.push(MatcherPath {
             algorithm: s.algorithm.clone(),
-            kind: if matches!(s.matcher, Matcher::Psm { .. } | Matcher::Epsm(_)) { "per half-iteration" } else { "best so far" }.to_string(),
+            kind: if matches!(s.matcher, Matcher::Psm { .. } | Matcher::Epsm(_)) {
+                "per half-iteration"
+            } else {
+                "best so far"
+            }
+            .to_string(),
             poses: path.iter().map(|p| p.0).collect(),
             f: path.iter().map(|p| finite(p.1)).collect(),
             evaluations: path.iter().map(|p| p.2).collect(),
@@ -182,8 +200,23 @@ pub fn diagnose(
             reproduces: same_pose(result.pose, s.stored),
         });
     }
-    let contour = contour(&mut Objective::new(reference, current, objective), truth, std::iter::once(initial).chain(paths.iter().map(|p| p.estimate)));
-    MatchDiagnostic { number, why, reference_step: steps.0, current_step: steps.1, truth, initial, orientation, psm: psm_profiles, contour, paths }
+    let contour = contour(
+        &mut Objective::new(reference, current, objective),
+        truth,
+        std::iter::once(initial).chain(paths.iter().map(|p| p.estimate)),
+    );
+    MatchDiagnostic {
+        number,
+        why,
+        reference_step: steps.0,
+        current_step: steps.1,
+        truth,
+        initial,
+        orientation,
+        psm: psm_profiles,
+        contour,
+        paths,
+    }
 }
 
 fn finite(f: f64) -> Option<f64> {
@@ -192,7 +225,9 @@ fn finite(f: f64) -> Option<f64> {
 
 /// Bitwise equality (NaN equals NaN): a re-run reproduces a match exactly or not at all.
 fn same_pose(a: Pose2, b: Pose2) -> bool {
-    a.x.to_bits() == b.x.to_bits() && a.y.to_bits() == b.y.to_bits() && a.theta.to_bits() == b.theta.to_bits()
+    a.x.to_bits() == b.x.to_bits()
+        && a.y.to_bits() == b.y.to_bits()
+        && a.theta.to_bits() == b.theta.to_bits()
 }
 
 /// A cost that logs its f evaluations (pose, f, evaluations so far): every one, or only those
@@ -212,7 +247,8 @@ impl<'c, C: Cost> Logged<'c, C> {
 impl<C: Cost> Cost for Logged<'_, C> {
     fn f(&mut self, pose: Pose2) -> f64 {
         let f = self.inner.f(pose);
-        let keep = !self.improvements_only || (f.is_finite() && self.seen.last().is_none_or(|b| f < b.1));
+        let keep =
+            !self.improvements_only || (f.is_finite() && self.seen.last().is_none_or(|b| f < b.1));
         if keep {
             self.seen.push((pose, f, self.inner.evaluations()));
         }
@@ -232,16 +268,30 @@ impl<C: Cost> Cost for Logged<'_, C> {
 /// Re-runs one matcher with an observer: its result and its path (pose, f, evaluations).
 /// PSM and E-PSM report their iterates (f of each on a separate objective, so the matcher's own
 /// evaluation count is untouched); the others their best pose so far.
-fn observe(s: &Subject<'_>, initial: Pose2, objective: &ObjectiveParams) -> (MatchResult, Vec<(Pose2, f64, u64)>) {
+fn observe(
+    s: &Subject<'_>,
+    initial: Pose2,
+    objective: &ObjectiveParams,
+) -> (MatchResult, Vec<(Pose2, f64, u64)>) {
     let mut cost = Objective::new(s.reference, s.current, objective);
     let mut iterates: Vec<Pose2> = Vec::new();
     let mut record = |p: Pose2| iterates.push(p);
     let (result, best) = match s.matcher {
         Matcher::Psm { params, .. } => {
-            let r = super::psm::psm_observed(s.reference, s.current, initial, params, &mut cost, &mut record).expect("scans of one laser share their beam geometry");
+            let r = super::psm::psm_observed(
+                s.reference,
+                s.current,
+                initial,
+                params,
+                &mut cost,
+                &mut record,
+            )
+            .expect("scans of one laser share their beam geometry");
             (r, None)
         }
-        Matcher::Epsm(params) => (epsm::epsm_observed(&mut cost, initial, params, &mut record), None),
+        Matcher::Epsm(params) => {
+            (epsm::epsm_observed(&mut cost, initial, params, &mut record), None)
+        }
         Matcher::BruteForce(params) => {
             let mut rec = Logged::new(&mut cost, true);
             let r = super::brute::brute_force(&mut rec, initial, params);
@@ -257,14 +307,25 @@ fn observe(s: &Subject<'_>, initial: Pose2, objective: &ObjectiveParams) -> (Mat
         Some(best) => best,
         None => {
             let mut scorer = Objective::new(s.reference, s.current, objective);
-            std::iter::once(initial).chain(iterates).enumerate().map(|(k, p)| (p, scorer.f(p), k as u64)).collect()
+            std::iter::once(initial)
+                .chain(iterates)
+                .enumerate()
+                .map(|(k, p)| (p, scorer.f(p), k as u64))
+                .collect()
         }
     };
     (result, path)
 }
 
 /// PSM's criterion at the initial guess (its first pass) and at its estimate.
-fn psm_criterion(algorithm: &str, reference: &PolarScan, current: &PolarScan, initial: Pose2, estimate: Pose2, params: &PsmParams) -> Vec<PsmProfile> {
+fn psm_criterion(
+    algorithm: &str,
+    reference: &PolarScan,
+    current: &PolarScan,
+    initial: Pose2,
+    estimate: Pose2,
+    params: &PsmParams,
+) -> Vec<PsmProfile> {
     [("initial guess", initial), ("estimate", estimate)]
         .into_iter()
         .filter(|(_, at)| at.is_finite())
@@ -274,7 +335,12 @@ fn psm_criterion(algorithm: &str, reference: &PolarScan, current: &PolarScan, in
                 algorithm: algorithm.to_string(),
                 at_label: label.to_string(),
                 at,
-                errors: p.shifts_rad.iter().zip(&p.errors_cm).map(|(s, e)| (at.theta + s, *e)).collect(),
+                errors: p
+                    .shifts_rad
+                    .iter()
+                    .zip(&p.errors_cm)
+                    .map(|(s, e)| (at.theta + s, *e))
+                    .collect(),
                 pick: p.dtheta_rad.map(|d| at.theta + d),
                 refined: p.refined,
             }
@@ -283,25 +349,41 @@ fn psm_criterion(algorithm: &str, reference: &PolarScan, current: &PolarScan, in
 }
 
 /// E-PSM's first orientation search at `at` with every evaluation kept.
-pub fn orientation_slices(cost: &mut impl Cost, at: Pose2, params: &epsm::OrientationParams) -> OrientationSlices {
+pub fn orientation_slices(
+    cost: &mut impl Cost,
+    at: Pose2,
+    params: &epsm::OrientationParams,
+) -> OrientationSlices {
     let mut log = Logged::new(cost, false);
     let result = epsm::orientation_search(&mut log, at, params);
-    let coarse_count = (2.0 * (params.coarse_half_window_deg / params.coarse_step_deg).round()) as usize + 1 + result.expansions as usize;
+    let coarse_count = (2.0 * (params.coarse_half_window_deg / params.coarse_step_deg).round())
+        as usize
+        + 1
+        + result.expansions as usize;
     let unwrap = |theta: f64| at.theta + crate::geom::wrap_angle(theta - at.theta);
     let sorted = |v: &[(Pose2, f64, u64)]| {
-        let mut v: Vec<(f64, Option<f64>)> = v.iter().map(|&(p, f, _)| (unwrap(p.theta), finite(f))).collect();
+        let mut v: Vec<(f64, Option<f64>)> =
+            v.iter().map(|&(p, f, _)| (unwrap(p.theta), finite(f))).collect();
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
         v
     };
     let coarse = sorted(&log.seen[..coarse_count.min(log.seen.len())]);
     let fine = sorted(&log.seen[coarse_count.min(log.seen.len())..]);
-    OrientationSlices { at, parabola: diosi_parabola(&coarse), coarse, fine, pick: unwrap(result.theta) }
+    OrientationSlices {
+        at,
+        parabola: diosi_parabola(&coarse),
+        coarse,
+        fine,
+        pick: unwrap(result.theta),
+    }
 }
 
 /// Diosi's parabola through the grid's smallest value and its two neighbours (equal spacing h):
 /// (θ₀, a, b, c) with f ≈ a·(θ − θ₀)² + b·(θ − θ₀) + c; `None` at the edge or without values.
 pub fn diosi_parabola(grid: &[(f64, Option<f64>)]) -> Option<(f64, f64, f64, f64)> {
-    let k = (0..grid.len()).filter(|&k| grid[k].1.is_some()).min_by(|&a, &b| grid[a].1.unwrap_or(f64::INFINITY).total_cmp(&grid[b].1.unwrap_or(f64::INFINITY)))?;
+    let k = (0..grid.len()).filter(|&k| grid[k].1.is_some()).min_by(|&a, &b| {
+        grid[a].1.unwrap_or(f64::INFINITY).total_cmp(&grid[b].1.unwrap_or(f64::INFINITY))
+    })?;
     if k == 0 || k + 1 >= grid.len() {
         return None;
     }
@@ -320,18 +402,31 @@ pub fn vertex((theta0, a, b, _): (f64, f64, f64, f64)) -> Option<f64> {
 /// f at the true heading on a grid around the true position wide enough to hold `show` (the
 /// initial guess and the estimates), between 5 cm and 1 m half-width.
 fn contour(cost: &mut impl Cost, truth: Pose2, show: impl Iterator<Item = Pose2>) -> Contour {
-    let reach = show.filter(|p| p.is_finite()).map(|p| (p.x - truth.x).abs().max((p.y - truth.y).abs())).fold(0.0, f64::max);
+    let reach = show
+        .filter(|p| p.is_finite())
+        .map(|p| (p.x - truth.x).abs().max((p.y - truth.y).abs()))
+        .fold(0.0, f64::max);
     let half = (1.3 * reach).clamp(CONTOUR_HALF_MIN_M, CONTOUR_HALF_MAX_M);
     let n = CONTOUR_POINTS;
-    let axis = |c: f64| (0..n).map(|k| c - half + 2.0 * half * k as f64 / (n - 1) as f64).collect::<Vec<f64>>();
+    let axis = |c: f64| {
+        (0..n).map(|k| c - half + 2.0 * half * k as f64 / (n - 1) as f64).collect::<Vec<f64>>()
+    };
     let (xs, ys) = (axis(truth.x), axis(truth.y));
-    let f = ys.iter().flat_map(|&y| xs.iter().map(move |&x| (x, y))).map(|(x, y)| finite(cost.f(Pose2::new(x, y, truth.theta)))).collect();
+    let f = ys
+        .iter()
+        .flat_map(|&y| xs.iter().map(move |&x| (x, y)))
+        .map(|(x, y)| finite(cost.f(Pose2::new(x, y, truth.theta))))
+        .collect();
     Contour { theta: truth.theta, xs, ys, f }
 }
 
 /// The occupied cells of the map built by placing each scan's returns at `poses[k]` (the laser
 /// sits at the robot's pose).
-pub fn incremental_map(algorithm: &str, scans: &[(&[Option<f64>], Pose2)], geometry: &crate::world::laser::LaserGeometry) -> IncrementalMap {
+pub fn incremental_map(
+    algorithm: &str,
+    scans: &[(&[Option<f64>], Pose2)],
+    geometry: &crate::world::laser::LaserGeometry,
+) -> IncrementalMap {
     let mut cells: Vec<(i32, i32)> = Vec::new();
     for (ranges, pose) in scans.iter().filter(|(_, p)| p.is_finite()) {
         for (beam, r) in ranges.iter().enumerate() {
@@ -364,7 +459,8 @@ mod tests {
     fn parabola_through_three_points_has_the_known_vertex() {
         // f = 2 (θ − 0.3)² + 1 sampled at −1, 0, 1, 2
         let f = |t: f64| 2.0 * (t - 0.3) * (t - 0.3) + 1.0;
-        let grid: Vec<(f64, Option<f64>)> = [-1.0, 0.0, 1.0, 2.0].iter().map(|&t| (t, Some(f(t)))).collect();
+        let grid: Vec<(f64, Option<f64>)> =
+            [-1.0, 0.0, 1.0, 2.0].iter().map(|&t| (t, Some(f(t)))).collect();
         let p = diosi_parabola(&grid).expect("interior minimum");
         assert!((vertex(p).unwrap() - 0.3).abs() < 1e-12);
         // the minimum on the edge has no parabola
@@ -377,7 +473,12 @@ mod tests {
         let (r, c) = room_pair(truth);
         let objective = ObjectiveParams::default();
         let initial = Pose2::new(0.25, -0.05, 1f64.to_radians());
-        let (psm, epsm, brute, search) = (PsmParams::default(), EpsmParams::default(), BruteForceParams::default(), SearchParams::default());
+        let (psm, epsm, brute, search) = (
+            PsmParams::default(),
+            EpsmParams::default(),
+            BruteForceParams::default(),
+            SearchParams::default(),
+        );
         let matchers: Vec<(&str, Matcher<'_>)> = vec![
             ("psm", Matcher::Psm { params: &psm, own_heuristics: false }),
             ("epsm", Matcher::Epsm(&epsm)),
@@ -387,16 +488,32 @@ mod tests {
         let mut subjects = Vec::new();
         for (name, m) in &matchers {
             let plain = super::super::track::run_matcher(*m, &r, &c, initial, &objective, 7);
-            subjects.push(Subject { algorithm: name.to_string(), matcher: *m, seed: 7, reference: &r, current: &c, stored: plain.pose });
+            subjects.push(Subject {
+                algorithm: name.to_string(),
+                matcher: *m,
+                seed: 7,
+                reference: &r,
+                current: &c,
+                stored: plain.pose,
+            });
         }
-        let d = diagnose(3, "test".into(), (10, 20), (&r, &c), truth, initial, &subjects, &objective);
+        let d =
+            diagnose(3, "test".into(), (10, 20), (&r, &c), truth, initial, &subjects, &objective);
         assert_eq!(d.paths.len(), 4);
         for p in &d.paths {
-            assert!(p.reproduces, "{}: the observed re-run must return the stored estimate", p.algorithm);
+            assert!(
+                p.reproduces,
+                "{}: the observed re-run must return the stored estimate",
+                p.algorithm
+            );
             let last = *p.poses.last().expect("a path");
             if p.kind == "per half-iteration" {
                 assert_eq!(p.poses[0], initial, "{}", p.algorithm);
-                assert!(same_pose(last, p.estimate), "{}: the last iterate is the estimate", p.algorithm);
+                assert!(
+                    same_pose(last, p.estimate),
+                    "{}: the last iterate is the estimate",
+                    p.algorithm
+                );
             } else {
                 // best so far: f never rises
                 let f: Vec<f64> = p.f.iter().map(|f| f.unwrap()).collect();
@@ -404,25 +521,67 @@ mod tests {
             }
         }
         // a stored estimate that differs is reported as not reproduced
-        let other = Subject { stored: Pose2::new(9.0, 9.0, 0.0), ..Subject { algorithm: "psm".into(), matcher: matchers[0].1, seed: 7, reference: &r, current: &c, stored: initial } };
-        assert!(!diagnose(1, String::new(), (0, 1), (&r, &c), truth, initial, &[other], &objective).paths[0].reproduces);
+        let other = Subject {
+            stored: Pose2::new(9.0, 9.0, 0.0),
+            ..Subject {
+                algorithm: "psm".into(),
+                matcher: matchers[0].1,
+                seed: 7,
+                reference: &r,
+                current: &c,
+                stored: initial,
+            }
+        };
+        assert!(
+            !diagnose(1, String::new(), (0, 1), (&r, &c), truth, initial, &[other], &objective)
+                .paths[0]
+                .reproduces
+        );
         // E-PSM's slices: the pick lies on the fine grid, whose minimum it is
         let o = d.orientation.as_ref().expect("E-PSM ran");
-        assert!(o.coarse.len() >= 21 && o.fine.len() == 100, "coarse {} fine {}", o.coarse.len(), o.fine.len());
-        let fine_min = o.fine.iter().filter_map(|(t, f)| f.map(|f| (*t, f))).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
-        let coarse_min = o.coarse.iter().filter_map(|(t, f)| f.map(|f| (*t, f))).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+        assert!(
+            o.coarse.len() >= 21 && o.fine.len() == 100,
+            "coarse {} fine {}",
+            o.coarse.len(),
+            o.fine.len()
+        );
+        let fine_min = o
+            .fine
+            .iter()
+            .filter_map(|(t, f)| f.map(|f| (*t, f)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        let coarse_min = o
+            .coarse
+            .iter()
+            .filter_map(|(t, f)| f.map(|f| (*t, f)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
         let best = if fine_min.1 < coarse_min.1 { fine_min.0 } else { coarse_min.0 };
         assert!((o.pick - best).abs() < 1e-12, "pick {} vs grid minimum {}", o.pick, best);
         // PSM's criterion: first pass at the initial guess, then at its estimate
-        assert_eq!(d.psm.iter().map(|p| p.at_label.as_str()).collect::<Vec<_>>(), ["initial guess", "estimate"]);
+        assert_eq!(
+            d.psm.iter().map(|p| p.at_label.as_str()).collect::<Vec<_>>(),
+            ["initial guess", "estimate"]
+        );
         // the contour holds the truth and the initial guess, and f is smallest near the truth
         let c = &d.contour;
         assert_eq!(c.f.len(), CONTOUR_POINTS * CONTOUR_POINTS);
         assert!(c.xs[0] <= initial.x && initial.x <= *c.xs.last().unwrap());
-        let (kmin, _) = c.f.iter().enumerate().filter_map(|(k, f)| f.map(|f| (k, f))).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+        let (kmin, _) =
+            c.f.iter()
+                .enumerate()
+                .filter_map(|(k, f)| f.map(|f| (k, f)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap();
         let (x, y) = (c.xs[kmin % CONTOUR_POINTS], c.ys[kmin / CONTOUR_POINTS]);
         let cell = c.xs[1] - c.xs[0];
-        assert!((x - truth.x).abs() <= cell && (y - truth.y).abs() <= cell, "f is smallest at ({x}, {y}), the truth is ({}, {})", truth.x, truth.y);
+        assert!(
+            (x - truth.x).abs() <= cell && (y - truth.y).abs() <= cell,
+            "f is smallest at ({x}, {y}), the truth is ({}, {})",
+            truth.x,
+            truth.y
+        );
     }
 
     #[test]
@@ -443,20 +602,38 @@ mod tests {
         let first = first.expect("a pass");
         assert!((first.theta - pick).abs() < 1e-6, "{} vs {}", first.theta, pick);
         assert!((first.x - initial.x).abs() < 1e-6 && (first.y - initial.y).abs() < 1e-6);
-        assert!((pick - truth.theta).abs() < 1f64.to_radians(), "the pick turns towards the truth: {pick}");
+        assert!(
+            (pick - truth.theta).abs() < 1f64.to_radians(),
+            "the pick turns towards the truth: {pick}"
+        );
     }
 
     #[test]
     fn incremental_map_places_returns_at_the_pose() {
-        let geometry = crate::world::laser::LaserGeometry { angle_min_rad: 0.0, angle_increment_rad: std::f64::consts::FRAC_PI_2, beams: 2, max_range_m: 10.0 };
+        let geometry = crate::world::laser::LaserGeometry {
+            angle_min_rad: 0.0,
+            angle_increment_rad: std::f64::consts::FRAC_PI_2,
+            beams: 2,
+            max_range_m: 10.0,
+        };
         let ranges = [Some(1.0), None];
-        let m = incremental_map("a", &[(&ranges, Pose2::new(2.0, 3.0, std::f64::consts::FRAC_PI_2)), (&ranges, Pose2::new(f64::NAN, 0.0, 0.0))], &geometry);
+        let m = incremental_map(
+            "a",
+            &[
+                (&ranges, Pose2::new(2.0, 3.0, std::f64::consts::FRAC_PI_2)),
+                (&ranges, Pose2::new(f64::NAN, 0.0, 0.0)),
+            ],
+            &geometry,
+        );
         // beam 0 (straight ahead) from (2, 3) facing +y lands at (2, 4); beam 1 has no return;
         // the non-finite pose places nothing
         assert_eq!(m.cells.len(), 1);
         let (i, j) = m.cells[0];
         let centre = ((f64::from(i) + 0.5) * MAP_CELL_M, (f64::from(j) + 0.5) * MAP_CELL_M);
-        assert!((centre.0 - 2.0).abs() <= MAP_CELL_M && (centre.1 - 4.0).abs() <= MAP_CELL_M, "{centre:?}");
+        assert!(
+            (centre.0 - 2.0).abs() <= MAP_CELL_M && (centre.1 - 4.0).abs() <= MAP_CELL_M,
+            "{centre:?}"
+        );
         assert_eq!((m.path.len(), m.scans), (1, 2));
     }
 }

@@ -20,10 +20,10 @@
 //! - A failure mid-search (no finite f at any θ, no pairs, singular system) keeps the last pose
 //!   whose f was finite (or the initial guess) and records why in `stop`.
 
-use super::search::{pairs_at, seed_nlopt, ScaledCost};
+use super::search::{ScaledCost, pairs_at, seed_nlopt};
 use super::{Cost, MatchResult, Stop};
 use crate::config::{Checks, Violation};
-use crate::geom::{wrap_angle, Pose2};
+use crate::geom::{Pose2, wrap_angle};
 use nlopt::{Algorithm, FailState, Nlopt, Target};
 use serde::{Deserialize, Serialize};
 
@@ -78,14 +78,18 @@ impl OrientationParams {
         c.in_range("fine_step_deg", self.fine_step_deg, f64::MIN_POSITIVE, 90.0);
         c.in_range("fine_half_window_deg", self.fine_half_window_deg, 0.0, 180.0);
         if self.coarse_step_deg > 0.0 && self.coarse_half_window_deg.is_finite() {
-            c.require(self.coarse_half_window_deg / self.coarse_step_deg <= MAX_GRID_HALF, "coarse_half_window_deg", || {
-                format!("must be ≤ {MAX_GRID_HALF} coarse steps")
-            });
+            c.require(
+                self.coarse_half_window_deg / self.coarse_step_deg <= MAX_GRID_HALF,
+                "coarse_half_window_deg",
+                || format!("must be ≤ {MAX_GRID_HALF} coarse steps"),
+            );
         }
         if self.fine_step_deg > 0.0 && self.fine_half_window_deg.is_finite() {
-            c.require(self.fine_half_window_deg / self.fine_step_deg <= MAX_GRID_HALF, "fine_half_window_deg", || {
-                format!("must be ≤ {MAX_GRID_HALF} fine steps")
-            });
+            c.require(
+                self.fine_half_window_deg / self.fine_step_deg <= MAX_GRID_HALF,
+                "fine_half_window_deg",
+                || format!("must be ≤ {MAX_GRID_HALF} fine steps"),
+            );
         }
         c.finish()
     }
@@ -125,7 +129,13 @@ pub struct BobyqaParams {
 
 impl Default for BobyqaParams {
     fn default() -> Self {
-        Self { half_window_m: 0.4, initial_step_m: 0.01, xtol_m: 1e-5, maxeval: 200, infeasible_f_cm2: 1e6 }
+        Self {
+            half_window_m: 0.4,
+            initial_step_m: 0.01,
+            xtol_m: 1e-5,
+            maxeval: 200,
+            infeasible_f_cm2: 1e6,
+        }
     }
 }
 
@@ -136,11 +146,16 @@ impl BobyqaParams {
         c.positive("initial_step_m", self.initial_step_m);
         if self.initial_step_m.is_finite() && self.half_window_m.is_finite() {
             c.require(self.initial_step_m <= self.half_window_m, "initial_step_m", || {
-                format!("must be ≤ half_window_m ({}), got {}", self.half_window_m, self.initial_step_m)
+                format!(
+                    "must be ≤ half_window_m ({}), got {}",
+                    self.half_window_m, self.initial_step_m
+                )
             });
         }
         c.positive("xtol_m", self.xtol_m);
-        c.require(self.maxeval >= 5, "maxeval", || format!("must be ≥ 5 (BOBYQA's 2n + 1 start points), got {}", self.maxeval));
+        c.require(self.maxeval >= 5, "maxeval", || {
+            format!("must be ≥ 5 (BOBYQA's 2n + 1 start points), got {}", self.maxeval)
+        });
         c.positive("infeasible_f_cm2", self.infeasible_f_cm2);
         c.finish()
     }
@@ -212,7 +227,10 @@ impl EpsmParams {
             self.orientation.fine_step_deg,
             self.orientation.fine_half_window_deg,
             match self.position_step {
-                PositionStep::GaussNewton => format!("an unweighted Gauss–Newton step with a central-difference Jacobian ({} mm)", self.fd_step_m * 1e3),
+                PositionStep::GaussNewton => format!(
+                    "an unweighted Gauss–Newton step with a central-difference Jacobian ({} mm)",
+                    self.fd_step_m * 1e3
+                ),
                 PositionStep::Bobyqa => "NLopt's BOBYQA on f(x, y | θ) ([EP] Fig. 7)".to_string(),
             },
             self.min_iter,
@@ -220,7 +238,11 @@ impl EpsmParams {
             self.tol_xy_m * 1e3,
             self.tol_theta_deg,
             self.small_cycles,
-            if self.f_check { "on: an estimate whose f is not below the initial guess's is replaced by the guess ([EP] §6.4)" } else { "off" }
+            if self.f_check {
+                "on: an estimate whose f is not below the initial guess's is replaced by the guess ([EP] §6.4)"
+            } else {
+                "off"
+            }
         )
     }
 
@@ -248,7 +270,12 @@ pub fn epsm(cost: &mut impl Cost, initial: Pose2, params: &EpsmParams) -> MatchR
 
 /// [`epsm`], telling `observe` the pose after every half-iteration that completes (Fig 27's
 /// iterates): the path the diagnostics draw. The observer cannot change the result.
-pub fn epsm_observed(cost: &mut impl Cost, initial: Pose2, params: &EpsmParams, observe: &mut dyn FnMut(Pose2)) -> MatchResult {
+pub fn epsm_observed(
+    cost: &mut impl Cost,
+    initial: Pose2,
+    params: &EpsmParams,
+    observe: &mut dyn FnMut(Pose2),
+) -> MatchResult {
     let evaluations_start = cost.evaluations();
     let tol_theta = params.tol_theta_deg.to_radians() * (1.0 - TOL_THETA_MARGIN);
     let mut buffers = JacobianBuffers::new(cost.beams());
@@ -283,7 +310,9 @@ pub fn epsm_observed(cost: &mut impl Cost, initial: Pose2, params: &EpsmParams, 
         } else {
             // Position half-iteration: Eq. 5–6, or BOBYQA (Fig 7).
             let step = match params.position_step {
-                PositionStep::GaussNewton => gauss_newton_step(cost, pose, params.fd_step_m, &mut buffers),
+                PositionStep::GaussNewton => {
+                    gauss_newton_step(cost, pose, params.fd_step_m, &mut buffers)
+                }
                 PositionStep::Bobyqa => bobyqa_step(cost, pose, &params.bobyqa),
             };
             let (dx, dy) = match step {
@@ -297,8 +326,13 @@ pub fn epsm_observed(cost: &mut impl Cost, initial: Pose2, params: &EpsmParams, 
             pose.y += dy;
             observe(pose);
             // End of a cycle: the convergence test.
-            small = if dx.abs() + dy.abs() < params.tol_xy_m && delta_theta.abs() < tol_theta { small + 1 } else { 0 };
-            let f_stalled = f_previous_cycle.is_some_and(|fp| fp - f_cycle <= params.ftol_rel * fp.abs());
+            small = if dx.abs() + dy.abs() < params.tol_xy_m && delta_theta.abs() < tol_theta {
+                small + 1
+            } else {
+                0
+            };
+            let f_stalled =
+                f_previous_cycle.is_some_and(|fp| fp - f_cycle <= params.ftol_rel * fp.abs());
             f_previous_cycle = Some(f_cycle);
             if it + 1 >= params.min_iter && (small >= params.small_cycles || f_stalled) {
                 stop = Stop::Converged;
@@ -354,7 +388,11 @@ pub struct OrientationResult {
 /// in that direction while f decreases (a relative minimum), at most `max_expansion_steps`; then
 /// a fine grid (0.01° over ±0.5°) around the coarse minimum. f is re-evaluated (re-projected) at
 /// every candidate. The coarse minimum is the fine grid's centre and is not evaluated twice.
-pub fn orientation_search(cost: &mut impl Cost, pose: Pose2, params: &OrientationParams) -> OrientationResult {
+pub fn orientation_search(
+    cost: &mut impl Cost,
+    pose: Pose2,
+    params: &OrientationParams,
+) -> OrientationResult {
     let at = |theta: f64| Pose2::new(pose.x, pose.y, wrap_angle(theta));
     let mut evaluations = 0u32;
     let mut eval = |cost: &mut _, theta: f64| {
@@ -365,7 +403,8 @@ pub fn orientation_search(cost: &mut impl Cost, pose: Pose2, params: &Orientatio
     // Step 1: the coarse grid.
     let coarse = params.coarse_step_deg.to_radians();
     let n = grid_half(params.coarse_half_window_deg, params.coarse_step_deg);
-    let values: Vec<f64> = (-n..=n).map(|k| eval(&mut *cost, pose.theta + f64::from(k) * coarse)).collect();
+    let values: Vec<f64> =
+        (-n..=n).map(|k| eval(&mut *cost, pose.theta + f64::from(k) * coarse)).collect();
     let f_start = values[n as usize];
     let (mut k_best, mut f_best) = grid_argmin(&values, n);
 
@@ -391,7 +430,15 @@ pub fn orientation_search(cost: &mut impl Cost, pose: Pose2, params: &Orientatio
         let fine = params.fine_step_deg.to_radians();
         let m = grid_half(params.fine_half_window_deg, params.fine_step_deg);
         let values: Vec<f64> =
-            (-m..=m).map(|k| if k == 0 { f_best } else { eval(&mut *cost, theta_coarse + f64::from(k) * fine) }).collect();
+            (-m..=m)
+                .map(|k| {
+                    if k == 0 {
+                        f_best
+                    } else {
+                        eval(&mut *cost, theta_coarse + f64::from(k) * fine)
+                    }
+                })
+                .collect();
         let (k_fine, f_fine) = grid_argmin(&values, m);
         (theta_coarse + f64::from(k_fine) * fine, f_fine)
     } else {
@@ -446,7 +493,12 @@ impl JacobianBuffers {
 /// E-PSM's position update at fixed θ ([EP] Eq. 5–6): r = r_ref − r̂_cur(x, y) ≈ H δ with
 /// H = ∂r̂/∂(x, y) by central differences (each a re-projection), and the unweighted least-squares
 /// δ = (HᵀH)⁻¹Hᵀr, over the beams valid at all five evaluations. Returns (δx, δy) [m].
-fn gauss_newton_step(cost: &mut impl Cost, pose: Pose2, h: f64, b: &mut JacobianBuffers) -> Result<(f64, f64), Stop> {
+fn gauss_newton_step(
+    cost: &mut impl Cost,
+    pose: Pose2,
+    h: f64,
+    b: &mut JacobianBuffers,
+) -> Result<(f64, f64), Stop> {
     let shifted = |dx: f64, dy: f64| Pose2::new(pose.x + dx, pose.y + dy, pose.theta);
     cost.residuals(pose, &mut b.centre);
     cost.residuals(shifted(h, 0.0), &mut b.x_plus);
@@ -490,11 +542,21 @@ fn gauss_newton_step(cost: &mut impl Cost, pose: Pose2, h: f64, b: &mut Jacobian
 /// lowest finite f seen (which BOBYQA's own result is, unless it failed); zero if none beat the
 /// start. NLopt failures leave the best pose seen; a box without any finite f is
 /// [`Stop::TooFewPairs`]; a parameter NLopt rejects is [`Stop::Optimiser`] with its code.
-fn bobyqa_step(cost: &mut impl Cost, pose: Pose2, params: &BobyqaParams) -> Result<(f64, f64), Stop> {
+fn bobyqa_step(
+    cost: &mut impl Cost,
+    pose: Pose2,
+    params: &BobyqaParams,
+) -> Result<(f64, f64), Stop> {
     let scale = [params.half_window_m, params.half_window_m, 1.0];
     let unused_step = [0.0; 3]; // BOBYQA asks for no gradient
     let scaled = ScaledCost::new(cost, pose, scale, unused_step, params.infeasible_f_cm2);
-    let mut opt = Nlopt::new(Algorithm::Bobyqa, 2, ScaledCost::<_>::nlopt_objective, Target::Minimize, scaled);
+    let mut opt = Nlopt::new(
+        Algorithm::Bobyqa,
+        2,
+        ScaledCost::<_>::nlopt_objective,
+        Target::Minimize,
+        scaled,
+    );
     let configured = (|| -> Result<(), FailState> {
         opt.set_lower_bounds(&[-1.0, -1.0])?;
         opt.set_upper_bounds(&[1.0, 1.0])?;
@@ -519,14 +581,23 @@ fn bobyqa_step(cost: &mut impl Cost, pose: Pose2, params: &BobyqaParams) -> Resu
 
 #[cfg(test)]
 mod tests {
-    use super::super::search::synthetic::{guess, truth, NanCost, PointCost};
+    use super::super::search::synthetic::{NanCost, PointCost, guess, truth};
     use super::*;
 
     #[test]
     fn describe_names_grids_step_and_tolerances() {
         let s = EpsmParams::default().describe();
-        assert!(s.contains("on a 1° grid over ±10°") && s.contains("then 0.01° over ±0.5°") && s.contains("central-difference Jacobian (1 mm)"), "{s}");
-        assert!(s.contains("at least 8 and at most 30 half-iterations") && s.contains("< 0.1 mm and |δθ| < 0.01° for 2 cycles; f-check off."), "{s}");
+        assert!(
+            s.contains("on a 1° grid over ±10°")
+                && s.contains("then 0.01° over ±0.5°")
+                && s.contains("central-difference Jacobian (1 mm)"),
+            "{s}"
+        );
+        assert!(
+            s.contains("at least 8 and at most 30 half-iterations")
+                && s.contains("< 0.1 mm and |δθ| < 0.01° for 2 cycles; f-check off."),
+            "{s}"
+        );
         let s = EpsmParams::table5().describe();
         assert!(s.contains("NLopt's BOBYQA") && s.contains("f-check on:"), "{s}");
     }
@@ -535,14 +606,20 @@ mod tests {
     fn defaults_validate_and_serde_is_strict() {
         assert!(EpsmParams::default().validate().is_empty());
         assert!(EpsmParams::table5().validate().is_empty());
-        let p: EpsmParams = toml::from_str("position_step = \"bobyqa\"\nf_check = true\n[orientation]\nfine_step_deg = 0.02").unwrap();
+        let p: EpsmParams = toml::from_str(
+            "position_step = \"bobyqa\"\nf_check = true\n[orientation]\nfine_step_deg = 0.02",
+        )
+        .unwrap();
         assert_eq!(p.position_step, PositionStep::Bobyqa);
         assert_eq!(p.orientation.fine_step_deg, 0.02);
         assert!(toml::from_str::<EpsmParams>("position = \"bobyqa\"").is_err());
         let bad = EpsmParams { min_iter: 40, fd_step_m: -1.0, ..EpsmParams::default() };
         let keys: Vec<_> = bad.validate().into_iter().map(|v| v.key).collect();
         assert_eq!(keys, ["fd_step_m", "min_iter"]);
-        let bad = EpsmParams { orientation: OrientationParams { fine_step_deg: 0.0, ..Default::default() }, ..Default::default() };
+        let bad = EpsmParams {
+            orientation: OrientationParams { fine_step_deg: 0.0, ..Default::default() },
+            ..Default::default()
+        };
         assert_eq!(bad.validate()[0].key, "orientation.fine_step_deg");
     }
 
@@ -557,7 +634,11 @@ mod tests {
     #[test]
     fn orientation_search_finds_theta_on_the_fine_grid_with_21_plus_100_evaluations() {
         let mut cost = PointCost::new(Pose2::new(0.2, -0.1, 3.37f64.to_radians()));
-        let o = orientation_search(&mut cost, Pose2::new(0.2, -0.1, 0.0), &OrientationParams::default());
+        let o = orientation_search(
+            &mut cost,
+            Pose2::new(0.2, -0.1, 0.0),
+            &OrientationParams::default(),
+        );
         assert!((o.theta.to_degrees() - 3.37).abs() < 1e-9, "{o:?}");
         assert_eq!(o.expansions, 0);
         assert_eq!(o.evaluations, 121);
@@ -695,7 +776,10 @@ mod tests {
 
         /// ~5 cm and 2° off the truth; the second excites the slow θ/y zig-zag of the alternation.
         fn guesses() -> [Pose2; 2] {
-            [Pose2::new(0.25, -0.1, TRUTH.theta - 2f64.to_radians()), Pose2::new(0.2, -0.05, TRUTH.theta + 2f64.to_radians())]
+            [
+                Pose2::new(0.25, -0.1, TRUTH.theta - 2f64.to_radians()),
+                Pose2::new(0.2, -0.05, TRUTH.theta + 2f64.to_radians()),
+            ]
         }
 
         #[test]
@@ -703,11 +787,19 @@ mod tests {
             let (reference, current) = room_pair(TRUTH);
             for step in [PositionStep::GaussNewton, PositionStep::Bobyqa] {
                 for guess in guesses() {
-                    let mut cost = Objective::new(&reference, &current, &ObjectiveParams::default());
-                    let r = epsm(&mut cost, guess, &EpsmParams { position_step: step, ..EpsmParams::default() });
+                    let mut cost =
+                        Objective::new(&reference, &current, &ObjectiveParams::default());
+                    let r = epsm(
+                        &mut cost,
+                        guess,
+                        &EpsmParams { position_step: step, ..EpsmParams::default() },
+                    );
                     let (dx, dy) = (r.pose.x - TRUTH.x, r.pose.y - TRUTH.y);
                     let dtheta = (r.pose.theta - TRUTH.theta).to_degrees();
-                    assert!(dx.abs() < 1e-3 && dy.abs() < 1e-3 && dtheta.abs() < 0.05, "{step:?}: {dx:+.5} {dy:+.5} {dtheta:+.4}° {r:?}");
+                    assert!(
+                        dx.abs() < 1e-3 && dy.abs() < 1e-3 && dtheta.abs() < 0.05,
+                        "{step:?}: {dx:+.5} {dy:+.5} {dtheta:+.4}° {r:?}"
+                    );
                     assert!(matches!(r.stop, Stop::Converged | Stop::Budget), "{r:?}");
                     assert!(r.f < 0.01 && r.f < r.f_initial && r.pairs >= 40, "{r:?}");
                     assert_eq!(r.evaluations, cost.evaluations());
@@ -738,10 +830,15 @@ mod tests {
         fn f_check_falls_back_when_the_estimate_is_worse_than_the_initial_guess() {
             let (reference, current) = room_pair(TRUTH);
             let start = Pose2::new(TRUTH.x + 0.002, TRUTH.y - 0.001, TRUTH.theta);
-            let mut cost = MisalignedResiduals(Objective::new(&reference, &current, &ObjectiveParams::default()));
+            let mut cost = MisalignedResiduals(Objective::new(
+                &reference,
+                &current,
+                &ObjectiveParams::default(),
+            ));
             let without = epsm(&mut cost, start, &EpsmParams::default());
             assert!(!without.fallback && without.f > without.f_initial, "{without:?}");
-            let with = epsm(&mut cost, start, &EpsmParams { f_check: true, ..EpsmParams::default() });
+            let with =
+                epsm(&mut cost, start, &EpsmParams { f_check: true, ..EpsmParams::default() });
             assert!(with.fallback, "{with:?}");
             assert_eq!((with.pose, with.f), (start, with.f_initial));
             assert!(with.pairs >= 40);

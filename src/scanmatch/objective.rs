@@ -202,7 +202,12 @@ impl Projection {
 
     /// Projects `current` (the scan given to [`Projection::new`]) at `pose` and fills
     /// `interpolated`. A non-finite pose leaves every bearing empty.
-    pub(crate) fn project(&mut self, current: &PolarScan, pose: Pose2, interpolation: Interpolation) {
+    pub(crate) fn project(
+        &mut self,
+        current: &PolarScan,
+        pose: Pose2,
+        interpolation: Interpolation,
+    ) {
         self.interpolated.fill(f64::INFINITY);
         let n_ref = self.interpolated.len();
         if !pose.is_finite() || n_ref == 0 {
@@ -212,8 +217,13 @@ impl Projection {
         // Eq. (1)–(2): every current point in the reference frame, polar. Branch-free passes over
         // all beams (invalid ones are computed and ignored) so that they pipeline/vectorise.
         let (tx, ty) = (pose.x, pose.y);
-        for ((((x, y), &r), &cp), &sp) in
-            self.px.iter_mut().zip(self.py.iter_mut()).zip(&current.ranges).zip(&self.cur_cos).zip(&self.cur_sin)
+        for ((((x, y), &r), &cp), &sp) in self
+            .px
+            .iter_mut()
+            .zip(self.py.iter_mut())
+            .zip(&current.ranges)
+            .zip(&self.cur_cos)
+            .zip(&self.cur_sin)
         {
             // cos(θ_c + φ_i), sin(θ_c + φ_i) by the angle-sum identities (no trig per beam)
             *x = r * (cp * c - sp * s) + tx;
@@ -229,7 +239,11 @@ impl Projection {
         let last_ref = (n_ref - 1) as f64;
         for i in 1..current.len() {
             let seg = current.segment[i];
-            if seg == 0 || seg != current.segment[i - 1] || !current.valid[i] || !current.valid[i - 1] {
+            if seg == 0
+                || seg != current.segment[i - 1]
+                || !current.valid[i]
+                || !current.valid[i - 1]
+            {
                 continue;
             }
             // (a bearing order reversed means a surface seen from behind: its values still hide
@@ -258,11 +272,13 @@ impl Projection {
             let (ax, ay, bx, by) = (self.px[a], self.py[a], self.px[b], self.py[b]);
             let cross_ab = ax * by - ay * bx;
             for j in j0..=j1 {
-                let linear = if span > 0.0 { ra + slope * (self.ref_phi[j] - lo) } else { r_same_bearing };
+                let linear =
+                    if span > 0.0 { ra + slope * (self.ref_phi[j] - lo) } else { r_same_bearing };
                 let r = match interpolation {
                     Interpolation::Linear => linear,
                     Interpolation::Chord => {
-                        let t = cross_ab / (self.ref_cos[j] * (by - ay) - self.ref_sin[j] * (bx - ax));
+                        let t =
+                            cross_ab / (self.ref_cos[j] * (by - ay) - self.ref_sin[j] * (bx - ax));
                         if t.is_finite() && t > 0.0 { t } else { linear }
                     }
                 };
@@ -322,8 +338,18 @@ impl<'a> Objective<'a> {
     /// inconsistent scan (see [`PolarScan::is_consistent`]) yields f = +∞ everywhere.
     pub fn new(reference: &'a PolarScan, current: &'a PolarScan, params: &ObjectiveParams) -> Self {
         let broken = !reference.is_consistent() || !current.is_consistent();
-        let empty = PolarScan { angle_min_rad: 0.0, angle_increment_rad: 1.0, ranges: vec![], valid: vec![], segment: vec![] };
-        let projection = if broken { Projection::new(&empty, &empty) } else { Projection::new(reference, current) };
+        let empty = PolarScan {
+            angle_min_rad: 0.0,
+            angle_increment_rad: 1.0,
+            ranges: vec![],
+            valid: vec![],
+            segment: vec![],
+        };
+        let projection = if broken {
+            Projection::new(&empty, &empty)
+        } else {
+            Projection::new(reference, current)
+        };
         Self { reference, current, params: params.clone(), projection, broken, evaluations: 0 }
     }
 
@@ -375,7 +401,11 @@ impl<'a> Objective<'a> {
     /// Projects, interpolates, discards; calls `visit(j, status, residual_m)` for every reference
     /// beam; returns (Σ e² [m²], |V|).
     #[inline]
-    fn pass<F: FnMut(usize, PairStatus, f64)>(&mut self, pose: Pose2, mut visit: F) -> (f64, usize) {
+    fn pass<F: FnMut(usize, PairStatus, f64)>(
+        &mut self,
+        pose: Pose2,
+        mut visit: F,
+    ) -> (f64, usize) {
         self.evaluations += 1;
         if self.broken {
             for j in 0..self.reference.len() {
@@ -455,9 +485,25 @@ mod tests {
 
     #[test]
     fn describe_names_normalisation_gate_and_min_pairs() {
-        let s = ObjectiveParams { normalisation: Normalisation::Sum, max_residual_m: Some(0.5), min_pairs: 25, ..ObjectiveParams::default() }.describe();
-        assert!(s.contains("the sum of the squared range residuals") && s.contains("|residual| > 0.5 m dropped") && s.contains("f = ∞ below 25 pairs"), "{s}");
-        let s = ObjectiveParams { occlusion_rule: false, max_residual_m: None, ..ObjectiveParams::default() }.describe();
+        let s = ObjectiveParams {
+            normalisation: Normalisation::Sum,
+            max_residual_m: Some(0.5),
+            min_pairs: 25,
+            ..ObjectiveParams::default()
+        }
+        .describe();
+        assert!(
+            s.contains("the sum of the squared range residuals")
+                && s.contains("|residual| > 0.5 m dropped")
+                && s.contains("f = ∞ below 25 pairs"),
+            "{s}"
+        );
+        let s = ObjectiveParams {
+            occlusion_rule: false,
+            max_residual_m: None,
+            ..ObjectiveParams::default()
+        }
+        .describe();
         assert!(s.contains("(Eq. 3: off)") && s.contains("|residual| > ∞ dropped"), "{s}");
     }
 
@@ -473,7 +519,16 @@ mod tests {
             }
         }
         assert!(worst < 1e-15, "max error {worst}");
-        for (y, x) in [(0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0), (1.0, 1.0), (-1.0, -1.0), (-0.0, -1.0), (1e-300, 2.0)] {
+        for (y, x) in [
+            (0.0, 1.0),
+            (1.0, 0.0),
+            (0.0, -1.0),
+            (-1.0, 0.0),
+            (1.0, 1.0),
+            (-1.0, -1.0),
+            (-0.0, -1.0),
+            (1e-300, 2.0),
+        ] {
             assert!((fast_atan2(y, x, &table) - f64::atan2(y, x)).abs() < 1e-15, "({y}, {x})");
         }
         let _ = (fast_atan2(f64::NAN, 1.0, &table), fast_atan2(1.0, f64::INFINITY, &table)); // no panic
@@ -484,7 +539,9 @@ mod tests {
     fn zero_at_the_true_pose_when_bearings_coincide() {
         // a pure rotation by whole beams: projected bearings land on reference bearings exactly,
         // so linear interpolation is exact
-        for delta in [Pose2::IDENTITY, Pose2::new(0.0, 0.0, deg(3.0)), Pose2::new(0.0, 0.0, deg(-7.0))] {
+        for delta in
+            [Pose2::IDENTITY, Pose2::new(0.0, 0.0, deg(3.0)), Pose2::new(0.0, 0.0, deg(-7.0))]
+        {
             let (r, c) = room_pair(delta);
             let mut obj = Objective::new(&r, &c, &ObjectiveParams::default());
             let (f, n) = obj.f_and_pairs(delta);
@@ -513,7 +570,15 @@ mod tests {
         let beams = Beams::lms200();
         let walls = polygon(&[(0.0, 0.0), (10.0, 0.0), (10.0, 5.0), (0.0, 5.0)]);
         let (raw_r, raw_c) = raw_pair(&walls, ROOM_REFERENCE_POSE, delta, &beams);
-        let prep = |raw: &[Option<f64>]| PolarScan::contiguous(raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, JUMP_M);
+        let prep = |raw: &[Option<f64>]| {
+            PolarScan::contiguous(
+                raw,
+                beams.angle_min_rad,
+                beams.angle_increment_rad,
+                MAX_RANGE_M,
+                JUMP_M,
+            )
+        };
         let (r, c) = (prep(&raw_r), prep(&raw_c));
         let mut obj = Objective::new(&r, &c, &ObjectiveParams::default());
         let f0 = obj.f(delta);
@@ -544,15 +609,29 @@ mod tests {
     #[test]
     fn occlusion_rule_drops_reference_points_behind_the_current_pose() {
         use crate::geom::{Point2, Segment};
-        let walls =
-            [Segment::new(Point2::new(1.0, -0.3), Point2::new(1.0, 0.3)), Segment::new(Point2::new(4.0, -8.0), Point2::new(4.0, 8.0))];
+        let walls = [
+            Segment::new(Point2::new(1.0, -0.3), Point2::new(1.0, 0.3)),
+            Segment::new(Point2::new(4.0, -8.0), Point2::new(4.0, 8.0)),
+        ];
         let beams = Beams { angle_min_rad: deg(-60.0), angle_increment_rad: deg(1.0), count: 121 };
         let truth = Pose2::new(2.0, 0.0, 0.0);
         let (raw_ref, raw_cur) = raw_pair(&walls, Pose2::IDENTITY, truth, &beams);
-        let prep = |raw: &[Option<f64>]| PolarScan::contiguous(raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, JUMP_M);
+        let prep = |raw: &[Option<f64>]| {
+            PolarScan::contiguous(
+                raw,
+                beams.angle_min_rad,
+                beams.angle_increment_rad,
+                MAX_RANGE_M,
+                JUMP_M,
+            )
+        };
         let (reference, current) = (prep(&raw_ref), prep(&raw_cur));
         // ungated, so that the rule alone decides
-        let on = ObjectiveParams { interpolation: Interpolation::Chord, max_residual_m: None, ..Default::default() };
+        let on = ObjectiveParams {
+            interpolation: Interpolation::Chord,
+            max_residual_m: None,
+            ..Default::default()
+        };
         let mut obj = Objective::new(&reference, &current, &on);
         let mut statuses = vec![PairStatus::Valid; reference.len()];
         let n = obj.classify(truth, &mut statuses);
@@ -582,7 +661,11 @@ mod tests {
     #[test]
     fn z_buffer_keeps_the_nearest_surface() {
         let mut overlaps = 0;
-        for delta in [Pose2::new(0.0, 0.6, deg(2.0)), Pose2::new(0.8, -0.5, deg(-5.0)), Pose2::new(1.5, 0.9, deg(10.0))] {
+        for delta in [
+            Pose2::new(0.0, 0.6, deg(2.0)),
+            Pose2::new(0.8, -0.5, deg(-5.0)),
+            Pose2::new(1.5, 0.9, deg(10.0)),
+        ] {
             let (r, c) = room_pair(delta);
             let mut p = Projection::new(&r, &c);
             p.project(&c, delta, Interpolation::Linear);
@@ -591,7 +674,8 @@ mod tests {
                 .map(|i| {
                     (c.valid[i] && c.segment[i] != 0).then(|| {
                         let a = delta.theta + c.bearing(i);
-                        let (x, y) = (c.ranges[i] * a.cos() + delta.x, c.ranges[i] * a.sin() + delta.y);
+                        let (x, y) =
+                            (c.ranges[i] * a.cos() + delta.x, c.ranges[i] * a.sin() + delta.y);
                         (x.hypot(y), y.atan2(x))
                     })
                 })
@@ -604,9 +688,14 @@ mod tests {
                         continue;
                     }
                     let (Some((r0, p0)), Some((r1, p1))) = (pts[i - 1], pts[i]) else { continue };
-                    let ((ra, pa), (rb, pb)) = if p1 >= p0 { ((r0, p0), (r1, p1)) } else { ((r1, p1), (r0, p0)) };
+                    let ((ra, pa), (rb, pb)) =
+                        if p1 >= p0 { ((r0, p0), (r1, p1)) } else { ((r1, p1), (r0, p0)) };
                     if pb - pa < PI && phi >= pa - 1e-9 && phi <= pb + 1e-9 {
-                        values.push(if pb > pa { ra + (rb - ra) * (phi - pa) / (pb - pa) } else { ra.min(rb) });
+                        values.push(if pb > pa {
+                            ra + (rb - ra) * (phi - pa) / (pb - pa)
+                        } else {
+                            ra.min(rb)
+                        });
                     }
                 }
                 let best = values.iter().copied().fold(f64::INFINITY, f64::min);
@@ -615,7 +704,10 @@ mod tests {
                     overlaps += 1;
                 }
                 let got = p.interpolated[j];
-                assert!(got == best || (got - best).abs() < 1e-9, "{delta:?} beam {j}: {got} vs {best}");
+                assert!(
+                    got == best || (got - best).abs() < 1e-9,
+                    "{delta:?} beam {j}: {got} vs {best}"
+                );
             }
         }
         assert!(overlaps > 0, "the scenes must contain overlapping surfaces");
@@ -625,7 +717,8 @@ mod tests {
     fn too_few_pairs_give_infinity() {
         let delta = Pose2::new(0.2, -0.1, deg(3.0));
         let (r, c) = room_pair(delta);
-        let mut obj = Objective::new(&r, &c, &ObjectiveParams { min_pairs: 1000, ..Default::default() });
+        let mut obj =
+            Objective::new(&r, &c, &ObjectiveParams { min_pairs: 1000, ..Default::default() });
         assert_eq!(obj.f(delta), f64::INFINITY);
         let mut res = vec![0.0; obj.beams()];
         let n = obj.residuals(delta, &mut res);
@@ -642,13 +735,22 @@ mod tests {
         let (r, mut c) = room_pair(delta);
         let params = ObjectiveParams::default();
         // NaN pose
-        assert_eq!(Objective::new(&r, &c, &params).f(Pose2::new(f64::NAN, 0.0, 0.0)), f64::INFINITY);
+        assert_eq!(
+            Objective::new(&r, &c, &params).f(Pose2::new(f64::NAN, 0.0, 0.0)),
+            f64::INFINITY
+        );
         // empty scans
         let empty = PolarScan::contiguous(&[], -1.0, 0.01, 10.0, 0.2);
         assert_eq!(Objective::new(&empty, &c, &params).f(delta), f64::INFINITY);
         assert_eq!(Objective::new(&r, &empty, &params).f(delta), f64::INFINITY);
         // all-invalid
-        let dead = PolarScan::contiguous(&vec![None; 181], r.angle_min_rad, r.angle_increment_rad, 10.0, 0.2);
+        let dead = PolarScan::contiguous(
+            &vec![None; 181],
+            r.angle_min_rad,
+            r.angle_increment_rad,
+            10.0,
+            0.2,
+        );
         assert_eq!(Objective::new(&r, &dead, &params).f(delta), f64::INFINITY);
         // NaN ranges on "valid" beams / inconsistent lengths: inconsistent scan, no panic
         c.ranges[10] = f64::NAN;
@@ -666,14 +768,23 @@ mod tests {
         let (r, c) = room_pair(delta);
         let off = Pose2::new(0.01, 0.0, delta.theta);
         let (mean, n) = Objective::new(&r, &c, &ObjectiveParams::default()).f_and_pairs(off);
-        let sum = Objective::new(&r, &c, &ObjectiveParams { normalisation: Normalisation::Sum, ..Default::default() }).f(off);
+        let sum = Objective::new(
+            &r,
+            &c,
+            &ObjectiveParams { normalisation: Normalisation::Sum, ..Default::default() },
+        )
+        .f(off);
         assert!((sum - mean * n as f64).abs() < 1e-9 * sum);
         assert!(ObjectiveParams::default().validate().is_empty());
-        let bad = ObjectiveParams { min_pairs: 0, max_residual_m: Some(-1.0), ..Default::default() };
+        let bad =
+            ObjectiveParams { min_pairs: 0, max_residual_m: Some(-1.0), ..Default::default() };
         let keys: Vec<String> = bad.validate().into_iter().map(|v| v.key).collect();
         assert_eq!(keys, ["min_pairs", "max_residual_m"]);
         // the TOML table round-trips and rejects unknown keys
-        let t: ObjectiveParams = toml::from_str("normalisation = \"sum\"\ninterpolation = \"chord\"\nmax_residual_m = 0.5").unwrap();
+        let t: ObjectiveParams = toml::from_str(
+            "normalisation = \"sum\"\ninterpolation = \"chord\"\nmax_residual_m = 0.5",
+        )
+        .unwrap();
         assert_eq!(t.normalisation, Normalisation::Sum);
         assert_eq!(t.max_residual_m, Some(0.5));
         assert!(toml::from_str::<ObjectiveParams>("min_pair = 3").is_err());

@@ -149,11 +149,15 @@ impl PsmParams {
     /// The report's sentence on PSM: the algorithm with the study's constants (Diosi & Kleeman's
     /// when default) and the v0.3 behaviours in force.
     pub fn describe(&self) -> String {
-        let constants = if *self == PsmParams::default() { "and constants" } else { "with these constants" };
+        let constants =
+            if *self == PsmParams::default() { "and constants" } else { "with these constants" };
         let c_cm = (self.weighting_factor_m2.sqrt() * 100.0 * 1e6).round() / 1e6;
         let weight = match self.weight_schedule {
             WeightSchedule::Constant => format!("C = {c_cm}² cm² throughout, as v0.3 runs"),
-            WeightSchedule::ReducedAfter => format!("C = {c_cm}² cm² divided by {} after pass {}", self.weight_reduction, self.change_weight_iter),
+            WeightSchedule::ReducedAfter => format!(
+                "C = {c_cm}² cm² divided by {} after pass {}",
+                self.weight_reduction, self.change_weight_iter
+            ),
         };
         let inverse = match self.inverse {
             Inverse::V03 => "v0.3's 2 × 2 inverse (determinant h11·h22)",
@@ -172,7 +176,9 @@ impl PsmParams {
         let mut c = Checks::new();
         c.positive("max_range_m", self.max_range_m);
         c.non_negative("min_range_m", self.min_range_m);
-        c.require(self.min_range_m < self.max_range_m, "min_range_m", || "must be < max_range_m".to_string());
+        c.require(self.min_range_m < self.max_range_m, "min_range_m", || {
+            "must be < max_range_m".to_string()
+        });
         c.positive("max_error_m", self.max_error_m);
         c.positive("weighting_factor_m2", self.weighting_factor_m2);
         c.positive("weight_reduction", self.weight_reduction);
@@ -235,7 +241,11 @@ pub fn psm_observed<C: Cost + ?Sized>(
         });
     }
     let f_initial = score.f(initial);
-    let run = if reference.is_consistent() && current.is_consistent() && initial.is_finite() && !reference.is_empty() {
+    let run = if reference.is_consistent()
+        && current.is_consistent()
+        && initial.is_finite()
+        && !reference.is_empty()
+    {
         match params.precision {
             Precision::Single => iterate::<f32>(reference, current, initial, params, observe),
             Precision::Double => iterate::<f64>(reference, current, initial, params, observe),
@@ -250,7 +260,16 @@ pub fn psm_observed<C: Cost + ?Sized>(
     let mut residuals = vec![0.0; score.beams()];
     let pairs = score.residuals(pose, &mut residuals);
     let passes = run.passes;
-    Ok(MatchResult { pose, f: score.f(pose), f_initial, pairs, iterations: passes, evaluations: passes as u64, fallback: false, stop })
+    Ok(MatchResult {
+        pose,
+        f: score.f(pose),
+        f_initial,
+        pairs,
+        iterations: passes,
+        evaluations: passes as u64,
+        fallback: false,
+        stop,
+    })
 }
 
 /// One `pm_psm` call: the estimate and why it stopped, or why it failed; passes begun (for a
@@ -276,7 +295,13 @@ impl<T: Real> Frame<T> {
         let fi_min = T::from_f64(scan.angle_min_rad + std::f64::consts::FRAC_PI_2);
         let dfi = T::from_f64(scan.angle_increment_rad);
         let fi: Vec<T> = (0..scan.len()).map(|i| T::from_usize(i) * dfi + fi_min).collect();
-        Self { fi_min, dfi, co: fi.iter().map(|f| f.cos()).collect(), si: fi.iter().map(|f| f.sin()).collect(), fi }
+        Self {
+            fi_min,
+            dfi,
+            co: fi.iter().map(|f| f.cos()).collect(),
+            si: fi.iter().map(|f| f.sin()).collect(),
+            fi,
+        }
     }
 }
 
@@ -291,7 +316,11 @@ struct Ranges<'a, T> {
 
 impl<'a, T: Real> Ranges<'a, T> {
     fn new(scan: &'a PolarScan) -> Self {
-        Self { r: scan.ranges.iter().map(|&r| T::from_f64(r * M_TO_CM)).collect(), valid: &scan.valid, seg: &scan.segment }
+        Self {
+            r: scan.ranges.iter().map(|&r| T::from_f64(r * M_TO_CM)).collect(),
+            valid: &scan.valid,
+            seg: &scan.segment,
+        }
     }
 }
 
@@ -309,25 +338,43 @@ struct Projected<T> {
 
 impl<T: Real> Projected<T> {
     fn new(beams: usize) -> Self {
-        Self { r: vec![T::ZERO; beams], usable: vec![false; beams], points_r: vec![T::ZERO; beams], points_fi: vec![T::ZERO; beams] }
+        Self {
+            r: vec![T::ZERO; beams],
+            usable: vec![false; beams],
+            points_r: vec![T::ZERO; beams],
+            points_fi: vec![T::ZERO; beams],
+        }
     }
 }
 
 /// `pm_psm`'s loop, in PSM's frame and units (see the module doc).
-fn iterate<T: Real>(reference: &PolarScan, current: &PolarScan, initial: Pose2, params: &PsmParams, observe: &mut dyn FnMut(Pose2)) -> Run {
+fn iterate<T: Real>(
+    reference: &PolarScan,
+    current: &PolarScan,
+    initial: Pose2,
+    params: &PsmParams,
+    observe: &mut dyn FnMut(Pose2),
+) -> Run {
     let frame = Frame::<T>::new(reference);
     let (reference, current) = (Ranges::<T>::new(reference), Ranges::<T>::new(current));
     let mut projected = Projected::new(frame.fi.len());
     // our (x forward, y left) m → PSM's (X right, Y forward) cm; the heading is the same angle
-    let (mut ax, mut ay, mut ath) =
-        (T::from_f64(-M_TO_CM * initial.y), T::from_f64(M_TO_CM * initial.x), T::from_f64(initial.theta));
+    let (mut ax, mut ay, mut ath) = (
+        T::from_f64(-M_TO_CM * initial.y),
+        T::from_f64(M_TO_CM * initial.x),
+        T::from_f64(initial.theta),
+    );
     let weighting_factor = T::from_f64(params.weighting_factor_m2 * M_TO_CM * M_TO_CM);
     let (mut dx, mut dy, mut dth) = (T::ZERO, T::ZERO, T::ZERO);
     let mut small = 0u32;
     let mut pass = 0u32;
     while pass < params.max_iter && small < params.small_corrections_to_stop {
         // mixed units as published: cm + cm + rad
-        small = if (dx.abs() + dy.abs() + dth.abs()).to_f64() < params.stop_cond { small + 1 } else { 0 };
+        small = if (dx.abs() + dy.abs() + dth.abs()).to_f64() < params.stop_cond {
+            small + 1
+        } else {
+            0
+        };
         project(&frame, &current, (ax, ay, ath), &mut projected);
         if pass.is_multiple_of(2) {
             match orientation_search(&frame, &reference, &projected, params) {
@@ -353,7 +400,8 @@ fn iterate<T: Real>(reference: &PolarScan, current: &PolarScan, initial: Pose2, 
         pass += 1;
     }
     let pose = to_pose((ax, ay, ath));
-    let stop = if small >= params.small_corrections_to_stop { Stop::Converged } else { Stop::Budget };
+    let stop =
+        if small >= params.small_corrections_to_stop { Stop::Converged } else { Stop::Budget };
     Run { outcome: Ok((pose, stop)), passes: pass }
 }
 
@@ -381,24 +429,51 @@ pub struct OrientationProfile {
 /// [`OrientationProfile`] of PSM's orientation pass at `at` (current laser pose in the reference
 /// frame), in the precision `params` names. Pure; used by the diagnostics, tested to return the
 /// heading change [`psm`]'s first pass makes.
-pub fn orientation_profile(reference: &PolarScan, current: &PolarScan, at: Pose2, params: &PsmParams) -> OrientationProfile {
-    fn profile<T: Real>(reference: &PolarScan, current: &PolarScan, at: Pose2, params: &PsmParams) -> OrientationProfile {
+pub fn orientation_profile(
+    reference: &PolarScan,
+    current: &PolarScan,
+    at: Pose2,
+    params: &PsmParams,
+) -> OrientationProfile {
+    fn profile<T: Real>(
+        reference: &PolarScan,
+        current: &PolarScan,
+        at: Pose2,
+        params: &PsmParams,
+    ) -> OrientationProfile {
         let frame = Frame::<T>::new(reference);
         let (reference, current) = (Ranges::<T>::new(reference), Ranges::<T>::new(current));
         let mut projected = Projected::new(frame.fi.len());
-        project(&frame, &current, (T::from_f64(-M_TO_CM * at.y), T::from_f64(M_TO_CM * at.x), T::from_f64(at.theta)), &mut projected);
+        project(
+            &frame,
+            &current,
+            (T::from_f64(-M_TO_CM * at.y), T::from_f64(M_TO_CM * at.x), T::from_f64(at.theta)),
+            &mut projected,
+        );
         let errors = orientation_errors(&reference, &projected, params);
         let w = params.search_window_beams as isize;
         let pick = orientation_pick(&frame, &errors, params);
         OrientationProfile {
             shifts_rad: (-w..=w).map(|di| di as f64 * frame.dfi.to_f64()).collect(),
-            errors_cm: errors.iter().map(|e| (e.to_f64() < NO_OVERLAP_ERROR_CM).then(|| e.to_f64())).collect(),
+            errors_cm: errors
+                .iter()
+                .map(|e| (e.to_f64() < NO_OVERLAP_ERROR_CM).then(|| e.to_f64()))
+                .collect(),
             dtheta_rad: pick.map(|(d, _)| d.to_f64()),
             refined: pick.is_some_and(|(_, refined)| refined),
         }
     }
-    if !reference.same_geometry(current) || !reference.is_consistent() || !current.is_consistent() || reference.is_empty() {
-        return OrientationProfile { shifts_rad: Vec::new(), errors_cm: Vec::new(), dtheta_rad: None, refined: false };
+    if !reference.same_geometry(current)
+        || !reference.is_consistent()
+        || !current.is_consistent()
+        || reference.is_empty()
+    {
+        return OrientationProfile {
+            shifts_rad: Vec::new(),
+            errors_cm: Vec::new(),
+            dtheta_rad: None,
+            refined: false,
+        };
     }
     match params.precision {
         Precision::Single => profile::<f32>(reference, current, at, params),
@@ -412,7 +487,12 @@ pub fn orientation_profile(reference: &PolarScan, current: &PolarScan, at: Pose2
 /// gets the range interpolated linearly in bearing, and the closest value wins. A pair whose
 /// bearings run backwards is a surface seen from behind: its values still hide farther ones but
 /// are tagged unusable. Pairs spanning π or more are skipped (v0.3's seam guard).
-fn project<T: Real>(frame: &Frame<T>, current: &Ranges<T>, (ax, ay, ath): (T, T, T), out: &mut Projected<T>) {
+fn project<T: Real>(
+    frame: &Frame<T>,
+    current: &Ranges<T>,
+    (ax, ay, ath): (T, T, T),
+    out: &mut Projected<T>,
+) {
     let n = frame.fi.len();
     let (r, fi) = (&mut out.points_r, &mut out.points_fi);
     for i in 0..n {
@@ -428,20 +508,29 @@ fn project<T: Real>(frame: &Frame<T>, current: &Ranges<T>, (ax, ay, ath): (T, T,
     out.r.fill(T::from_f64(EMPTY_RANGE_CM));
     out.usable.fill(false);
     for i in 1..n {
-        if current.seg[i] == 0 || current.seg[i] != current.seg[i - 1] || !current.valid[i] || !current.valid[i - 1] {
+        if current.seg[i] == 0
+            || current.seg[i] != current.seg[i - 1]
+            || !current.valid[i]
+            || !current.valid[i - 1]
+        {
             continue;
         }
         if (fi[i] - fi[i - 1]).abs().to_f64() >= std::f64::consts::PI {
             continue;
         }
-        let (a0, a1, r0, r1, occluded) = if fi[i] > fi[i - 1] { (fi[i - 1], fi[i], r[i - 1], r[i], false) } else { (fi[i], fi[i - 1], r[i], r[i - 1], true) };
+        let (a0, a1, r0, r1, occluded) = if fi[i] > fi[i - 1] {
+            (fi[i - 1], fi[i], r[i - 1], r[i], false)
+        } else {
+            (fi[i], fi[i - 1], r[i], r[i - 1], true)
+        };
         let j0 = ((a0 - frame.fi_min) / frame.dfi).to_f64().ceil();
         let j1 = ((a1 - frame.fi_min) / frame.dfi).to_f64().floor();
         if !(j0.is_finite() && j1.is_finite()) || j1 < 0.0 || j0 > (n - 1) as f64 {
             continue;
         }
         for j in (j0.max(0.0) as usize)..=(j1.min((n - 1) as f64) as usize) {
-            let ri = (r1 - r0) / (a1 - a0) * ((T::from_usize(j) * frame.dfi + frame.fi_min) - a0) + r0;
+            let ri =
+                (r1 - r0) / (a1 - a0) * ((T::from_usize(j) * frame.dfi + frame.fi_min) - a0) + r0;
             if out.r[j] > ri {
                 out.r[j] = ri;
                 out.usable[j] = !occluded;
@@ -454,12 +543,22 @@ fn project<T: Real>(frame: &Frame<T>, current: &Ranges<T>, (ax, ay, ath): (T, T,
 /// the bearings usable in both (a mean *absolute* residual), refined by [`parabolic_refinement`];
 /// returns dθ = (di + d)·Δφ [rad], or `None` when no shift has a pair. Assumes that a rotation is a
 /// pure shift of the range array (the invariance [EP] L151 drops).
-fn orientation_search<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projected: &Projected<T>, params: &PsmParams) -> Option<T> {
-    orientation_pick(frame, &orientation_errors(reference, projected, params), params).map(|(d, _)| d)
+fn orientation_search<T: Real>(
+    frame: &Frame<T>,
+    reference: &Ranges<T>,
+    projected: &Projected<T>,
+    params: &PsmParams,
+) -> Option<T> {
+    orientation_pick(frame, &orientation_errors(reference, projected, params), params)
+        .map(|(d, _)| d)
 }
 
 /// e(di) for di = −W..=W (see [`orientation_search`]); [`NO_OVERLAP_ERROR_CM`] where no pair.
-fn orientation_errors<T: Real>(reference: &Ranges<T>, projected: &Projected<T>, params: &PsmParams) -> Vec<T> {
+fn orientation_errors<T: Real>(
+    reference: &Ranges<T>,
+    projected: &Projected<T>,
+    params: &PsmParams,
+) -> Vec<T> {
     let n = reference.r.len() as isize;
     let w = params.search_window_beams as isize;
     let (one, zero) = (T::from_f64(1.0), T::ZERO);
@@ -486,7 +585,11 @@ fn orientation_errors<T: Real>(reference: &Ranges<T>, projected: &Projected<T>, 
 
 /// The first smallest e(di) refined by the parabola: (dθ [rad], whether refined); `None` when no
 /// shift has a pair.
-fn orientation_pick<T: Real>(frame: &Frame<T>, errors: &[T], params: &PsmParams) -> Option<(T, bool)> {
+fn orientation_pick<T: Real>(
+    frame: &Frame<T>,
+    errors: &[T],
+    params: &PsmParams,
+) -> Option<(T, bool)> {
     let w = params.search_window_beams as isize;
     // the first smallest error (v0.3 scans with a strict <)
     let mut imin = 0;
@@ -501,7 +604,12 @@ fn orientation_pick<T: Real>(frame: &Frame<T>, errors: &[T], params: &PsmParams)
     let mut dth = T::from_f64((imin as isize - w) as f64) * frame.dfi;
     let mut refined = false;
     if imin >= 1 && imin + 1 < errors.len() {
-        let d = parabolic_refinement(errors[imin - 1], errors[imin], errors[imin + 1], params.parabola_min_curvature_m * M_TO_CM);
+        let d = parabolic_refinement(
+            errors[imin - 1],
+            errors[imin],
+            errors[imin + 1],
+            params.parabola_min_curvature_m * M_TO_CM,
+        );
         if let Some(d) = d {
             dth += d * frame.dfi;
             refined = true;
@@ -537,15 +645,27 @@ struct TranslationStep<T> {
 /// w = C/(C + e²). Pairs: both usable, min_range < r̂ < max_range and |e| < max_error. Fails with
 /// [`Stop::TooFewPairs`] below `min_valid_points` and [`Stop::Singular`] when the determinant
 /// (per `params.inverse`) is below `min_determinant`.
-fn translation_step<T: Real>(frame: &Frame<T>, reference: &Ranges<T>, projected: &Projected<T>, c: T, params: &PsmParams) -> Result<TranslationStep<T>, Stop> {
-    let (max_range, min_range, max_error) = (params.max_range_m * M_TO_CM, params.min_range_m * M_TO_CM, params.max_error_m * M_TO_CM);
-    let (mut hw1, mut hw2, mut hwh11, mut hwh12, mut hwh22) = (T::ZERO, T::ZERO, T::ZERO, T::ZERO, T::ZERO);
+fn translation_step<T: Real>(
+    frame: &Frame<T>,
+    reference: &Ranges<T>,
+    projected: &Projected<T>,
+    c: T,
+    params: &PsmParams,
+) -> Result<TranslationStep<T>, Stop> {
+    let (max_range, min_range, max_error) =
+        (params.max_range_m * M_TO_CM, params.min_range_m * M_TO_CM, params.max_error_m * M_TO_CM);
+    let (mut hw1, mut hw2, mut hwh11, mut hwh12, mut hwh22) =
+        (T::ZERO, T::ZERO, T::ZERO, T::ZERO, T::ZERO);
     let mut n = 0usize;
     for j in 0..reference.r.len() {
         let r_hat = projected.r[j];
         let e = reference.r[j] - r_hat;
         let paired = reference.valid[j] && projected.usable[j];
-        if !(paired && r_hat.to_f64() < max_range && r_hat.to_f64() > min_range && e.abs().to_f64() < max_error) {
+        if !(paired
+            && r_hat.to_f64() < max_range
+            && r_hat.to_f64() > min_range
+            && e.abs().to_f64() < max_error)
+        {
             continue;
         }
         let w = c / (e * e + c); // Dudek's weight
@@ -587,9 +707,28 @@ mod tests {
     fn describe_states_the_constants_and_the_v03_behaviours() {
         let p = PsmParams::default();
         let s = p.describe();
-        assert_eq!((p.search_window_beams, p.weight_reduction, p.change_weight_iter, p.small_corrections_to_stop, p.max_iter), (20, 50.0, 10, 3, 30));
-        assert!(s.contains("±20 beams") && s.contains("C = 70² cm² throughout") && s.contains("3 small corrections or 30 passes"), "{s}");
-        assert!(s.contains("v0.3 program and constants") && s.contains("determinant h11·h22") && s.contains("single precision"), "{s}");
+        assert_eq!(
+            (
+                p.search_window_beams,
+                p.weight_reduction,
+                p.change_weight_iter,
+                p.small_corrections_to_stop,
+                p.max_iter
+            ),
+            (20, 50.0, 10, 3, 30)
+        );
+        assert!(
+            s.contains("±20 beams")
+                && s.contains("C = 70² cm² throughout")
+                && s.contains("3 small corrections or 30 passes"),
+            "{s}"
+        );
+        assert!(
+            s.contains("v0.3 program and constants")
+                && s.contains("determinant h11·h22")
+                && s.contains("single precision"),
+            "{s}"
+        );
         // a study's own constants and choices are what the report states
         let q = PsmParams {
             search_window_beams: 35,
@@ -600,20 +739,36 @@ mod tests {
             ..p
         };
         let s = q.describe();
-        assert!(s.contains("with these constants") && s.contains("±35 beams") && s.contains("or 60 passes"), "{s}");
-        assert!(s.contains("divided by 50 after pass 10") && s.contains("symmetric 2 × 2 inverse") && s.contains("double precision"), "{s}");
+        assert!(
+            s.contains("with these constants")
+                && s.contains("±35 beams")
+                && s.contains("or 60 passes"),
+            "{s}"
+        );
+        assert!(
+            s.contains("divided by 50 after pass 10")
+                && s.contains("symmetric 2 × 2 inverse")
+                && s.contains("double precision"),
+            "{s}"
+        );
     }
 
     fn prepared_pair(delta: Pose2, method: Segmentation) -> (PolarScan, PolarScan) {
         let beams = Beams::lms200();
         let (r, c) = raw_pair(&rect_room_with_column(), ROOM_REFERENCE_POSE, delta, &beams);
         let p = SegmentationParams { method, ..Default::default() };
-        let prep = |raw: &[Option<f64>]| prepare(raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, &p);
+        let prep = |raw: &[Option<f64>]| {
+            prepare(raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, &p)
+        };
         (prep(&r), prep(&c))
     }
 
     fn matched(r: &PolarScan, c: &PolarScan, initial: Pose2, params: &PsmParams) -> MatchResult {
-        let mut score = Objective::new(r, c, &ObjectiveParams { max_residual_m: None, ..ObjectiveParams::default() });
+        let mut score = Objective::new(
+            r,
+            c,
+            &ObjectiveParams { max_residual_m: None, ..ObjectiveParams::default() },
+        );
         psm(r, c, initial, params, &mut score).unwrap()
     }
 
@@ -630,8 +785,17 @@ mod tests {
             let (r, c) = prepared_pair(truth, method);
             for precision in [Precision::Single, Precision::Double] {
                 for inverse in [Inverse::V03, Inverse::Symmetric] {
-                    let m = matched(&r, &c, Pose2::IDENTITY, &PsmParams { precision, inverse, ..PsmParams::default() });
-                    let (ex, ey, et) = (m.pose.x - truth.x, m.pose.y - truth.y, wrap_angle(m.pose.theta - truth.theta));
+                    let m = matched(
+                        &r,
+                        &c,
+                        Pose2::IDENTITY,
+                        &PsmParams { precision, inverse, ..PsmParams::default() },
+                    );
+                    let (ex, ey, et) = (
+                        m.pose.x - truth.x,
+                        m.pose.y - truth.y,
+                        wrap_angle(m.pose.theta - truth.theta),
+                    );
                     assert!(
                         ex.abs() < 0.010 && ey.abs() < 0.034 && et.abs() < deg(0.7),
                         "{method:?} {precision:?} {inverse:?}: {m:?} err ({ex}, {ey}, {}°)",
@@ -678,12 +842,16 @@ mod tests {
                 let (mut ax, mut ay, ath) = (-100.0 * 0.0, 100.0 * 0.0, truth.theta);
                 for _ in 0..60 {
                     project(&frame, &current, (ax, ay, ath), &mut projected);
-                    let s = translation_step(&frame, &reference, &projected, 4900.0, &params).unwrap();
+                    let s =
+                        translation_step(&frame, &reference, &projected, 4900.0, &params).unwrap();
                     ax += s.dx;
                     ay += s.dy;
                 }
                 let (x, y) = (ay / 100.0, -ax / 100.0);
-                assert!((x - truth.x).abs() < 2.5e-3 && (y - truth.y).abs() < 2.5e-3, "{method:?} {inverse:?}: ({x}, {y})");
+                assert!(
+                    (x - truth.x).abs() < 2.5e-3 && (y - truth.y).abs() < 2.5e-3,
+                    "{method:?} {inverse:?}: ({x}, {y})"
+                );
             }
         }
     }
@@ -694,32 +862,53 @@ mod tests {
         let e = |x: f64| 2.0 * (x - 0.3f64).powi(2) + 1.0;
         assert!((parabolic_refinement(e(-1.0), e(0.0), e(1.0), 0.01).unwrap() - 0.3).abs() < 1e-12);
         let e = |x: f64| 0.5 * (x + 0.45f64).powi(2);
-        assert!((parabolic_refinement(e(-1.0), e(0.0), e(1.0), 0.01).unwrap() + 0.45).abs() < 1e-12);
+        assert!(
+            (parabolic_refinement(e(-1.0), e(0.0), e(1.0), 0.01).unwrap() + 0.45).abs() < 1e-12
+        );
         // flat (|D| ≤ threshold), not a minimum, or vertex beyond ±1: no refinement
         assert_eq!(parabolic_refinement(1.0, 1.0, 1.0, 0.01), None);
         assert_eq!(parabolic_refinement(1.0, 2.0, 3.0, 0.01), None);
         assert_eq!(parabolic_refinement(3.0, 1.0, 0.9, 0.01), None);
         // a V (mean absolute residual) with its vertex at 0.3: the parabola says 3/14 — PSM's bias
         let v = |x: f64| (x - 0.3f64).abs();
-        assert!((parabolic_refinement(v(-1.0), v(0.0), v(1.0), 0.01).unwrap() - 3.0 / 14.0).abs() < 1e-12);
+        assert!(
+            (parabolic_refinement(v(-1.0), v(0.0), v(1.0), 0.01).unwrap() - 3.0 / 14.0).abs()
+                < 1e-12
+        );
         // single precision: the same vertex to float accuracy
         let d = parabolic_refinement(v(-1.0) as f32, v(0.0) as f32, v(1.0) as f32, 0.01).unwrap();
         assert!((d as f64 - 3.0 / 14.0).abs() < 1e-6);
     }
 
     /// A reference of `bearings_deg` (PSM frame, from X) with ranges [cm], and the projected ranges.
-    fn by_hand(bearings_deg: &[f64], ranges_cm: &[f64], projected_cm: &[f64]) -> (Frame<f64>, Ranges<'static, f64>, Projected<f64>) {
+    fn by_hand(
+        bearings_deg: &[f64],
+        ranges_cm: &[f64],
+        projected_cm: &[f64],
+    ) -> (Frame<f64>, Ranges<'static, f64>, Projected<f64>) {
         let fi: Vec<f64> = bearings_deg.iter().map(|d| deg(*d)).collect();
-        let frame = Frame { fi_min: fi[0], dfi: 1.0, co: fi.iter().map(|f| f.cos()).collect(), si: fi.iter().map(|f| f.sin()).collect(), fi };
+        let frame = Frame {
+            fi_min: fi[0],
+            dfi: 1.0,
+            co: fi.iter().map(|f| f.cos()).collect(),
+            si: fi.iter().map(|f| f.sin()).collect(),
+            fi,
+        };
         let n = ranges_cm.len();
-        let reference = Ranges { r: ranges_cm.to_vec(), valid: vec![true; n].leak(), seg: vec![1; n].leak() };
-        let projected = Projected { r: projected_cm.to_vec(), usable: vec![true; projected_cm.len()], ..Projected::new(projected_cm.len()) };
+        let reference =
+            Ranges { r: ranges_cm.to_vec(), valid: vec![true; n].leak(), seg: vec![1; n].leak() };
+        let projected = Projected {
+            r: projected_cm.to_vec(),
+            usable: vec![true; projected_cm.len()],
+            ..Projected::new(projected_cm.len())
+        };
         (frame, reference, projected)
     }
 
     #[test]
     fn weighted_least_squares_step_by_hand() {
-        let params = PsmParams { min_valid_points: 2, inverse: Inverse::Symmetric, ..Default::default() };
+        let params =
+            PsmParams { min_valid_points: 2, inverse: Inverse::Symmetric, ..Default::default() };
         // two orthogonal beams: the step is the residuals themselves
         let (f, r, p) = by_hand(&[0.0, 90.0], &[300.0, 200.0], &[290.0, 180.0]);
         let s = translation_step(&f, &r, &p, 4900.0, &params).unwrap();
@@ -739,32 +928,53 @@ mod tests {
         let (dx, dy) = (5.0, -3.0);
         let bearings = [20.0, 35.0, 50.0, 70.0];
         let ranges = [200.0, 300.0, 400.0, 500.0];
-        let projected: Vec<f64> = bearings.iter().zip(&ranges).map(|(b, rr)| rr - (deg(*b).cos() * dx + deg(*b).sin() * dy)).collect();
+        let projected: Vec<f64> = bearings
+            .iter()
+            .zip(&ranges)
+            .map(|(b, rr)| rr - (deg(*b).cos() * dx + deg(*b).sin() * dy))
+            .collect();
         let (f, r, p) = by_hand(&bearings, &ranges, &projected);
         let s = translation_step(&f, &r, &p, c, &params).unwrap();
         assert!((s.dx - dx).abs() < 1e-9 && (s.dy - dy).abs() < 1e-9, "{s:?}");
         // v0.3's inverse: determinant h11·h22 and off-diagonals −h12: not the solution where h12 ≠ 0
-        let v03 = translation_step(&f, &r, &p, c, &PsmParams { inverse: Inverse::V03, ..params.clone() }).unwrap();
+        let v03 =
+            translation_step(&f, &r, &p, c, &PsmParams { inverse: Inverse::V03, ..params.clone() })
+                .unwrap();
         let (mut h11, mut h12, mut h22, mut b1, mut b2) = (0.0, 0.0, 0.0, 0.0, 0.0);
         for j in 0..4 {
             let e: f64 = r.r[j] - p.r[j];
             let w = c / (e * e + c);
             let (h1, h2) = (f.co[j], f.si[j]);
-            (h11, h12, h22, b1, b2) = (h11 + w * h1 * h1, h12 + w * h1 * h2, h22 + w * h2 * h2, b1 + w * h1 * e, b2 + w * h2 * e);
+            (h11, h12, h22, b1, b2) = (
+                h11 + w * h1 * h1,
+                h12 + w * h1 * h2,
+                h22 + w * h2 * h2,
+                b1 + w * h1 * e,
+                b2 + w * h2 * e,
+            );
         }
         let d = h11 * h22;
         assert!(h12.abs() > 0.1, "the case needs coupling: h12 = {h12}");
-        assert!((v03.dx - (h22 * b1 - h12 * b2) / d).abs() < 1e-9 && (v03.dy - (h11 * b2 - h12 * b1) / d).abs() < 1e-9, "{v03:?}");
+        assert!(
+            (v03.dx - (h22 * b1 - h12 * b2) / d).abs() < 1e-9
+                && (v03.dy - (h11 * b2 - h12 * b1) / d).abs() < 1e-9,
+            "{v03:?}"
+        );
         assert!((v03.dx - dx).abs() > 0.1, "{v03:?}");
         // gates: residual ≥ max_error (100 cm), unusable, below min range; then too few / singular
         let (f, r, _) = by_hand(&bearings, &[200.0, 300.0, 400.0, 500.0], &[0.0; 4]);
-        let gated = Projected { r: vec![200.0 - 150.0, 300.0, 5.0, 500.0], usable: vec![true, true, true, false], ..Projected::new(4) };
+        let gated = Projected {
+            r: vec![200.0 - 150.0, 300.0, 5.0, 500.0],
+            usable: vec![true, true, true, false],
+            ..Projected::new(4)
+        };
         assert_eq!(translation_step(&f, &r, &gated, c, &params), Err(Stop::TooFewPairs));
         let (f, r, p) = by_hand(&[10.0, 10.0], &[300.0, 300.0], &[290.0, 290.0]);
         assert_eq!(translation_step(&f, &r, &p, c, &params), Err(Stop::Singular));
         // a NaN projected range is never a pair
         let (f, r, _) = by_hand(&[0.0, 90.0], &[300.0, 200.0], &[0.0; 2]);
-        let nan = Projected { r: vec![f64::NAN, 180.0], usable: vec![true; 2], ..Projected::new(2) };
+        let nan =
+            Projected { r: vec![f64::NAN, 180.0], usable: vec![true; 2], ..Projected::new(2) };
         assert_eq!(translation_step(&f, &r, &nan, c, &params), Err(Stop::TooFewPairs));
     }
 
@@ -775,14 +985,21 @@ mod tests {
         // current scan rotated by +4 beams seen at θ = 0: r̂[i] = r_ref[i + 4]
         let n = r.len();
         let shifted = Projected {
-            r: (0..n).map(|i| if i + 4 < n { reference.r[i + 4] } else { EMPTY_RANGE_CM }).collect(),
+            r: (0..n)
+                .map(|i| if i + 4 < n { reference.r[i + 4] } else { EMPTY_RANGE_CM })
+                .collect(),
             usable: (0..n).map(|i| i + 4 < n).collect(),
             ..Projected::new(n)
         };
         let d = orientation_search(&frame, &reference, &shifted, &PsmParams::default()).unwrap();
         // (the parabolic refinement moves it by a fraction of a beam: the V-shape bias)
-        assert!((d - 4.0 * r.angle_increment_rad).abs() < 0.02 * r.angle_increment_rad, "{}", d.to_degrees());
-        let empty = Projected { r: vec![EMPTY_RANGE_CM; n], usable: vec![false; n], ..Projected::new(n) };
+        assert!(
+            (d - 4.0 * r.angle_increment_rad).abs() < 0.02 * r.angle_increment_rad,
+            "{}",
+            d.to_degrees()
+        );
+        let empty =
+            Projected { r: vec![EMPTY_RANGE_CM; n], usable: vec![false; n], ..Projected::new(n) };
         assert_eq!(orientation_search(&frame, &reference, &empty, &PsmParams::default()), None);
     }
 
@@ -794,13 +1011,23 @@ mod tests {
         let (r, c) = prepared_pair(truth, Segmentation::PsmHeuristics);
         let v03 = PsmParams { stop_cond: 1e-9, ..PsmParams::default() }; // run all 30 passes
         let a = matched(&r, &c, Pose2::IDENTITY, &v03);
-        let b = matched(&r, &c, Pose2::IDENTITY, &PsmParams { weight_schedule: WeightSchedule::ReducedAfter, ..v03.clone() });
+        let b = matched(
+            &r,
+            &c,
+            Pose2::IDENTITY,
+            &PsmParams { weight_schedule: WeightSchedule::ReducedAfter, ..v03.clone() },
+        );
         assert_eq!((a.iterations, b.iterations), (30, 30));
         assert_ne!(a.pose, b.pose, "C/50 after pass 10 must change the late steps");
         // before pass 11 the schedules agree
         let early = PsmParams { max_iter: 11, ..v03 };
         let a = matched(&r, &c, Pose2::IDENTITY, &early);
-        let b = matched(&r, &c, Pose2::IDENTITY, &PsmParams { weight_schedule: WeightSchedule::ReducedAfter, ..early.clone() });
+        let b = matched(
+            &r,
+            &c,
+            Pose2::IDENTITY,
+            &PsmParams { weight_schedule: WeightSchedule::ReducedAfter, ..early.clone() },
+        );
         assert_eq!(a.pose, b.pose);
     }
 
@@ -811,9 +1038,17 @@ mod tests {
         let truth = Pose2::new(0.2, -0.1, deg(3.0));
         let (r, c) = prepared_pair(truth, Segmentation::PsmHeuristics);
         let single = matched(&r, &c, Pose2::IDENTITY, &PsmParams::default());
-        let double = matched(&r, &c, Pose2::IDENTITY, &PsmParams { precision: Precision::Double, ..PsmParams::default() });
+        let double = matched(
+            &r,
+            &c,
+            Pose2::IDENTITY,
+            &PsmParams { precision: Precision::Double, ..PsmParams::default() },
+        );
         assert_ne!(single.pose, double.pose);
-        assert!(single.pose.position().distance(double.pose.position()) < 1e-3, "{single:?} {double:?}");
+        assert!(
+            single.pose.position().distance(double.pose.position()) < 1e-3,
+            "{single:?} {double:?}"
+        );
         assert!(wrap_angle(single.pose.theta - double.pose.theta).abs() < deg(0.01));
     }
 
@@ -826,14 +1061,24 @@ mod tests {
         short.valid.pop();
         short.segment.pop();
         let mut score = Objective::new(&r, &c, &ObjectiveParams::default());
-        assert!(matches!(psm(&r, &short, Pose2::IDENTITY, &PsmParams::default(), &mut score), Err(PsmError::GeometryMismatch { .. })));
+        assert!(matches!(
+            psm(&r, &short, Pose2::IDENTITY, &PsmParams::default(), &mut score),
+            Err(PsmError::GeometryMismatch { .. })
+        ));
         // all-invalid current scan
-        let dead = prepare(&vec![None; 181], r.angle_min_rad, r.angle_increment_rad, MAX_RANGE_M, &SegmentationParams::default());
+        let dead = prepare(
+            &vec![None; 181],
+            r.angle_min_rad,
+            r.angle_increment_rad,
+            MAX_RANGE_M,
+            &SegmentationParams::default(),
+        );
         let mut score = Objective::new(&r, &dead, &ObjectiveParams::default());
         let m = psm(&r, &dead, Pose2::IDENTITY, &PsmParams::default(), &mut score).unwrap();
         assert_eq!((m.stop, m.pose, m.f), (Stop::TooFewPairs, Pose2::IDENTITY, f64::INFINITY));
         // NaN initial guess and NaN range on a valid beam
-        let m = psm(&r, &c, Pose2::new(f64::NAN, 0.0, 0.0), &PsmParams::default(), &mut score).unwrap();
+        let m =
+            psm(&r, &c, Pose2::new(f64::NAN, 0.0, 0.0), &PsmParams::default(), &mut score).unwrap();
         assert_eq!(m.stop, Stop::TooFewPairs);
         let mut nan = c.clone();
         nan.ranges[50] = f64::NAN;
@@ -850,7 +1095,13 @@ mod tests {
     /// panic, as v0.3's loop bounds give).
     #[test]
     fn a_scan_narrower_than_the_search_window_is_matched_without_panicking() {
-        let scan = PolarScan { angle_min_rad: -0.1, angle_increment_rad: 0.02, ranges: vec![2.0; 10], valid: vec![true; 10], segment: vec![1; 10] };
+        let scan = PolarScan {
+            angle_min_rad: -0.1,
+            angle_increment_rad: 0.02,
+            ranges: vec![2.0; 10],
+            valid: vec![true; 10],
+            segment: vec![1; 10],
+        };
         let mut score = Objective::new(&scan, &scan, &ObjectiveParams::default());
         let params = PsmParams { min_valid_points: 2, ..PsmParams::default() };
         assert!(params.search_window_beams > scan.len());
@@ -866,8 +1117,14 @@ mod tests {
         assert_eq!(keys, ["min_range_m", "stop_cond"]);
         let p: PsmParams = toml::from_str("max_error_m = 0.3\nweighting_factor_m2 = 0.09").unwrap();
         assert_eq!((p.max_error_m, p.weighting_factor_m2), (0.3, 0.09));
-        let p: PsmParams = toml::from_str("precision = \"double\"\ninverse = \"symmetric\"\nweight_schedule = \"reduced_after\"").unwrap();
-        assert_eq!((p.precision, p.inverse, p.weight_schedule), (Precision::Double, Inverse::Symmetric, WeightSchedule::ReducedAfter));
+        let p: PsmParams = toml::from_str(
+            "precision = \"double\"\ninverse = \"symmetric\"\nweight_schedule = \"reduced_after\"",
+        )
+        .unwrap();
+        assert_eq!(
+            (p.precision, p.inverse, p.weight_schedule),
+            (Precision::Double, Inverse::Symmetric, WeightSchedule::ReducedAfter)
+        );
         assert!(toml::from_str::<PsmParams>("max_err = 1").is_err());
         assert!(toml::from_str::<PsmParams>("precision = \"half\"").is_err());
     }

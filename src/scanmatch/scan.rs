@@ -84,7 +84,13 @@ impl PolarScan {
         max_jump_m: f64,
     ) -> PolarScan {
         let n = ranges.len();
-        let mut scan = PolarScan { angle_min_rad, angle_increment_rad, ranges: vec![0.0; n], valid: vec![false; n], segment: vec![0; n] };
+        let mut scan = PolarScan {
+            angle_min_rad,
+            angle_increment_rad,
+            ranges: vec![0.0; n],
+            valid: vec![false; n],
+            segment: vec![0; n],
+        };
         for (i, r) in ranges.iter().enumerate() {
             if let Some(r) = *r
                 && usable_range(r, max_range_m)
@@ -96,8 +102,11 @@ impl PolarScan {
         let mut label = 0u32;
         let mut run_start = 0usize;
         for i in 0..=n {
-            let continues =
-                i < n && i > run_start && scan.valid[i] && scan.valid[i - 1] && (scan.ranges[i] - scan.ranges[i - 1]).abs() <= max_jump_m;
+            let continues = i < n
+                && i > run_start
+                && scan.valid[i]
+                && scan.valid[i - 1]
+                && (scan.ranges[i] - scan.ranges[i - 1]).abs() <= max_jump_m;
             if continues {
                 continue;
             }
@@ -153,8 +162,15 @@ pub mod testing {
     pub const JUMP_M: f64 = 0.2;
 
     /// An ideal scan: each beam returns the nearest wall hit within `max_range_m`, else `None`.
-    pub fn cast_scan(walls: &[Segment], pose: Pose2, beams: &Beams, max_range_m: f64) -> Vec<Option<f64>> {
-        (0..beams.count).map(|i| cast_ray(walls, pose.position(), pose.theta + beams.bearing(i), max_range_m)).collect()
+    pub fn cast_scan(
+        walls: &[Segment],
+        pose: Pose2,
+        beams: &Beams,
+        max_range_m: f64,
+    ) -> Vec<Option<f64>> {
+        (0..beams.count)
+            .map(|i| cast_ray(walls, pose.position(), pose.theta + beams.bearing(i), max_range_m))
+            .collect()
     }
 
     /// Closed polygon → wall segments.
@@ -183,7 +199,18 @@ pub mod testing {
 
     /// [EP] Fig 9 stand-in: a non-convex 10-vertex polygon (about 9 m × 6 m).
     pub fn polygon_room() -> Vec<Segment> {
-        polygon(&[(0.0, 0.0), (6.0, 0.0), (7.0, 1.5), (9.0, 1.5), (9.0, 5.0), (6.5, 6.0), (4.0, 4.5), (2.5, 6.0), (0.0, 5.0), (0.8, 2.5)])
+        polygon(&[
+            (0.0, 0.0),
+            (6.0, 0.0),
+            (7.0, 1.5),
+            (9.0, 1.5),
+            (9.0, 5.0),
+            (6.5, 6.0),
+            (4.0, 4.5),
+            (2.5, 6.0),
+            (0.0, 5.0),
+            (0.8, 2.5),
+        ])
     }
 
     /// A laser pose inside [`polygon_room`].
@@ -191,7 +218,11 @@ pub mod testing {
 
     /// Proportional range noise ([EP] Table 1, "σ when the measure is 1 m"):
     /// r ← r + N(0, (σ_1m · r / 1 m)²), independently per beam; `None` stays `None`.
-    pub fn add_range_noise<R: Rng + ?Sized>(ranges: &[Option<f64>], sigma_at_1m_m: f64, rng: &mut R) -> Vec<Option<f64>> {
+    pub fn add_range_noise<R: Rng + ?Sized>(
+        ranges: &[Option<f64>],
+        sigma_at_1m_m: f64,
+        rng: &mut R,
+    ) -> Vec<Option<f64>> {
         ranges
             .iter()
             .map(|r| {
@@ -206,7 +237,12 @@ pub mod testing {
     /// Raw (noise-free unless noised by the caller) ranges of a reference and a current scan:
     /// the reference laser at `reference_pose` (world), the current one at
     /// `reference_pose ⊕ delta`, so `delta` is the true current pose in the reference frame.
-    pub fn raw_pair(walls: &[Segment], reference_pose: Pose2, delta: Pose2, beams: &Beams) -> (Vec<Option<f64>>, Vec<Option<f64>>) {
+    pub fn raw_pair(
+        walls: &[Segment],
+        reference_pose: Pose2,
+        delta: Pose2,
+        beams: &Beams,
+    ) -> (Vec<Option<f64>>, Vec<Option<f64>>) {
         let reference = cast_scan(walls, reference_pose, beams, MAX_RANGE_M);
         let current = cast_scan(walls, reference_pose.compose(delta), beams, MAX_RANGE_M);
         (reference, current)
@@ -218,7 +254,15 @@ pub mod testing {
     pub fn room_pair(delta: Pose2) -> (PolarScan, PolarScan) {
         let beams = Beams::lms200();
         let (r, c) = raw_pair(&rect_room_with_column(), ROOM_REFERENCE_POSE, delta, &beams);
-        let prep = |raw: &[Option<f64>]| PolarScan::contiguous(raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, JUMP_M);
+        let prep = |raw: &[Option<f64>]| {
+            PolarScan::contiguous(
+                raw,
+                beams.angle_min_rad,
+                beams.angle_increment_rad,
+                MAX_RANGE_M,
+                JUMP_M,
+            )
+        };
         (prep(&r), prep(&c))
     }
 }
@@ -231,7 +275,17 @@ mod tests {
 
     #[test]
     fn contiguous_labels_runs_and_isolated_points() {
-        let raw = [Some(1.0), Some(1.05), Some(1.1), None, Some(2.0), Some(5.0), Some(5.1), Some(f64::NAN), Some(11.0)];
+        let raw = [
+            Some(1.0),
+            Some(1.05),
+            Some(1.1),
+            None,
+            Some(2.0),
+            Some(5.0),
+            Some(5.1),
+            Some(f64::NAN),
+            Some(11.0),
+        ];
         let s = PolarScan::contiguous(&raw, 0.0, 0.1, 10.0, 0.2);
         assert_eq!(s.valid, [true, true, true, false, true, true, true, false, false]);
         assert_eq!(s.segment, [1, 1, 1, 0, 0, 2, 2, 0, 0]);

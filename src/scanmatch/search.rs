@@ -28,7 +28,7 @@
 
 use super::{Cost, MatchResult, Stop};
 use crate::config::{Checks, Violation};
-use crate::geom::{wrap_angle, Pose2};
+use crate::geom::{Pose2, wrap_angle};
 use nlopt::{Algorithm, FailState, Nlopt, SuccessState, Target};
 use serde::{Deserialize, Serialize};
 
@@ -37,7 +37,9 @@ const POSE_DIM: usize = 3;
 
 /// The NLopt algorithms of [EP] Table 3, in the table's order. Default CRS2, [EP]'s
 /// recommendation (§6.2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default, Serialize, Deserialize,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Optimizer {
     /// `GN_DIRECT_L`: locally biased DIRECT (deterministic, global).
@@ -125,7 +127,11 @@ impl Optimizer {
     pub fn uses_gradient(self) -> bool {
         matches!(
             self,
-            Optimizer::MlslLds | Optimizer::Slsqp | Optimizer::Lbfgs | Optimizer::Tnewton | Optimizer::Var2
+            Optimizer::MlslLds
+                | Optimizer::Slsqp
+                | Optimizer::Lbfgs
+                | Optimizer::Tnewton
+                | Optimizer::Var2
         )
     }
 
@@ -252,19 +258,33 @@ impl SearchParams {
         c.positive("xtol_deg", self.xtol_deg);
         c.non_negative("ftol_rel", self.ftol_rel);
         c.require(self.maxeval >= 1, "maxeval", || "must be ≥ 1".to_string());
-        c.require(self.population == 0 || self.population as usize > POSE_DIM, "population", || {
-            format!("must be 0 (NLopt's default) or ≥ {} (dimension + 1), got {}", POSE_DIM + 1, self.population)
-        });
+        c.require(
+            self.population == 0 || self.population as usize > POSE_DIM,
+            "population",
+            || {
+                format!(
+                    "must be 0 (NLopt's default) or ≥ {} (dimension + 1), got {}",
+                    POSE_DIM + 1,
+                    self.population
+                )
+            },
+        );
         c.positive("gradient_step_m", self.gradient_step_m);
         c.positive("gradient_step_deg", self.gradient_step_deg);
         if self.gradient_step_m.is_finite() && self.half_window_m.is_finite() {
             c.require(self.gradient_step_m < self.half_window_m, "gradient_step_m", || {
-                format!("must be < half_window_m ({}), got {}", self.half_window_m, self.gradient_step_m)
+                format!(
+                    "must be < half_window_m ({}), got {}",
+                    self.half_window_m, self.gradient_step_m
+                )
             });
         }
         if self.gradient_step_deg.is_finite() && self.half_window_deg.is_finite() {
             c.require(self.gradient_step_deg < self.half_window_deg, "gradient_step_deg", || {
-                format!("must be < half_window_deg ({}), got {}", self.half_window_deg, self.gradient_step_deg)
+                format!(
+                    "must be < half_window_deg ({}), got {}",
+                    self.half_window_deg, self.gradient_step_deg
+                )
             });
         }
         c.require(self.mlsl_local_maxeval >= 1, "mlsl_local_maxeval", || "must be ≥ 1".to_string());
@@ -288,12 +308,19 @@ pub fn simultaneous(
     let evaluations_start = cost.evaluations();
     let f_initial = cost.f(initial);
     let scale = [params.half_window_m, params.half_window_m, params.half_window_deg.to_radians()];
-    let step = [params.gradient_step_m, params.gradient_step_m, params.gradient_step_deg.to_radians()];
+    let step =
+        [params.gradient_step_m, params.gradient_step_m, params.gradient_step_deg.to_radians()];
     let mut scaled = ScaledCost::new(cost, initial, scale, step, params.infeasible_f_cm2);
     scaled.offer(initial, f_initial);
 
     let outcome = {
-        let mut opt = Nlopt::new(optimizer.algorithm(), POSE_DIM, ScaledCost::<_>::nlopt_objective, Target::Minimize, scaled);
+        let mut opt = Nlopt::new(
+            optimizer.algorithm(),
+            POSE_DIM,
+            ScaledCost::<_>::nlopt_objective,
+            Target::Minimize,
+            scaled,
+        );
         match configure(&mut opt, optimizer, params, scale) {
             Ok(()) => {
                 seed_nlopt(seed);
@@ -335,7 +362,11 @@ fn configure<F: nlopt::ObjFn<T>, T>(
     params: &SearchParams,
     scale: [f64; POSE_DIM],
 ) -> Result<(), FailState> {
-    let xtol = [params.xtol_m / scale[0], params.xtol_m / scale[1], params.xtol_deg.to_radians() / scale[2]];
+    let xtol = [
+        params.xtol_m / scale[0],
+        params.xtol_m / scale[1],
+        params.xtol_deg.to_radians() / scale[2],
+    ];
     opt.set_lower_bounds(&[-1.0; POSE_DIM])?;
     opt.set_upper_bounds(&[1.0; POSE_DIM])?;
     opt.set_xtol_abs(&xtol)?;
@@ -401,7 +432,13 @@ pub(crate) struct ScaledCost<'a, C> {
 }
 
 impl<'a, C: Cost> ScaledCost<'a, C> {
-    pub(crate) fn new(cost: &'a mut C, origin: Pose2, scale: [f64; POSE_DIM], step: [f64; POSE_DIM], penalty: f64) -> Self {
+    pub(crate) fn new(
+        cost: &'a mut C,
+        origin: Pose2,
+        scale: [f64; POSE_DIM],
+        step: [f64; POSE_DIM],
+        penalty: f64,
+    ) -> Self {
         Self { cost, origin, scale, step, penalty, best: None }
     }
 
@@ -576,7 +613,8 @@ pub(crate) mod synthetic {
                     (q.x - p.x).powi(2) + (q.y - p.y).powi(2)
                 })
                 .sum();
-            let ripple = self.ripple_cm2 * (1.0 - (self.ripple_omega * (pose.theta - self.truth.theta)).cos());
+            let ripple = self.ripple_cm2
+                * (1.0 - (self.ripple_omega * (pose.theta - self.truth.theta)).cos());
             1e4 * sum / (2.0 * n) + ripple
         }
 
@@ -653,13 +691,18 @@ pub(crate) mod synthetic {
 
 #[cfg(test)]
 mod tests {
-    use super::synthetic::{guess, truth, NanCost, PointCost};
+    use super::synthetic::{NanCost, PointCost, guess, truth};
     use super::*;
 
     #[test]
     fn describe_names_box_tolerances_and_budget() {
         let s = SearchParams { maxeval: 900, ..SearchParams::default() }.describe();
-        assert!(s.contains("box ±0.4 m, ±10° around the guess, xtol 0.1 mm / 0.005°, at most 900 evaluations"), "{s}");
+        assert!(
+            s.contains(
+                "box ±0.4 m, ±10° around the guess, xtol 0.1 mm / 0.005°, at most 900 evaluations"
+            ),
+            "{s}"
+        );
     }
 
     #[test]
@@ -681,7 +724,12 @@ mod tests {
     #[test]
     fn default_params_validate_and_bad_ones_are_named() {
         assert!(SearchParams::default().validate().is_empty());
-        let bad = SearchParams { population: 2, xtol_m: 0.0, gradient_step_m: 1.0, ..SearchParams::default() };
+        let bad = SearchParams {
+            population: 2,
+            xtol_m: 0.0,
+            gradient_step_m: 1.0,
+            ..SearchParams::default()
+        };
         let keys: Vec<_> = bad.validate().into_iter().map(|v| v.key).collect();
         assert_eq!(keys, ["xtol_m", "population", "gradient_step_m"]);
         let parsed: SearchParams = toml::from_str("maxeval = 10").unwrap();
@@ -709,7 +757,10 @@ mod tests {
             assert!(r.f < r.f_initial, "{o:?}: {r:?}");
             // ISRES, an evolution strategy, is far from converged within the default budget.
             if o != Optimizer::Isres {
-                assert!((r.pose.x - 0.2).abs() < 5e-3 && (r.pose.y + 0.1).abs() < 5e-3, "{o:?}: {r:?}");
+                assert!(
+                    (r.pose.x - 0.2).abs() < 5e-3 && (r.pose.y + 0.1).abs() < 5e-3,
+                    "{o:?}: {r:?}"
+                );
             }
         }
     }
@@ -719,7 +770,13 @@ mod tests {
         // Local minima every 2° in θ, the initial guess 2° off sits near the wrong one.
         for o in Optimizer::ALL.into_iter().filter(|o| o.is_global()) {
             let mut cost = PointCost::new(truth()).with_ripple(50.0, 180.0);
-            let r = simultaneous(&mut cost, Pose2::new(0.2, -0.1, 1f64.to_radians()), o, &SearchParams::default(), 3);
+            let r = simultaneous(
+                &mut cost,
+                Pose2::new(0.2, -0.1, 1f64.to_radians()),
+                o,
+                &SearchParams::default(),
+                3,
+            );
             assert!((r.pose.theta - 3f64.to_radians()).abs() < 0.2f64.to_radians(), "{o:?}: {r:?}");
         }
     }
@@ -737,7 +794,13 @@ mod tests {
     fn nan_cost_returns_the_initial_guess() {
         let mut cost = NanCost { evaluations: 0 };
         for o in Optimizer::ALL {
-            let r = simultaneous(&mut cost, guess(), o, &SearchParams { maxeval: 50, ..SearchParams::default() }, 0);
+            let r = simultaneous(
+                &mut cost,
+                guess(),
+                o,
+                &SearchParams { maxeval: 50, ..SearchParams::default() },
+                0,
+            );
             assert_eq!(r.pose, guess());
             assert_eq!(r.stop, Stop::TooFewPairs);
             assert_eq!(r.pairs, 0);
@@ -748,7 +811,8 @@ mod tests {
     fn same_seed_same_trace_different_seed_different_trace() {
         let run = |seed: u64| {
             let mut cost = PointCost::new(truth()).with_ripple(5.0, 90.0);
-            let r = simultaneous(&mut cost, guess(), Optimizer::Crs2, &SearchParams::default(), seed);
+            let r =
+                simultaneous(&mut cost, guess(), Optimizer::Crs2, &SearchParams::default(), seed);
             (r, cost.trace)
         };
         let (a, trace_a) = run(11);
@@ -781,13 +845,19 @@ mod tests {
 
         /// ~5 cm and 2° off the truth.
         fn guesses() -> [Pose2; 2] {
-            [Pose2::new(0.23, -0.14, TRUTH.theta - 2f64.to_radians()), Pose2::new(0.2, -0.05, TRUTH.theta + 2f64.to_radians())]
+            [
+                Pose2::new(0.23, -0.14, TRUTH.theta - 2f64.to_radians()),
+                Pose2::new(0.2, -0.05, TRUTH.theta + 2f64.to_radians()),
+            ]
         }
 
         fn assert_recovered(r: &MatchResult, what: &str) {
             let (dx, dy) = (r.pose.x - TRUTH.x, r.pose.y - TRUTH.y);
             let dtheta = (r.pose.theta - TRUTH.theta).to_degrees();
-            assert!(dx.abs() < 1e-3 && dy.abs() < 1e-3 && dtheta.abs() < 0.05, "{what}: {dx:+.5} m {dy:+.5} m {dtheta:+.4}° {r:?}");
+            assert!(
+                dx.abs() < 1e-3 && dy.abs() < 1e-3 && dtheta.abs() < 0.05,
+                "{what}: {dx:+.5} m {dy:+.5} m {dtheta:+.4}° {r:?}"
+            );
         }
 
         #[test]
@@ -795,8 +865,15 @@ mod tests {
             let (reference, current) = room_pair(TRUTH);
             for (k, guess) in guesses().into_iter().enumerate() {
                 for seed in 0..5 {
-                    let mut cost = Objective::new(&reference, &current, &ObjectiveParams::default());
-                    let r = simultaneous(&mut cost, guess, Optimizer::Crs2, &SearchParams::default(), seed);
+                    let mut cost =
+                        Objective::new(&reference, &current, &ObjectiveParams::default());
+                    let r = simultaneous(
+                        &mut cost,
+                        guess,
+                        Optimizer::Crs2,
+                        &SearchParams::default(),
+                        seed,
+                    );
                     assert_recovered(&r, &format!("guess {k} seed {seed}"));
                     assert!(r.pairs >= 40 && r.f < 0.01, "{r:?}");
                 }
@@ -809,7 +886,10 @@ mod tests {
             for o in Optimizer::ALL {
                 let mut cost = Objective::new(&reference, &current, &ObjectiveParams::default());
                 let r = simultaneous(&mut cost, guesses()[0], o, &SearchParams::default(), 9);
-                assert!(r.pose.is_finite() && r.f.is_finite() && r.f <= r.f_initial, "{o:?}: {r:?}");
+                assert!(
+                    r.pose.is_finite() && r.f.is_finite() && r.f <= r.f_initial,
+                    "{o:?}: {r:?}"
+                );
                 assert!(matches!(r.stop, Stop::Optimiser(_)), "{o:?}: {r:?}");
                 if o.is_global() {
                     assert!(r.f < r.f_initial, "{o:?}: {r:?}");
@@ -821,8 +901,17 @@ mod tests {
         fn same_seed_same_result_different_seed_different_trace() {
             let (reference, current) = room_pair(TRUTH);
             let run = |seed: u64| {
-                let mut cost = Recording { inner: Objective::new(&reference, &current, &ObjectiveParams::default()), trace: Vec::new() };
-                let r = simultaneous(&mut cost, guesses()[1], Optimizer::Crs2, &SearchParams::default(), seed);
+                let mut cost = Recording {
+                    inner: Objective::new(&reference, &current, &ObjectiveParams::default()),
+                    trace: Vec::new(),
+                };
+                let r = simultaneous(
+                    &mut cost,
+                    guesses()[1],
+                    Optimizer::Crs2,
+                    &SearchParams::default(),
+                    seed,
+                );
                 (r, cost.trace)
             };
             let (a, trace_a) = run(2024);

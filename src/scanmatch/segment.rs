@@ -47,7 +47,11 @@ pub struct SegmentationParams {
 
 impl Default for SegmentationParams {
     fn default() -> Self {
-        Self { method: Segmentation::Lines, psm_heuristics: PsmHeuristicsParams::default(), lines: LineParams::default() }
+        Self {
+            method: Segmentation::Lines,
+            psm_heuristics: PsmHeuristicsParams::default(),
+            lines: LineParams::default(),
+        }
     }
 }
 
@@ -99,7 +103,9 @@ impl Default for PsmHeuristicsParams {
 impl PsmHeuristicsParams {
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
-        c.require(self.median_window % 2 == 1, "median_window", || format!("must be odd, got {}", self.median_window));
+        c.require(self.median_window % 2 == 1, "median_window", || {
+            format!("must be odd, got {}", self.median_window)
+        });
         c.positive("max_jump_m", self.max_jump_m);
         c.finish()
     }
@@ -168,7 +174,9 @@ impl LineParams {
         c.non_negative("jump_sigmas", self.jump_sigmas);
         c.positive("split_sigmas", self.split_sigmas);
         c.in_range("merge_alpha", self.merge_alpha, 1e-12, 0.5);
-        c.require(self.min_points >= 2, "min_points", || format!("must be ≥ 2, got {}", self.min_points));
+        c.require(self.min_points >= 2, "min_points", || {
+            format!("must be ≥ 2, got {}", self.min_points)
+        });
         c.finish()
     }
 }
@@ -183,9 +191,23 @@ pub fn prepare(
     params: &SegmentationParams,
 ) -> PolarScan {
     match params.method {
-        Segmentation::None => PolarScan::contiguous(ranges, angle_min_rad, angle_increment_rad, max_range_m, f64::INFINITY),
-        Segmentation::PsmHeuristics => psm_heuristics(ranges, angle_min_rad, angle_increment_rad, max_range_m, &params.psm_heuristics),
-        Segmentation::Lines => lines(ranges, angle_min_rad, angle_increment_rad, max_range_m, &params.lines),
+        Segmentation::None => PolarScan::contiguous(
+            ranges,
+            angle_min_rad,
+            angle_increment_rad,
+            max_range_m,
+            f64::INFINITY,
+        ),
+        Segmentation::PsmHeuristics => psm_heuristics(
+            ranges,
+            angle_min_rad,
+            angle_increment_rad,
+            max_range_m,
+            &params.psm_heuristics,
+        ),
+        Segmentation::Lines => {
+            lines(ranges, angle_min_rad, angle_increment_rad, max_range_m, &params.lines)
+        }
     }
 }
 
@@ -209,7 +231,10 @@ pub fn psm_heuristics(
     params: &PsmHeuristicsParams,
 ) -> PolarScan {
     let n = ranges.len();
-    let raw: Vec<f64> = ranges.iter().map(|r| r.filter(|r| r.is_finite() && *r > 0.0).unwrap_or(f64::INFINITY)).collect();
+    let raw: Vec<f64> = ranges
+        .iter()
+        .map(|r| r.filter(|r| r.is_finite() && *r > 0.0).unwrap_or(f64::INFINITY))
+        .collect();
     // 1. median filter, window 5, indices clamped at the scan ends, in place as v0.3 runs it:
     // beam i's window already holds the filtered values of beams i − 2 and i − 1
     let half = params.median_window / 2;
@@ -217,7 +242,9 @@ pub fn psm_heuristics(
     let mut r = raw;
     for i in 0..n {
         window.clear();
-        window.extend((0..params.median_window.max(1)).map(|k| r[(i + k).saturating_sub(half).min(n - 1)]));
+        window.extend(
+            (0..params.median_window.max(1)).map(|k| r[(i + k).saturating_sub(half).min(n - 1)]),
+        );
         window.sort_by(f64::total_cmp);
         r[i] = window[window.len() / 2];
     }
@@ -239,7 +266,11 @@ pub fn psm_heuristics(
 
 /// `pm_find_far_points` and `pm_segment_scan` on ranges [m] converted to centimetres in `T`:
 /// (bad, segment labels).
-fn psm_far_and_segment<T: Real>(r_m: &[f64], max_range_m: f64, max_jump_m: f64) -> (Vec<bool>, Vec<u32>) {
+fn psm_far_and_segment<T: Real>(
+    r_m: &[f64],
+    max_range_m: f64,
+    max_jump_m: f64,
+) -> (Vec<bool>, Vec<u32>) {
     const M_TO_CM: f64 = 100.0;
     let r: Vec<T> = r_m.iter().map(|&r| T::from_f64(r * M_TO_CM)).collect();
     let max_range = T::from_f64(max_range_m * M_TO_CM);
@@ -251,7 +282,8 @@ fn psm_far_and_segment<T: Real>(r_m: &[f64], max_range_m: f64, max_jump_m: f64) 
 /// `pm_segment_scan`: segment numbers from 1; 0 = a single isolated point. The extrapolation
 /// r[i] − (2r[i−1] − r[i−2]) is a double expression in the C code, rounded to `T`.
 fn psm_segment<T: Real>(r: &[T], bad: &[bool], max_dist: T) -> Vec<u32> {
-    let extrapolation_error = |i: usize| T::from_f64(r[i].to_f64() - (2.0 * r[i - 1].to_f64() - r[i - 2].to_f64()));
+    let extrapolation_error =
+        |i: usize| T::from_f64(r[i].to_f64() - (2.0 * r[i - 1].to_f64() - r[i - 2].to_f64()));
     let n = r.len();
     let mut seg = vec![0u32; n];
     if n < 2 {
@@ -276,7 +308,9 @@ fn psm_segment<T: Real>(r: &[T], bad: &[bool], max_dist: T) -> Vec<u32> {
             seg[i] = 0;
         } else {
             let dr = extrapolation_error(i); // linear extrapolation
-            if (r[i] - r[i - 1]).abs() < max_dist || (seg[i - 1] == seg[i - 2] && dr.abs() < max_dist) {
+            if (r[i] - r[i - 1]).abs() < max_dist
+                || (seg[i - 1] == seg[i - 2] && dr.abs() < max_dist)
+            {
                 cnt += 1;
                 seg[i] = seg_cnt;
             } else {
@@ -418,7 +452,13 @@ impl LineScan<'_> {
         let len = (bx - ax).hypot(by - ay);
         let k = (start + 1..end)
             .max_by(|&i, &j| {
-                let d = |m: usize| if len > 0.0 { ((bx - ax) * (ay - self.y[m]) - (ax - self.x[m]) * (by - ay)).abs() } else { 0.0 };
+                let d = |m: usize| {
+                    if len > 0.0 {
+                        ((bx - ax) * (ay - self.y[m]) - (ax - self.x[m]) * (by - ay)).abs()
+                    } else {
+                        0.0
+                    }
+                };
                 d(i).total_cmp(&d(j))
             })
             .unwrap_or(start + 1);
@@ -431,7 +471,9 @@ impl LineScan<'_> {
         let candidates = [(first_right - 1, true), (first_right, false)];
         let best = candidates
             .iter()
-            .filter_map(|&(p, left)| out[p].fit.filter(|f| f.n >= 2).map(|f| (p, left, self.z_of(k, &f))))
+            .filter_map(|&(p, left)| {
+                out[p].fit.filter(|f| f.n >= 2).map(|f| (p, left, self.z_of(k, &f)))
+            })
             .min_by(|a, b| a.2.total_cmp(&b.2));
         match best {
             Some((p, left, z)) if z <= self.params.split_sigmas => {
@@ -464,7 +506,9 @@ fn best_merge(ls: &LineScan, pieces: &[Piece], across_lone: bool) -> Option<(usi
         if joint.max_z > params.split_sigmas {
             continue;
         }
-        if across_lone && (skip.0..=skip.1).any(|i| ls.valid[i] && ls.z_of(i, &joint) <= params.split_sigmas) {
+        if across_lone
+            && (skip.0..=skip.1).any(|i| ls.valid[i] && ls.z_of(i, &joint) <= params.split_sigmas)
+        {
             continue; // the middle piece fits: it belongs to the line, merge it as a neighbour
         }
         let part = |f: Option<LineFit>| f.map_or((0.0, 0), |f| (f.rss, f.n.saturating_sub(2)));
@@ -496,15 +540,35 @@ fn chi2_quantile(alpha: f64, dof: usize) -> f64 {
 
 /// Standard normal quantile (Acklam's rational approximation, relative error < 1.2e-9).
 fn normal_quantile(p: f64) -> f64 {
-    const A: [f64; 6] =
-        [-3.969683028665376e1, 2.209460984245205e2, -2.759285104469687e2, 1.38357751867269e2, -3.066479806614716e1, 2.506628277459239];
-    const B: [f64; 5] = [-5.447609879822406e1, 1.615858368580409e2, -1.556989798598866e2, 6.680131188771972e1, -1.328068155288572e1];
-    const C: [f64; 6] =
-        [-7.784894002430293e-3, -3.223964580411365e-1, -2.400758277161838, -2.549732539343734, 4.374664141464968, 2.938163982698783];
-    const D: [f64; 4] = [7.784695709041462e-3, 3.224671290700398e-1, 2.445134137142996, 3.754408661907416];
+    const A: [f64; 6] = [
+        -3.969683028665376e1,
+        2.209460984245205e2,
+        -2.759285104469687e2,
+        1.38357751867269e2,
+        -3.066479806614716e1,
+        2.506628277459239,
+    ];
+    const B: [f64; 5] = [
+        -5.447609879822406e1,
+        1.615858368580409e2,
+        -1.556989798598866e2,
+        6.680131188771972e1,
+        -1.328068155288572e1,
+    ];
+    const C: [f64; 6] = [
+        -7.784894002430293e-3,
+        -3.223964580411365e-1,
+        -2.400758277161838,
+        -2.549732539343734,
+        4.374664141464968,
+        2.938163982698783,
+    ];
+    const D: [f64; 4] =
+        [7.784695709041462e-3, 3.224671290700398e-1, 2.445134137142996, 3.754408661907416];
     const P_LOW: f64 = 0.02425;
     let tail = |q: f64| {
-        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5]) / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])
+            / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
     };
     if p < P_LOW {
         tail((-2.0 * p.ln()).sqrt())
@@ -548,10 +612,18 @@ fn estimate_noise_k(r: &[f64], valid: &[bool], cos: &[f64], sin: &[f64]) -> f64 
 
 /// Line segmentation (see [`LineParams`]): runs → split → merge → drop short → project ranges onto
 /// the lines.
-pub fn lines(ranges: &[Option<f64>], angle_min_rad: f64, angle_increment_rad: f64, max_range_m: f64, params: &LineParams) -> PolarScan {
+pub fn lines(
+    ranges: &[Option<f64>],
+    angle_min_rad: f64,
+    angle_increment_rad: f64,
+    max_range_m: f64,
+    params: &LineParams,
+) -> PolarScan {
     let n = ranges.len();
-    let r: Vec<f64> = ranges.iter().map(|r| r.filter(|&r| usable_range(r, max_range_m)).unwrap_or(0.0)).collect();
-    let valid: Vec<bool> = ranges.iter().map(|r| r.is_some_and(|r| usable_range(r, max_range_m))).collect();
+    let r: Vec<f64> =
+        ranges.iter().map(|r| r.filter(|&r| usable_range(r, max_range_m)).unwrap_or(0.0)).collect();
+    let valid: Vec<bool> =
+        ranges.iter().map(|r| r.is_some_and(|r| usable_range(r, max_range_m))).collect();
     let phi: Vec<f64> = (0..n).map(|i| angle_min_rad + i as f64 * angle_increment_rad).collect();
     let cos: Vec<f64> = phi.iter().map(|p| p.cos()).collect();
     let sin: Vec<f64> = phi.iter().map(|p| p.sin()).collect();
@@ -577,7 +649,9 @@ pub fn lines(ranges: &[Option<f64>], angle_min_rad: f64, angle_increment_rad: f6
         }
         let start = i;
         while i + 1 < n && ls.valid[i + 1] && {
-            let jump = params.jump_m.max(params.jump_sigmas * std::f64::consts::SQRT_2 * ls.sigma[i].max(ls.sigma[i + 1]));
+            let jump = params.jump_m.max(
+                params.jump_sigmas * std::f64::consts::SQRT_2 * ls.sigma[i].max(ls.sigma[i + 1]),
+            );
             (r[i + 1] - r[i]).abs() <= jump
         } {
             i += 1;
@@ -590,7 +664,9 @@ pub fn lines(ranges: &[Option<f64>], angle_min_rad: f64, angle_increment_rad: f6
     //    no neighbours merge, pieces at most merge_gap_beams beams apart whose gap holds one lone
     //    piece that does NOT fit the joint line (e.g. a single-beam outlier split off by the jump
     //    test) — the lone piece is then dropped.
-    while let Some((p, q, merged)) = best_merge(&ls, &pieces, false).or_else(|| best_merge(&ls, &pieces, true)) {
+    while let Some((p, q, merged)) =
+        best_merge(&ls, &pieces, false).or_else(|| best_merge(&ls, &pieces, true))
+    {
         if q == p + 2 {
             let lone = pieces[p + 1];
             ls.valid[lone.start..=lone.end].fill(false);
@@ -600,7 +676,13 @@ pub fn lines(ranges: &[Option<f64>], angle_min_rad: f64, angle_increment_rad: f6
     }
 
     // 4. drop short pieces; 5. label and project each beam onto its line
-    let mut scan = PolarScan { angle_min_rad, angle_increment_rad, ranges: vec![0.0; n], valid: vec![false; n], segment: vec![0; n] };
+    let mut scan = PolarScan {
+        angle_min_rad,
+        angle_increment_rad,
+        ranges: vec![0.0; n],
+        valid: vec![false; n],
+        segment: vec![0; n],
+    };
     let mut label = 0u32;
     for piece in &pieces {
         let Some(fit) = piece.fit.filter(|f| f.n >= params.min_points) else { continue };
@@ -631,9 +713,24 @@ mod tests {
 
     #[test]
     fn describe_names_the_method_and_line_thresholds() {
-        let p = SegmentationParams { method: Segmentation::PsmHeuristics, lines: LineParams { split_sigmas: 3.5, merge_alpha: 0.05, min_points: 6, ..LineParams::default() }, ..SegmentationParams::default() };
+        let p = SegmentationParams {
+            method: Segmentation::PsmHeuristics,
+            lines: LineParams {
+                split_sigmas: 3.5,
+                merge_alpha: 0.05,
+                min_points: 6,
+                ..LineParams::default()
+            },
+            ..SegmentationParams::default()
+        };
         let s = p.describe();
-        assert!(s.starts_with("Preprocessing (PSM's heuristics):") && s.contains("more than 3.5 σ off") && s.contains("α = 0.05") && s.contains("under 6 points"), "{s}");
+        assert!(
+            s.starts_with("Preprocessing (PSM's heuristics):")
+                && s.contains("more than 3.5 σ off")
+                && s.contains("α = 0.05")
+                && s.contains("under 6 points"),
+            "{s}"
+        );
     }
 
     fn room_raw() -> (Beams, Vec<Option<f64>>) {
@@ -643,7 +740,13 @@ mod tests {
     }
 
     fn lines_default(beams: &Beams, raw: &[Option<f64>]) -> PolarScan {
-        lines(raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, &LineParams::default())
+        lines(
+            raw,
+            beams.angle_min_rad,
+            beams.angle_increment_rad,
+            MAX_RANGE_M,
+            &LineParams::default(),
+        )
     }
 
     #[test]
@@ -669,7 +772,10 @@ mod tests {
         // every segment's beams lie on one wall, and no wall seen by ≥ 4 beams is split
         let pose = POLYGON_REFERENCE_POSE;
         let wall_of = |i: usize| {
-            let p = pose.transform_point(crate::geom::Point2::new(s.ranges[i] * s.bearing(i).cos(), s.ranges[i] * s.bearing(i).sin()));
+            let p = pose.transform_point(crate::geom::Point2::new(
+                s.ranges[i] * s.bearing(i).cos(),
+                s.ranges[i] * s.bearing(i).sin(),
+            ));
             walls.iter().position(|w| w.distance_to_point(p) < 1e-9)
         };
         let mut seen_walls = std::collections::BTreeMap::new();
@@ -682,7 +788,12 @@ mod tests {
             }
         }
         let visible_runs = seen_walls.values().filter(|&&c| c >= 4).count();
-        assert_eq!(s.segment_count(), visible_runs, "segments {:?} walls {seen_walls:?}", s.segment);
+        assert_eq!(
+            s.segment_count(),
+            visible_runs,
+            "segments {:?} walls {seen_walls:?}",
+            s.segment
+        );
     }
 
     #[test]
@@ -718,7 +829,8 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let mut ks = vec![];
         for _ in 0..20 {
-            let noisy: Vec<f64> = add_range_noise(&raw, 0.01, &mut rng).iter().map(|r| r.unwrap()).collect();
+            let noisy: Vec<f64> =
+                add_range_noise(&raw, 0.01, &mut rng).iter().map(|r| r.unwrap()).collect();
             ks.push(estimate_noise_k(&noisy, &valid, &cos, &sin));
         }
         let mean = ks.iter().sum::<f64>() / ks.len() as f64;
@@ -784,7 +896,8 @@ mod tests {
     /// median. On alternating ranges the filtered left half of each window keeps the first value.
     #[test]
     fn psm_median_filter_runs_in_place_as_v03() {
-        let raw: Vec<Option<f64>> = [5.0, 1.0, 5.0, 1.0, 5.0, 1.0, 5.0].iter().map(|&r| Some(r)).collect();
+        let raw: Vec<Option<f64>> =
+            [5.0, 1.0, 5.0, 1.0, 5.0, 1.0, 5.0].iter().map(|&r| Some(r)).collect();
         let s = psm_heuristics(&raw, 0.0, 0.01, 10.0, &PsmHeuristicsParams::default());
         assert_eq!(s.ranges, [5.0; 7]);
         // (a median of the raw ranges would alternate from beam 3 on: 5, 5, 5, 1, 5, 1, 5)
@@ -793,7 +906,13 @@ mod tests {
     #[test]
     fn psm_heuristics_on_the_room_keep_walls() {
         let (beams, raw) = room_raw();
-        let s = psm_heuristics(&raw, beams.angle_min_rad, beams.angle_increment_rad, MAX_RANGE_M, &PsmHeuristicsParams::default());
+        let s = psm_heuristics(
+            &raw,
+            beams.angle_min_rad,
+            beams.angle_increment_rad,
+            MAX_RANGE_M,
+            &PsmHeuristicsParams::default(),
+        );
         assert!(s.valid.iter().all(|&v| v));
         // the column (9 beams) survives the median; jumps at its edges make ≥ 3 segments
         assert!(s.segment_count() >= 3, "{:?}", s.segment);
@@ -831,7 +950,8 @@ mod tests {
         };
         let keys: Vec<String> = bad.validate().into_iter().map(|v| v.key).collect();
         assert_eq!(keys, ["psm_heuristics.median_window", "lines.merge_alpha", "lines.min_points"]);
-        let p: SegmentationParams = toml::from_str("method = \"psm_heuristics\"\n[lines]\nnoise_k = 0.02").unwrap();
+        let p: SegmentationParams =
+            toml::from_str("method = \"psm_heuristics\"\n[lines]\nnoise_k = 0.02").unwrap();
         assert_eq!(p.method, Segmentation::PsmHeuristics);
         assert_eq!(p.lines.noise_k, Some(0.02));
         assert!(toml::from_str::<SegmentationParams>("[lines]\nsplit_sigma = 3").is_err());

@@ -16,15 +16,15 @@
 //! - **Errors** ([EP] §5): a match's error is its estimated pose change minus the true one, in the
 //!   reference frame: ax, ay [mm], aθ [deg].
 
+use super::MatchResult;
 use super::objective::{Objective, ObjectiveParams};
 use super::search::Optimizer;
-use super::segment::{prepare, Segmentation, SegmentationParams};
-use super::MatchResult;
+use super::segment::{Segmentation, SegmentationParams, prepare};
 use crate::config::{Checks, Violation};
 use crate::geom::Pose2;
 use crate::slam::{SlamError, Trace};
-use crate::world::laser::{LaserGeometry, Scan};
 use crate::world::World;
+use crate::world::laser::{LaserGeometry, Scan};
 use serde::{Deserialize, Serialize};
 
 /// Part of every scan-matching run's content hash: bump when a matcher's output changes.
@@ -83,12 +83,20 @@ impl ScanMatchingParams {
             "Scan matching: a scan is matched against the scan of the previous match once the odometry since it has moved {} m or turned {}°{}; the initial guess is {}; between matches the estimate follows the odometry, and each match resets it to the reference's estimate ⊕ the match ({}).",
             self.trigger_distance_m,
             self.trigger_angle_deg,
-            if self.trigger_timeout_s > 0.0 { format!(" or {} s have passed", self.trigger_timeout_s) } else { String::new() },
+            if self.trigger_timeout_s > 0.0 {
+                format!(" or {} s have passed", self.trigger_timeout_s)
+            } else {
+                String::new()
+            },
             match self.initial_guess {
                 InitialGuess::Odometry => "the odometry increment since the reference scan",
                 InitialGuess::Identity => "no motion",
             },
-            if self.max_matches > 0 { format!("at most {} matches per run", self.max_matches) } else { "matching to the end of the path".to_string() }
+            if self.max_matches > 0 {
+                format!("at most {} matches per run", self.max_matches)
+            } else {
+                "matching to the end of the path".to_string()
+            }
         )
     }
 
@@ -116,10 +124,16 @@ pub fn describe_errors() -> &'static str {
 #[derive(Debug, Clone, Copy)]
 pub enum Matcher<'a> {
     /// PSM on the study's segmentation (`own_heuristics = false`) or on its own heuristics.
-    Psm { params: &'a super::psm::PsmParams, own_heuristics: bool },
+    Psm {
+        params: &'a super::psm::PsmParams,
+        own_heuristics: bool,
+    },
     Epsm(&'a super::epsm::EpsmParams),
     BruteForce(&'a super::brute::BruteForceParams),
-    PoseSearch { optimizer: Optimizer, params: &'a super::search::SearchParams },
+    PoseSearch {
+        optimizer: Optimizer,
+        params: &'a super::search::SearchParams,
+    },
 }
 
 /// One match, as stored per match.
@@ -149,7 +163,11 @@ pub struct MatchRecord {
 impl MatchRecord {
     /// Estimate minus truth in the reference frame: (ax [m], ay [m], aθ [rad]).
     pub fn error(&self) -> (f64, f64, f64) {
-        (self.estimate.x - self.truth.x, self.estimate.y - self.truth.y, crate::geom::wrap_angle(self.estimate.theta - self.truth.theta))
+        (
+            self.estimate.x - self.truth.x,
+            self.estimate.y - self.truth.y,
+            crate::geom::wrap_angle(self.estimate.theta - self.truth.theta),
+        )
     }
 
     /// Whether the matcher produced a usable estimate.
@@ -169,12 +187,25 @@ pub struct Tracked {
 /// How a matcher's scans are prepared: the study's segmentation and the laser's geometry, except
 /// `psm_original`, which preprocesses as v0.3 does (its own heuristics, in its own precision, with
 /// readings beyond its range gate, PM_MAX_RANGE, marked bad).
-pub fn preparation(matcher: Matcher<'_>, params: &ScanMatchingParams, geometry: LaserGeometry) -> (SegmentationParams, LaserGeometry) {
+pub fn preparation(
+    matcher: Matcher<'_>,
+    params: &ScanMatchingParams,
+    geometry: LaserGeometry,
+) -> (SegmentationParams, LaserGeometry) {
     match matcher {
         Matcher::Psm { own_heuristics: true, params: psm } => {
-            let mut segmentation = SegmentationParams { method: Segmentation::PsmHeuristics, ..params.segmentation.clone() };
+            let mut segmentation = SegmentationParams {
+                method: Segmentation::PsmHeuristics,
+                ..params.segmentation.clone()
+            };
             segmentation.psm_heuristics.precision = psm.precision;
-            (segmentation, LaserGeometry { max_range_m: geometry.max_range_m.min(psm.max_range_m), ..geometry })
+            (
+                segmentation,
+                LaserGeometry {
+                    max_range_m: geometry.max_range_m.min(psm.max_range_m),
+                    ..geometry
+                },
+            )
         }
         _ => (params.segmentation.clone(), geometry),
     }
@@ -187,17 +218,38 @@ pub fn match_seed(seed: u64, k: usize) -> u64 {
 
 /// The steps of the scans a run matched: the first reference and every current scan, in order.
 pub fn matched_steps(matches: &[MatchRecord]) -> Vec<usize> {
-    matches.first().map(|m| m.reference_step).into_iter().chain(matches.iter().map(|m| m.current_step)).collect()
+    matches
+        .first()
+        .map(|m| m.reference_step)
+        .into_iter()
+        .chain(matches.iter().map(|m| m.current_step))
+        .collect()
 }
 
 /// Prepares one scan for matching.
-pub fn prepared(scan: &Scan, geometry: &LaserGeometry, segmentation: &SegmentationParams) -> super::scan::PolarScan {
-    prepare(&scan.ranges_m, geometry.angle_min_rad, geometry.angle_increment_rad, geometry.max_range_m, segmentation)
+pub fn prepared(
+    scan: &Scan,
+    geometry: &LaserGeometry,
+    segmentation: &SegmentationParams,
+) -> super::scan::PolarScan {
+    prepare(
+        &scan.ranges_m,
+        geometry.angle_min_rad,
+        geometry.angle_increment_rad,
+        geometry.max_range_m,
+        segmentation,
+    )
 }
 
 /// Runs `matcher` along the world's scans (see the module doc). `seed` seeds the stochastic
 /// optimisers (one derived seed per match); `clock` returns seconds.
-pub fn track(world: &World, matcher: Matcher<'_>, params: &ScanMatchingParams, seed: u64, clock: &mut dyn FnMut() -> f64) -> Result<Tracked, SlamError> {
+pub fn track(
+    world: &World,
+    matcher: Matcher<'_>,
+    params: &ScanMatchingParams,
+    seed: u64,
+    clock: &mut dyn FnMut() -> f64,
+) -> Result<Tracked, SlamError> {
     let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
     let (segmentation, geometry) = preparation(matcher, params, geometry);
     let mut estimate = vec![world.truth[0]];
@@ -213,10 +265,14 @@ pub fn track(world: &World, matcher: Matcher<'_>, params: &ScanMatchingParams, s
             let k = estimate.len() - 1;
             estimate.push(estimate[k].compose(world.odometry[k]));
         }
-        let odometry = world.odometry[reference.0..scan.step].iter().fold(Pose2::IDENTITY, |acc, d| acc.compose(*d));
+        let odometry = world.odometry[reference.0..scan.step]
+            .iter()
+            .fold(Pose2::IDENTITY, |acc, d| acc.compose(*d));
         let elapsed_s = (scan.step - reference.0) as f64 * world.dt_s;
-        let moved = odometry.x.hypot(odometry.y) >= params.trigger_distance_m && params.trigger_distance_m > 0.0;
-        let turned = odometry.theta.abs() >= params.trigger_angle_deg.to_radians() && params.trigger_angle_deg > 0.0;
+        let moved = odometry.x.hypot(odometry.y) >= params.trigger_distance_m
+            && params.trigger_distance_m > 0.0;
+        let turned = odometry.theta.abs() >= params.trigger_angle_deg.to_radians()
+            && params.trigger_angle_deg > 0.0;
         let timed_out = params.trigger_timeout_s > 0.0 && elapsed_s >= params.trigger_timeout_s;
         if !(moved || turned || timed_out) {
             continue;
@@ -228,7 +284,8 @@ pub fn track(world: &World, matcher: Matcher<'_>, params: &ScanMatchingParams, s
         let current = prepared(scan, &geometry, &segmentation);
         let match_seed = match_seed(seed, matches.len());
         let start = clock();
-        let result = run_matcher(matcher, &reference.1, &current, initial, &params.objective, match_seed);
+        let result =
+            run_matcher(matcher, &reference.1, &current, initial, &params.objective, match_seed);
         let time_s = clock() - start;
         let truth = world.truth[scan.step].relative_to(world.truth[reference.0]);
         let record = MatchRecord {
@@ -263,14 +320,26 @@ pub fn track(world: &World, matcher: Matcher<'_>, params: &ScanMatchingParams, s
     Ok(Tracked { trace: Trace { estimate, matches, ..Trace::default() }, steps })
 }
 
-pub fn run_matcher(matcher: Matcher<'_>, reference: &super::scan::PolarScan, current: &super::scan::PolarScan, initial: Pose2, objective: &ObjectiveParams, seed: u64) -> MatchResult {
+pub fn run_matcher(
+    matcher: Matcher<'_>,
+    reference: &super::scan::PolarScan,
+    current: &super::scan::PolarScan,
+    initial: Pose2,
+    objective: &ObjectiveParams,
+    seed: u64,
+) -> MatchResult {
     let mut cost = Objective::new(reference, current, objective);
     match matcher {
         // Both scans come from one laser, so the geometries always agree.
-        Matcher::Psm { params, .. } => super::psm::psm(reference, current, initial, params, &mut cost).expect("scans of one laser share their beam geometry"),
+        Matcher::Psm { params, .. } => {
+            super::psm::psm(reference, current, initial, params, &mut cost)
+                .expect("scans of one laser share their beam geometry")
+        }
         Matcher::Epsm(params) => super::epsm::epsm(&mut cost, initial, params),
         Matcher::BruteForce(params) => super::brute::brute_force(&mut cost, initial, params),
-        Matcher::PoseSearch { optimizer, params } => super::search::simultaneous(&mut cost, initial, optimizer, params, seed),
+        Matcher::PoseSearch { optimizer, params } => {
+            super::search::simultaneous(&mut cost, initial, optimizer, params, seed)
+        }
     }
 }
 
@@ -280,10 +349,29 @@ mod tests {
 
     #[test]
     fn describe_names_the_trigger_guess_and_run_length() {
-        let p = ScanMatchingParams { trigger_distance_m: 0.3, trigger_angle_deg: 15.0, trigger_timeout_s: 2.0, max_matches: 100, ..ScanMatchingParams::default() };
+        let p = ScanMatchingParams {
+            trigger_distance_m: 0.3,
+            trigger_angle_deg: 15.0,
+            trigger_timeout_s: 2.0,
+            max_matches: 100,
+            ..ScanMatchingParams::default()
+        };
         let s = p.describe();
-        assert!(s.contains("moved 0.3 m or turned 15° or 2 s have passed") && s.contains("(at most 100 matches per run)"), "{s}");
-        let s = ScanMatchingParams { initial_guess: InitialGuess::Identity, ..ScanMatchingParams::default() }.describe();
-        assert!(s.contains("moved 0.5 m or turned 30°;") && s.contains("the initial guess is no motion") && s.contains("(matching to the end of the path)"), "{s}");
+        assert!(
+            s.contains("moved 0.3 m or turned 15° or 2 s have passed")
+                && s.contains("(at most 100 matches per run)"),
+            "{s}"
+        );
+        let s = ScanMatchingParams {
+            initial_guess: InitialGuess::Identity,
+            ..ScanMatchingParams::default()
+        }
+        .describe();
+        assert!(
+            s.contains("moved 0.5 m or turned 30°;")
+                && s.contains("the initial guess is no motion")
+                && s.contains("(matching to the end of the path)"),
+            "{s}"
+        );
     }
 }

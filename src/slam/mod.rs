@@ -12,8 +12,8 @@ pub mod odometry;
 pub use fastslam::models;
 
 use crate::geom::{Line, Point2, Pose2};
-use crate::world::WorldKind;
 use crate::scanmatch::search::Optimizer;
+use crate::world::WorldKind;
 use serde::{Deserialize, Serialize};
 
 /// The algorithms a study can list under `algorithms = [...]`.
@@ -59,7 +59,10 @@ impl<'de> Deserialize<'de> for AlgorithmKind {
         let name = String::deserialize(d)?;
         AlgorithmKind::from_name(&name).ok_or_else(|| {
             let known: Vec<&str> = AlgorithmKind::ALL.iter().map(|a| a.name()).collect();
-            serde::de::Error::custom(format!("unknown algorithm `{name}`, expected one of: {}", known.join(", ")))
+            serde::de::Error::custom(format!(
+                "unknown algorithm `{name}`, expected one of: {}",
+                known.join(", ")
+            ))
         })
     }
 }
@@ -129,7 +132,14 @@ impl AlgorithmKind {
 
     /// Whether this is a scan matcher (laser odometry by matching consecutive scans).
     pub fn is_scan_matcher(self) -> bool {
-        matches!(self, AlgorithmKind::Psm | AlgorithmKind::PsmOriginal | AlgorithmKind::Epsm | AlgorithmKind::BruteForce | AlgorithmKind::PoseSearch(_))
+        matches!(
+            self,
+            AlgorithmKind::Psm
+                | AlgorithmKind::PsmOriginal
+                | AlgorithmKind::Epsm
+                | AlgorithmKind::BruteForce
+                | AlgorithmKind::PoseSearch(_)
+        )
     }
 
     pub fn from_name(name: &str) -> Option<AlgorithmKind> {
@@ -161,7 +171,9 @@ impl AlgorithmKind {
             AlgorithmKind::Fastslam2 => fastslam2::CODE_VERSION,
             AlgorithmKind::EkfSlam => ekf::CODE_VERSION,
             // TNEWTON's results depended on heap garbage before the fixed malloc fill (src/main.rs)
-            AlgorithmKind::PoseSearch(crate::scanmatch::search::Optimizer::Tnewton) => TNEWTON_CODE_VERSION,
+            AlgorithmKind::PoseSearch(crate::scanmatch::search::Optimizer::Tnewton) => {
+                TNEWTON_CODE_VERSION
+            }
             _ => crate::scanmatch::track::CODE_VERSION,
         }
     }
@@ -181,10 +193,14 @@ impl AlgorithmKind {
         match (self, kind) {
             (AlgorithmKind::Odometry, _) => &[],
             // [FT]'s FastSLAM keeps its own motion noise on laser worlds
-            (AlgorithmKind::OdometryMap | AlgorithmKind::Fastslam1, WorldKind::Laser) => &["features", "fastslam"],
+            (AlgorithmKind::OdometryMap | AlgorithmKind::Fastslam1, WorldKind::Laser) => {
+                &["features", "fastslam"]
+            }
             (AlgorithmKind::OdometryMap, WorldKind::Points) => &["fastslam"],
             (AlgorithmKind::Fastslam1, WorldKind::Points) => &["fastslam", "motion_model"],
-            (AlgorithmKind::Fastslam2, WorldKind::Laser) => &["features", "fastslam", "motion_model"],
+            (AlgorithmKind::Fastslam2, WorldKind::Laser) => {
+                &["features", "fastslam", "motion_model"]
+            }
             (AlgorithmKind::Fastslam2, WorldKind::Points) => &["fastslam", "motion_model"],
             (AlgorithmKind::EkfSlam, WorldKind::Laser) => &["features", "ekf", "motion_model"],
             (AlgorithmKind::EkfSlam, WorldKind::Points) => &["ekf", "motion_model"],
@@ -260,6 +276,8 @@ pub enum SlamError {
     MissingSensor(&'static str),
     #[error("known data association needs landmark identities, which this sensor does not report")]
     NoIdentities,
-    #[error("a particle's map grew past {limit} landmarks at step {step} (fastslam.max_landmarks): the map explodes, the run is stopped")]
+    #[error(
+        "a particle's map grew past {limit} landmarks at step {step} (fastslam.max_landmarks): the map explodes, the run is stopped"
+    )]
     LandmarkCap { limit: u32, step: usize },
 }

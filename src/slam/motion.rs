@@ -6,7 +6,7 @@
 //! [FT]'s FastSLAM 1.0 on laser worlds keeps its own `[fastslam]` motion noise (Eq. 7.18).
 
 use crate::config::{Checks, Violation};
-use crate::geom::{unicycle_increment, wrap_angle, Pose2};
+use crate::geom::{Pose2, unicycle_increment, wrap_angle};
 use nalgebra::Matrix3;
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -52,7 +52,12 @@ impl Default for MotionModel {
     /// Matches the default simulated odometry (10 % proportional noise, read as σ), with floors
     /// of 1 mm and 0.001 rad per step.
     fn default() -> Self {
-        MotionModel::Proportional { k_translation: 0.1, k_rotation: 0.1, floor_translation_m: 1e-3, floor_rotation_rad: 1e-3 }
+        MotionModel::Proportional {
+            k_translation: 0.1,
+            k_rotation: 0.1,
+            floor_translation_m: 1e-3,
+            floor_rotation_rad: 1e-3,
+        }
     }
 }
 
@@ -65,7 +70,12 @@ impl MotionModel {
                 c.non_negative("sigma_y_m", sigma_y_m);
                 c.non_negative("sigma_theta_rad", sigma_theta_rad);
             }
-            MotionModel::Proportional { k_translation, k_rotation, floor_translation_m, floor_rotation_rad } => {
+            MotionModel::Proportional {
+                k_translation,
+                k_rotation,
+                floor_translation_m,
+                floor_rotation_rad,
+            } => {
                 c.non_negative("k_translation", k_translation);
                 c.non_negative("k_rotation", k_rotation);
                 c.non_negative("floor_translation_m", floor_translation_m);
@@ -78,11 +88,18 @@ impl MotionModel {
     /// The report's sentence on this model, with its parameter values.
     pub fn describe(&self) -> String {
         match self {
-            MotionModel::Proportional { k_translation, k_rotation, floor_translation_m, floor_rotation_rad } => format!(
+            MotionModel::Proportional {
+                k_translation,
+                k_rotation,
+                floor_translation_m,
+                floor_rotation_rad,
+            } => format!(
                 "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: the simulated odometry's own noise on the driven arc, σ = {k_translation}·|arc length| and {k_rotation}·|turn| per step propagated through the arc, plus a floor of {floor_translation_m} m per axis and {floor_rotation_rad} rad per step."
             ),
             MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => {
-                format!("Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: per-step world-frame pose noise σ = ({sigma_x_m} m, {sigma_y_m} m, {sigma_theta_rad} rad) ([FT] Eq. 7.18).")
+                format!(
+                    "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: per-step world-frame pose noise σ = ({sigma_x_m} m, {sigma_y_m} m, {sigma_theta_rad} rad) ([FT] Eq. 7.18)."
+                )
             }
         }
     }
@@ -101,12 +118,24 @@ impl MotionModel {
     /// Q: covariance of the predicted pose's error in the world frame.
     pub fn covariance(&self, pose: &Pose2, u: &Pose2) -> Matrix3<f64> {
         match *self {
-            MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => Matrix3::from_diagonal(&nalgebra::Vector3::new(sigma_x_m.powi(2), sigma_y_m.powi(2), sigma_theta_rad.powi(2))),
-            MotionModel::Proportional { k_translation, k_rotation, floor_translation_m: ft, floor_rotation_rad: fr } => {
+            MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => {
+                Matrix3::from_diagonal(&nalgebra::Vector3::new(
+                    sigma_x_m.powi(2),
+                    sigma_y_m.powi(2),
+                    sigma_theta_rad.powi(2),
+                ))
+            }
+            MotionModel::Proportional {
+                k_translation,
+                k_rotation,
+                floor_translation_m: ft,
+                floor_rotation_rad: fr,
+            } => {
                 let (d, phi) = arc_of(u);
                 let j = arc_jacobian(d, phi);
                 let (sd, sp) = (k_translation * d.abs(), k_rotation * phi.abs());
-                let n = j * nalgebra::Matrix2::new(sd * sd, 0.0, 0.0, sp * sp) * j.transpose() + Matrix3::from_diagonal(&nalgebra::Vector3::new(ft * ft, ft * ft, fr * fr));
+                let n = j * nalgebra::Matrix2::new(sd * sd, 0.0, 0.0, sp * sp) * j.transpose()
+                    + Matrix3::from_diagonal(&nalgebra::Vector3::new(ft * ft, ft * ft, fr * fr));
                 let (s, c) = pose.theta.sin_cos();
                 // G_u = ∂(x ⊕ u)/∂u = diag(R(θ), 1); Q = G_u N G_uᵀ
                 let g = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
@@ -122,14 +151,34 @@ impl MotionModel {
         match *self {
             MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => {
                 let q = pose.compose(*u);
-                Pose2::new(q.x + sigma_x_m * z[0], q.y + sigma_y_m * z[1], wrap_angle(q.theta + sigma_theta_rad * z[2]))
+                Pose2::new(
+                    q.x + sigma_x_m * z[0],
+                    q.y + sigma_y_m * z[1],
+                    wrap_angle(q.theta + sigma_theta_rad * z[2]),
+                )
             }
-            MotionModel::Proportional { k_translation, k_rotation, floor_translation_m: ft, floor_rotation_rad: fr } => {
+            MotionModel::Proportional {
+                k_translation,
+                k_rotation,
+                floor_translation_m: ft,
+                floor_rotation_rad: fr,
+            } => {
                 // the perturbed arc's change, applied to u (u itself when u is an arc: then this
                 // is driving the perturbed arc, exactly as the simulation does)
                 let (d, phi) = arc_of(u);
-                let (a, b) = (unicycle_increment(d, phi, 1.0), unicycle_increment(d + k_translation * d.abs() * z[0], phi + k_rotation * phi.abs() * z[1], 1.0));
-                pose.compose(Pose2::new(u.x + b.x - a.x + ft * z[2], u.y + b.y - a.y + ft * z[3], u.theta + b.theta - a.theta + fr * z[4]))
+                let (a, b) = (
+                    unicycle_increment(d, phi, 1.0),
+                    unicycle_increment(
+                        d + k_translation * d.abs() * z[0],
+                        phi + k_rotation * phi.abs() * z[1],
+                        1.0,
+                    ),
+                );
+                pose.compose(Pose2::new(
+                    u.x + b.x - a.x + ft * z[2],
+                    u.y + b.y - a.y + ft * z[3],
+                    u.theta + b.theta - a.theta + fr * z[4],
+                ))
             }
         }
     }
@@ -180,18 +229,38 @@ mod tests {
                 m.predict(&Pose2::new(p[0], p[1], p[2]), &u)
             };
             let (a, b) = (shift(eps), shift(-eps));
-            let num = [(a.x - b.x) / (2.0 * eps), (a.y - b.y) / (2.0 * eps), wrap_angle(a.theta - b.theta) / (2.0 * eps)];
+            let num = [
+                (a.x - b.x) / (2.0 * eps),
+                (a.y - b.y) / (2.0 * eps),
+                wrap_angle(a.theta - b.theta) / (2.0 * eps),
+            ];
             for r in 0..3 {
-                assert!((f[(r, k)] - num[r]).abs() < 1e-6, "F[{r},{k}] = {} vs {}", f[(r, k)], num[r]);
+                assert!(
+                    (f[(r, k)] - num[r]).abs() < 1e-6,
+                    "F[{r},{k}] = {} vs {}",
+                    f[(r, k)],
+                    num[r]
+                );
             }
         }
     }
 
     #[test]
     fn describe_names_the_noise_parameters() {
-        let proportional = MotionModel::Proportional { k_translation: 0.15, k_rotation: 0.25, floor_translation_m: 0.002, floor_rotation_rad: 0.003 }.describe();
-        assert!(proportional.contains("σ = 0.15·|arc length| and 0.25·|turn|") && proportional.contains("floor of 0.002 m per axis and 0.003 rad"), "{proportional}");
-        let pose = MotionModel::Pose { sigma_x_m: 0.02, sigma_y_m: 0.01, sigma_theta_rad: 0.03 }.describe();
+        let proportional = MotionModel::Proportional {
+            k_translation: 0.15,
+            k_rotation: 0.25,
+            floor_translation_m: 0.002,
+            floor_rotation_rad: 0.003,
+        }
+        .describe();
+        assert!(
+            proportional.contains("σ = 0.15·|arc length| and 0.25·|turn|")
+                && proportional.contains("floor of 0.002 m per axis and 0.003 rad"),
+            "{proportional}"
+        );
+        let pose = MotionModel::Pose { sigma_x_m: 0.02, sigma_y_m: 0.01, sigma_theta_rad: 0.03 }
+            .describe();
         assert!(pose.contains("σ = (0.02 m, 0.01 m, 0.03 rad)"), "{pose}");
     }
 
@@ -200,13 +269,20 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let pose = Pose2::new(0.0, 0.0, 0.7);
         let u = Pose2::new(0.5, 0.0, 0.1);
-        for m in [MotionModel::default(), MotionModel::Pose { sigma_x_m: 0.02, sigma_y_m: 0.01, sigma_theta_rad: 0.03 }] {
+        for m in [
+            MotionModel::default(),
+            MotionModel::Pose { sigma_x_m: 0.02, sigma_y_m: 0.01, sigma_theta_rad: 0.03 },
+        ] {
             let mean = m.predict(&pose, &u);
             let n = 40_000;
             let mut cov = Matrix3::zeros();
             for _ in 0..n {
                 let s = m.sample(&pose, &u, &mut rng);
-                let e = nalgebra::Vector3::new(s.x - mean.x, s.y - mean.y, wrap_angle(s.theta - mean.theta));
+                let e = nalgebra::Vector3::new(
+                    s.x - mean.x,
+                    s.y - mean.y,
+                    wrap_angle(s.theta - mean.theta),
+                );
                 cov += e * e.transpose() / n as f64;
             }
             let q = m.covariance(&pose, &u);
@@ -222,7 +298,12 @@ mod tests {
         use crate::world::odometry::{OdometryNoise, Spread};
         let k = 0.1;
         let world = OdometryNoise::Proportional { k, k_is: Spread::Std };
-        let filter = MotionModel::Proportional { k_translation: k, k_rotation: k, floor_translation_m: 0.0, floor_rotation_rad: 0.0 };
+        let filter = MotionModel::Proportional {
+            k_translation: k,
+            k_rotation: k,
+            floor_translation_m: 0.0,
+            floor_rotation_rad: 0.0,
+        };
         let mut rng = ChaCha8Rng::seed_from_u64(9);
         for (v, w) in [(1.0, 0.0), (0.0, 0.5), (1.0, 0.8), (0.5, -2.0)] {
             let n = 40_000;
@@ -234,7 +315,10 @@ mod tests {
                 cov += e * e.transpose() / n as f64;
             }
             let q = filter.covariance(&Pose2::IDENTITY, &u);
-            assert!((cov - q).abs().max() < 0.05 * q.abs().max(), "(v, ω) = ({v}, {w}):\nworld\n{cov}\nfilter\n{q}");
+            assert!(
+                (cov - q).abs().max() < 0.05 * q.abs().max(),
+                "(v, ω) = ({v}, {w}):\nworld\n{cov}\nfilter\n{q}"
+            );
         }
     }
 
@@ -242,14 +326,31 @@ mod tests {
     fn the_arc_is_recovered_and_differentiated() {
         for (d, phi) in [(0.3, 0.0), (0.3, 1e-6), (0.2, 0.4), (-0.1, -0.7), (0.0, 0.5)] {
             let (d2, phi2) = arc_of(&unicycle_increment(d, phi, 1.0));
-            assert!((d2 - d).abs() < 1e-12 && (phi2 - phi).abs() < 1e-12, "({d}, {phi}) → ({d2}, {phi2})");
+            assert!(
+                (d2 - d).abs() < 1e-12 && (phi2 - phi).abs() < 1e-12,
+                "({d}, {phi}) → ({d2}, {phi2})"
+            );
             let j = arc_jacobian(d, phi);
             let eps = 1e-6;
-            for (col, (a, b)) in [((d + eps, phi), (d - eps, phi)), ((d, phi + eps), (d, phi - eps))].into_iter().enumerate() {
-                let (ua, ub) = (unicycle_increment(a.0, a.1, 1.0), unicycle_increment(b.0, b.1, 1.0));
-                let num = [(ua.x - ub.x) / (2.0 * eps), (ua.y - ub.y) / (2.0 * eps), (ua.theta - ub.theta) / (2.0 * eps)];
+            for (col, (a, b)) in
+                [((d + eps, phi), (d - eps, phi)), ((d, phi + eps), (d, phi - eps))]
+                    .into_iter()
+                    .enumerate()
+            {
+                let (ua, ub) =
+                    (unicycle_increment(a.0, a.1, 1.0), unicycle_increment(b.0, b.1, 1.0));
+                let num = [
+                    (ua.x - ub.x) / (2.0 * eps),
+                    (ua.y - ub.y) / (2.0 * eps),
+                    (ua.theta - ub.theta) / (2.0 * eps),
+                ];
                 for r in 0..3 {
-                    assert!((j[(r, col)] - num[r]).abs() < 1e-6, "J[{r},{col}] at ({d}, {phi}): {} vs {}", j[(r, col)], num[r]);
+                    assert!(
+                        (j[(r, col)] - num[r]).abs() < 1e-6,
+                        "J[{r},{col}] at ({d}, {phi}): {} vs {}",
+                        j[(r, col)],
+                        num[r]
+                    );
                 }
             }
         }

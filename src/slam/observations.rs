@@ -5,11 +5,11 @@
 //! - point-landmark worlds and datasets: range-bearing readings, R from the sensor's noise model
 //!   at the measured range, and the true landmark index (for known association).
 
-use super::fastslam::models::Model;
 use super::SlamError;
+use super::fastslam::models::Model;
 use crate::features::{self, FeatureParams, ScanFeatures};
-use crate::world::point_sensor::UNKNOWN_LANDMARK;
 use crate::world::World;
+use crate::world::point_sensor::UNKNOWN_LANDMARK;
 use nalgebra::{Matrix2, Vector2};
 
 /// One measurement of one landmark.
@@ -92,7 +92,8 @@ fn fuse_repeated_identities(z: &mut Vec<Observation>) {
 /// and never creates one identity twice. b − a is taken in a's parameterisation (a line's
 /// (ρ, θ) → (−ρ, θ + π) flip negates R_b's cross term). `None` when an R is singular.
 pub fn fuse(a: &Observation, b: &Observation) -> Option<Observation> {
-    let flipped = a.model == Model::Line && crate::geom::wrap_angle(b.z[1] - a.z[1]).abs() > std::f64::consts::FRAC_PI_2;
+    let flipped = a.model == Model::Line
+        && crate::geom::wrap_angle(b.z[1] - a.z[1]).abs() > std::f64::consts::FRAC_PI_2;
     let mut rb = b.r;
     if flipped {
         rb[(0, 1)] = -rb[(0, 1)];
@@ -128,12 +129,22 @@ pub fn extract_all(world: &World, params: &FeatureParams) -> Result<Vec<ScanFeat
 /// Every step's observations, in step order (steps without a reading are absent).
 pub fn stream(world: &World, source: Source<'_>) -> Result<Vec<StepObservations>, SlamError> {
     match source {
-        Source::LaserFeatures { features: params, line_r } => stream(world, Source::Extracted { features: &extract_all(world, params)?, line_r }),
+        Source::LaserFeatures { features: params, line_r } => {
+            stream(world, Source::Extracted { features: &extract_all(world, params)?, line_r })
+        }
         Source::Extracted { features, line_r } => {
             if features.len() != world.scans.len() {
                 return Err(SlamError::MissingSensor("laser"));
             }
-            Ok(world.scans.iter().zip(features).map(|(scan, f)| StepObservations { step: scan.step, observations: from_features(f, line_r) }).collect())
+            Ok(world
+                .scans
+                .iter()
+                .zip(features)
+                .map(|(scan, f)| StepObservations {
+                    step: scan.step,
+                    observations: from_features(f, line_r),
+                })
+                .collect())
         }
         Source::Points => {
             let noise = world.point_noise.ok_or(SlamError::MissingSensor("landmark sensor"))?;
@@ -145,7 +156,12 @@ pub fn stream(world: &World, source: Source<'_>) -> Result<Vec<StepObservations>
                     observations: scan
                         .observations
                         .iter()
-                        .map(|o| Observation { model: Model::Point, z: Vector2::new(o.range_m, o.bearing_rad), r: noise.covariance(o.range_m), landmark: (o.landmark != UNKNOWN_LANDMARK).then_some(o.landmark) })
+                        .map(|o| Observation {
+                            model: Model::Point,
+                            z: Vector2::new(o.range_m, o.bearing_rad),
+                            r: noise.covariance(o.range_m),
+                            landmark: (o.landmark != UNKNOWN_LANDMARK).then_some(o.landmark),
+                        })
                         .collect(),
                 })
                 .collect())
@@ -155,8 +171,18 @@ pub fn stream(world: &World, source: Source<'_>) -> Result<Vec<StepObservations>
 
 /// A scan's features as observations: lines first, then corners as range and bearing (Eq. 7.21).
 pub fn from_features(f: &ScanFeatures, line_r: Matrix2<f64>) -> Vec<Observation> {
-    let lines = f.lines.iter().map(|l| Observation { model: Model::Line, z: Vector2::new(l.line.rho, l.line.theta), r: line_r, landmark: None });
-    let corners = f.corners.iter().map(|c| Observation { model: Model::Point, z: Vector2::new(c.x.hypot(c.y), c.y.atan2(c.x)), r: line_r, landmark: None });
+    let lines = f.lines.iter().map(|l| Observation {
+        model: Model::Line,
+        z: Vector2::new(l.line.rho, l.line.theta),
+        r: line_r,
+        landmark: None,
+    });
+    let corners = f.corners.iter().map(|c| Observation {
+        model: Model::Point,
+        z: Vector2::new(c.x.hypot(c.y), c.y.atan2(c.x)),
+        r: line_r,
+        landmark: None,
+    });
     lines.chain(corners).collect()
 }
 
@@ -169,21 +195,40 @@ mod tests {
     #[test]
     fn readings_of_one_identity_fuse_exactly() {
         let r = Matrix2::new(0.04, 0.0, 0.0, 0.01);
-        let o = |z: [f64; 2], id| Observation { model: Model::Point, z: Vector2::new(z[0], z[1]), r, landmark: Some(id) };
+        let o = |z: [f64; 2], id| Observation {
+            model: Model::Point,
+            z: Vector2::new(z[0], z[1]),
+            r,
+            landmark: Some(id),
+        };
         let f = fuse(&o([2.0, 0.1], 3), &o([2.2, 0.3], 3)).unwrap();
-        assert!((f.z - Vector2::new(2.1, 0.2)).norm() < 1e-12 && (f.r - r / 2.0).abs().max() < 1e-15);
+        assert!(
+            (f.z - Vector2::new(2.1, 0.2)).norm() < 1e-12 && (f.r - r / 2.0).abs().max() < 1e-15
+        );
         // bearings either side of ±π average across it
         let f = fuse(&o([2.0, 3.1], 3), &o([2.0, -3.1], 3)).unwrap();
         assert!((f.z[1].abs() - std::f64::consts::PI).abs() < 1e-9, "{}", f.z[1]);
         // a line (ρ, θ) and its flipped twin (−ρ, θ + π) are one reading
-        let line = |rho: f64, theta: f64| Observation { model: Model::Line, z: Vector2::new(rho, theta), r, landmark: Some(1) };
+        let line = |rho: f64, theta: f64| Observation {
+            model: Model::Line,
+            z: Vector2::new(rho, theta),
+            r,
+            landmark: Some(1),
+        };
         let f = fuse(&line(0.02, 0.5), &line(-0.04, 0.5 + std::f64::consts::PI)).unwrap();
         assert!((f.z - Vector2::new(0.03, 0.5)).norm() < 1e-12, "{}", f.z);
 
-        let stream = [StepObservations { step: 4, observations: vec![o([2.0, 0.1], 3), o([5.0, 1.0], 7)] }, StepObservations { step: 4, observations: vec![o([2.2, 0.3], 3)] }];
+        let stream = [
+            StepObservations { step: 4, observations: vec![o([2.0, 0.1], 3), o([5.0, 1.0], 7)] },
+            StepObservations { step: 4, observations: vec![o([2.2, 0.3], 3)] },
+        ];
         let fused = Cursor::new(&stream, true).at(4).to_vec();
         assert_eq!(fused.iter().map(|o| o.landmark).collect::<Vec<_>>(), [Some(3), Some(7)]);
         assert!((fused[0].z - Vector2::new(2.1, 0.2)).norm() < 1e-12);
-        assert_eq!(Cursor::new(&stream, false).at(4).len(), 3, "without known association every reading stays");
+        assert_eq!(
+            Cursor::new(&stream, false).at(4).len(),
+            3,
+            "without known association every reading stays"
+        );
     }
 }

@@ -21,13 +21,32 @@ pub fn run(world: &World) -> Trace {
 
 /// The odometry map: FastSLAM's mapping (extraction, ML association, landmark EKFs) along the
 /// dead-reckoned path — one particle, no motion noise, so its pose is exactly the odometry.
-pub fn run_with_map(world: &World, fastslam: &super::fastslam::FastSlamParams, features: &crate::features::FeatureParams, rng: &mut rand_chacha::ChaCha8Rng) -> Result<Trace, super::SlamError> {
-    let line_r = nalgebra::Matrix2::new(fastslam.obs_var_rho_m2, 0.0, 0.0, fastslam.obs_var_theta_rad2);
-    run_with_map_on(world, fastslam, &super::observations::stream(world, super::observations::Source::LaserFeatures { features, line_r })?, rng)
+pub fn run_with_map(
+    world: &World,
+    fastslam: &super::fastslam::FastSlamParams,
+    features: &crate::features::FeatureParams,
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> Result<Trace, super::SlamError> {
+    let line_r =
+        nalgebra::Matrix2::new(fastslam.obs_var_rho_m2, 0.0, 0.0, fastslam.obs_var_theta_rad2);
+    run_with_map_on(
+        world,
+        fastslam,
+        &super::observations::stream(
+            world,
+            super::observations::Source::LaserFeatures { features, line_r },
+        )?,
+        rng,
+    )
 }
 
 /// [`run_with_map`] on an observation stream of laser features.
-pub fn run_with_map_on(world: &World, fastslam: &super::fastslam::FastSlamParams, observations: &[super::observations::StepObservations], rng: &mut rand_chacha::ChaCha8Rng) -> Result<Trace, super::SlamError> {
+pub fn run_with_map_on(
+    world: &World,
+    fastslam: &super::fastslam::FastSlamParams,
+    observations: &[super::observations::StepObservations],
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> Result<Trace, super::SlamError> {
     let params = super::fastslam::FastSlamParams {
         particles: 1,
         motion_x: 0.0,
@@ -39,10 +58,17 @@ pub fn run_with_map_on(world: &World, fastslam: &super::fastslam::FastSlamParams
 }
 
 /// The odometry map of a point-landmark world: one particle driven by the odometry alone.
-pub fn run_with_point_map(world: &World, fastslam: &super::fastslam::FastSlamParams, observations: &[super::observations::StepObservations], rng: &mut rand_chacha::ChaCha8Rng) -> Result<Trace, super::SlamError> {
+pub fn run_with_point_map(
+    world: &World,
+    fastslam: &super::fastslam::FastSlamParams,
+    observations: &[super::observations::StepObservations],
+    rng: &mut rand_chacha::ChaCha8Rng,
+) -> Result<Trace, super::SlamError> {
     let params = super::fastslam::FastSlamParams { particles: 1, ..fastslam.clone() };
-    let still = super::motion::MotionModel::Pose { sigma_x_m: 0.0, sigma_y_m: 0.0, sigma_theta_rad: 0.0 };
-    let mut trace = super::fastslam::run_on(world, &params, Some(&still), observations, false, rng)?;
+    let still =
+        super::motion::MotionModel::Pose { sigma_x_m: 0.0, sigma_y_m: 0.0, sigma_theta_rad: 0.0 };
+    let mut trace =
+        super::fastslam::run_on(world, &params, Some(&still), observations, false, rng)?;
     trace.pose_belief.clear(); // one particle has no spread: no NEES
     Ok(trace)
 }

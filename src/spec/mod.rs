@@ -6,7 +6,7 @@ pub mod params;
 
 use crate::metrics::metric_def;
 use crate::slam::AlgorithmKind;
-use crate::source::{join_key, Locator, SourceError};
+use crate::source::{Locator, SourceError, join_key};
 pub use params::Params;
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -241,7 +241,8 @@ impl ClaimSpec {
     pub fn seed_tag(&self) -> Option<&str> {
         let s = self.source.trim_start().strip_prefix('[')?;
         let tag = &s[..s.find(']')?];
-        (!tag.is_empty() && tag.chars().all(|c| c.is_ascii_uppercase() || c.is_ascii_digit())).then_some(tag)
+        (!tag.is_empty() && tag.chars().all(|c| c.is_ascii_uppercase() || c.is_ascii_digit()))
+            .then_some(tag)
     }
 }
 
@@ -485,7 +486,11 @@ pub struct LandmarkReference {
 impl Default for ReportSpec {
     fn default() -> Self {
         Self {
-            metrics: vec!["ate_rmse_m".into(), "final_position_error_m".into(), "final_heading_error_deg".into()],
+            metrics: vec![
+                "ate_rmse_m".into(),
+                "final_position_error_m".into(),
+                "final_heading_error_deg".into(),
+            ],
             log_x: Vec::new(),
             reference: None,
             landmark_reference: Vec::new(),
@@ -540,7 +545,15 @@ impl SpecError {
         Self { path: path.to_path_buf(), errors }
     }
     pub fn io(path: &Path, err: &std::io::Error) -> Self {
-        Self::new(path, vec![SourceError { line: 0, column: 0, key: String::new(), message: format!("cannot read: {err}") }])
+        Self::new(
+            path,
+            vec![SourceError {
+                line: 0,
+                column: 0,
+                key: String::new(),
+                message: format!("cannot read: {err}"),
+            }],
+        )
     }
 }
 
@@ -592,7 +605,16 @@ pub fn load(path: &Path) -> Result<LoadedSpec, SpecError> {
     // `experiments/<id>.toml`: the file says which study it is.
     let stem = path.file_stem().unwrap_or_default().to_string_lossy();
     if stem != loaded.spec.id {
-        return Err(SpecError::new(path, vec![loaded.error_at("id", format!("is `{}` but the file is named {stem}.toml: name the file after the study id", loaded.spec.id))]));
+        return Err(SpecError::new(
+            path,
+            vec![loaded.error_at(
+                "id",
+                format!(
+                    "is `{}` but the file is named {stem}.toml: name the file after the study id",
+                    loaded.spec.id
+                ),
+            )],
+        ));
     }
     Ok(loaded)
 }
@@ -600,12 +622,21 @@ pub fn load(path: &Path) -> Result<LoadedSpec, SpecError> {
 /// Parses and validates spec text (`path` only names it in errors).
 pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     let locator = Locator::new(text);
-    let spec: ExperimentSpec = toml::from_str(text).map_err(|e| SpecError::new(path, vec![SourceError::from_toml(&locator, &e)]))?;
+    let spec: ExperimentSpec = toml::from_str(text)
+        .map_err(|e| SpecError::new(path, vec![SourceError::from_toml(&locator, &e)]))?;
     let mut errors = Vec::new();
     let mut err = |key: &str, msg: String| errors.push(SourceError::at_key(&locator, key, msg));
 
-    if spec.id.is_empty() || !spec.id.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' || c == '_') {
-        err("id", format!("must be non-empty lower-case letters, digits, `-` or `_`, got {:?}", spec.id));
+    if spec.id.is_empty()
+        || !spec
+            .id
+            .chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' || c == '_')
+    {
+        err(
+            "id",
+            format!("must be non-empty lower-case letters, digits, `-` or `_`, got {:?}", spec.id),
+        );
     }
     if spec.title.trim().is_empty() {
         err("title", "must not be empty".into());
@@ -634,7 +665,10 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         err(&format!("base.{}", v.key), v.message);
     }
     let d = &spec.report.diff;
-    let check_diff = |key: String, alpha: Option<f64>, min_effect: Option<f64>, err: &mut dyn FnMut(&str, String)| {
+    let check_diff = |key: String,
+                      alpha: Option<f64>,
+                      min_effect: Option<f64>,
+                      err: &mut dyn FnMut(&str, String)| {
         if let Some(a) = alpha.filter(|a| !(*a > 0.0 && *a < 1.0)) {
             err(&format!("{key}.alpha"), format!("must be in (0, 1), got {a}"));
         }
@@ -652,7 +686,10 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     for (i, m) in spec.report.metrics.iter().enumerate() {
         if metric_def(m).is_none() {
             let known: Vec<_> = crate::metrics::METRICS.iter().map(|d| d.name).collect();
-            err(&format!("report.metrics[{i}]"), format!("unknown metric `{m}` (known: {})", known.join(", ")));
+            err(
+                &format!("report.metrics[{i}]"),
+                format!("unknown metric `{m}` (known: {})", known.join(", ")),
+            );
         }
     }
     if spec.report.metrics.is_empty() {
@@ -660,11 +697,17 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     }
     for (i, c) in spec.report.contrasts.iter().enumerate() {
         if c.pairs.is_empty() {
-            err(&format!("report.contrasts[{i}].pairs"), "list at least one [cell, against] pair".into());
+            err(
+                &format!("report.contrasts[{i}].pairs"),
+                "list at least one [cell, against] pair".into(),
+            );
         }
         for (j, m) in c.metrics.iter().enumerate() {
             if metric_def(m).is_none() {
-                err(&format!("report.contrasts[{i}].metrics[{j}]"), format!("unknown metric `{m}`"));
+                err(
+                    &format!("report.contrasts[{i}].metrics[{j}]"),
+                    format!("unknown metric `{m}`"),
+                );
             }
         }
     }
@@ -673,7 +716,10 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         if metric_def(m).is_none() {
             err(&format!("report.sensitivity_log[{i}]"), format!("unknown metric `{m}`"));
         } else if !spec.sweeps.iter().any(|b| b.kind.is_design()) {
-            err(&format!("report.sensitivity_log[{i}]"), "only a study with a morris or sobol sweep has sensitivity indices".into());
+            err(
+                &format!("report.sensitivity_log[{i}]"),
+                "only a study with a morris or sobol sweep has sensitivity indices".into(),
+            );
         }
     }
 
@@ -686,41 +732,82 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     for (i, block) in spec.sweeps.iter().enumerate() {
         if block.kind.is_design() {
             let design = check_design(i, block, &base_leaves, &spec.algorithms, &mut err);
-            sweeps.push(SweepBlock { kind: block.kind, params: Vec::new(), labels: Vec::new(), design });
+            sweeps.push(SweepBlock {
+                kind: block.kind,
+                params: Vec::new(),
+                labels: Vec::new(),
+                design,
+            });
             continue;
         }
-        for (k, set) in [("ranges", !block.ranges.is_empty()), ("log", !block.log.is_empty()), ("tied", !block.tied.is_empty()), ("levels", block.levels.is_some()), ("trajectories", block.trajectories.is_some()), ("samples", block.samples.is_some())] {
+        for (k, set) in [
+            ("ranges", !block.ranges.is_empty()),
+            ("log", !block.log.is_empty()),
+            ("tied", !block.tied.is_empty()),
+            ("levels", block.levels.is_some()),
+            ("trajectories", block.trajectories.is_some()),
+            ("samples", block.samples.is_some()),
+        ] {
             if set {
-                err(&format!("sweeps[{i}].{k}"), "only a morris or sobol sweep has this key".into());
+                err(
+                    &format!("sweeps[{i}].{k}"),
+                    "only a morris or sobol sweep has this key".into(),
+                );
             }
         }
         let mut swept = Vec::new();
         flatten_sweep(&block.values, "", &format!("sweeps[{i}].values"), &mut swept);
         if swept.is_empty() {
-            err(&format!("sweeps[{i}].values"), "list at least one parameter with its values".into());
+            err(
+                &format!("sweeps[{i}].values"),
+                "list at least one parameter with its values".into(),
+            );
         }
         // A block that switches a section's `model` may set that variant's own fields; they are
         // checked when each point is resolved.
-        let switches: Vec<&str> = swept.iter().filter_map(|p| p.path.strip_suffix(".model")).collect();
+        let switches: Vec<&str> =
+            swept.iter().filter_map(|p| p.path.strip_suffix(".model")).collect();
         let variant_field = |p: &str| switches.iter().any(|s| p.starts_with(&format!("{s}.")));
-        let read: Vec<&str> = spec.algorithms.iter().flat_map(|a| crate::world::WorldKind::ALL.into_iter().flat_map(move |k| a.sections_read(k))).collect();
+        let read: Vec<&str> = spec
+            .algorithms
+            .iter()
+            .flat_map(|a| {
+                crate::world::WorldKind::ALL.into_iter().flat_map(move |k| a.sections_read(k))
+            })
+            .collect();
         for p in &swept {
             let section = p.path.split('.').next().unwrap_or("");
             if known(&p.path) && !read.contains(&section) {
                 let names: Vec<&str> = spec.algorithms.iter().map(|a| a.name()).collect();
-                err(&p.key, format!("`{}` is not read by any of this study's algorithms ({}): sweeping it would only repeat identical runs", p.path, names.join(", ")));
+                err(
+                    &p.key,
+                    format!(
+                        "`{}` is not read by any of this study's algorithms ({}): sweeping it would only repeat identical runs",
+                        p.path,
+                        names.join(", ")
+                    ),
+                );
                 continue;
             }
             if !known(&p.path) && !variant_field(&p.path) {
                 let names: Vec<_> = base_leaves.iter().map(|(k, _)| k.as_str()).collect();
-                err(&p.key, format!("unknown parameter `{}` (parameters: {})", p.path, names.join(", ")));
+                err(
+                    &p.key,
+                    format!("unknown parameter `{}` (parameters: {})", p.path, names.join(", ")),
+                );
             } else if p.values.is_empty() {
                 err(&p.key, "must be a non-empty list of values".into());
             }
         }
-        if block.kind == SweepKind::Zip && swept.windows(2).any(|w| w[0].values.len() != w[1].values.len()) {
-            let lens: Vec<_> = swept.iter().map(|p| format!("{} has {}", p.path, p.values.len())).collect();
-            err(&format!("sweeps[{i}].values"), format!("a zip sweep needs lists of equal length ({})", lens.join(", ")));
+        if block.kind == SweepKind::Zip
+            && swept.windows(2).any(|w| w[0].values.len() != w[1].values.len())
+        {
+            let lens: Vec<_> =
+                swept.iter().map(|p| format!("{} has {}", p.path, p.values.len())).collect();
+            err(
+                &format!("sweeps[{i}].values"),
+                format!("a zip sweep needs lists of equal length ({})", lens.join(", ")),
+            );
         }
         if !block.labels.is_empty() {
             let n = swept.first().map_or(0, |p| p.values.len());
@@ -728,24 +815,49 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
             if block.kind != SweepKind::Zip {
                 err(&key, "only a zip sweep can name its points".into());
             } else if block.labels.len() != n {
-                err(&key, format!("needs one name per point: {n} points, {} names", block.labels.len()));
+                err(
+                    &key,
+                    format!("needs one name per point: {n} points, {} names", block.labels.len()),
+                );
             }
             for (j, l) in block.labels.iter().enumerate() {
-                if l.is_empty() || !l.chars().all(|c| c.is_ascii_alphanumeric() || "._-+".contains(c)) {
-                    err(&format!("{key}[{j}]"), format!("`{l}` must be non-empty letters, digits, `.`, `_`, `-` or `+`"));
+                if l.is_empty()
+                    || !l.chars().all(|c| c.is_ascii_alphanumeric() || "._-+".contains(c))
+                {
+                    err(
+                        &format!("{key}[{j}]"),
+                        format!("`{l}` must be non-empty letters, digits, `.`, `_`, `-` or `+`"),
+                    );
                 } else if block.labels[..j].contains(l) {
                     err(&format!("{key}[{j}]"), format!("`{l}` is used twice"));
                 }
             }
         }
-        sweeps.push(SweepBlock { kind: block.kind, params: swept, labels: block.labels.clone(), design: None });
+        sweeps.push(SweepBlock {
+            kind: block.kind,
+            params: swept,
+            labels: block.labels.clone(),
+            design: None,
+        });
     }
     for (i, p) in spec.report.log_x.iter().enumerate() {
-        let values: Vec<&toml::Value> = sweeps.iter().flat_map(|b| &b.params).filter(|s| &s.path == p).flat_map(|s| &s.values).collect();
+        let values: Vec<&toml::Value> = sweeps
+            .iter()
+            .flat_map(|b| &b.params)
+            .filter(|s| &s.path == p)
+            .flat_map(|s| &s.values)
+            .collect();
         if values.is_empty() {
             err(&format!("report.log_x[{i}]"), format!("`{p}` is not a swept parameter"));
-        } else if !values.iter().all(|v| v.as_float().map(|f| f > 0.0).or(v.as_integer().map(|n| n > 0)).unwrap_or(false)) {
-            err(&format!("report.log_x[{i}]"), format!("`{p}` can only be plotted on a log axis if all its values are numbers > 0"));
+        } else if !values.iter().all(|v| {
+            v.as_float().map(|f| f > 0.0).or(v.as_integer().map(|n| n > 0)).unwrap_or(false)
+        }) {
+            err(
+                &format!("report.log_x[{i}]"),
+                format!(
+                    "`{p}` can only be plotted on a log axis if all its values are numbers > 0"
+                ),
+            );
         }
     }
 
@@ -753,30 +865,85 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         let key = |k: &str| format!("claims[{i}].{k}");
         if let Some(index) = c.index {
             // where the index comes from: a design sweep of its kind with this parameter
-            let ranged = |p: &str| sweeps.iter().filter(|b| b.kind == index.sweep()).filter_map(|b| b.design.as_ref()).any(|d| d.params.iter().any(|r| r.path == p));
+            let ranged = |p: &str| {
+                sweeps
+                    .iter()
+                    .filter(|b| b.kind == index.sweep())
+                    .filter_map(|b| b.design.as_ref())
+                    .any(|d| d.params.iter().any(|r| r.path == p))
+            };
             if !sweeps.iter().any(|b| b.kind == index.sweep()) {
-                err(&key("index"), format!("{} comes from a {} sweep, which this study does not have", index.as_str(), if index.sweep() == SweepKind::Morris { "morris" } else { "sobol" }));
+                err(
+                    &key("index"),
+                    format!(
+                        "{} comes from a {} sweep, which this study does not have",
+                        index.as_str(),
+                        if index.sweep() == SweepKind::Morris { "morris" } else { "sobol" }
+                    ),
+                );
             } else if c.parameter.is_empty() {
-                err(&format!("claims[{i}]"), "an index claim needs the `parameter` it is about".into());
+                err(
+                    &format!("claims[{i}]"),
+                    "an index claim needs the `parameter` it is about".into(),
+                );
             } else if !ranged(&c.parameter) {
-                err(&key("parameter"), format!("`{}` has no range in this study's {} sweep", c.parameter, if index.sweep() == SweepKind::Morris { "morris" } else { "sobol" }));
+                err(
+                    &key("parameter"),
+                    format!(
+                        "`{}` has no range in this study's {} sweep",
+                        c.parameter,
+                        if index.sweep() == SweepKind::Morris { "morris" } else { "sobol" }
+                    ),
+                );
             }
             match c.test {
-                ClaimTest::Greater | ClaimTest::Less if c.than_parameter.is_empty() => err(&format!("claims[{i}]"), "this test needs a `than_parameter` to compare the index with".into()),
-                ClaimTest::Greater | ClaimTest::Less if !ranged(&c.than_parameter) => err(&key("than_parameter"), format!("`{}` has no range in the same sweep", c.than_parameter)),
-                ClaimTest::Greater | ClaimTest::Less | ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {}
-                _ => err(&key("test"), "an index claim is tested with above, below, between, greater or less".into()),
+                ClaimTest::Greater | ClaimTest::Less if c.than_parameter.is_empty() => err(
+                    &format!("claims[{i}]"),
+                    "this test needs a `than_parameter` to compare the index with".into(),
+                ),
+                ClaimTest::Greater | ClaimTest::Less if !ranged(&c.than_parameter) => err(
+                    &key("than_parameter"),
+                    format!("`{}` has no range in the same sweep", c.than_parameter),
+                ),
+                ClaimTest::Greater
+                | ClaimTest::Less
+                | ClaimTest::Above
+                | ClaimTest::Below
+                | ClaimTest::Between => {}
+                _ => err(
+                    &key("test"),
+                    "an index claim is tested with above, below, between, greater or less".into(),
+                ),
             }
-            if !c.than_parameter.is_empty() && !matches!(c.test, ClaimTest::Greater | ClaimTest::Less) {
-                err(&key("than_parameter"), "only a greater or less index claim compares parameters".into());
+            if !c.than_parameter.is_empty()
+                && !matches!(c.test, ClaimTest::Greater | ClaimTest::Less)
+            {
+                err(
+                    &key("than_parameter"),
+                    "only a greater or less index claim compares parameters".into(),
+                );
             }
-            for (k, set) in [("at", !c.at.is_empty()), ("than", !c.than.is_empty()), ("over", !c.over.is_empty()), ("than_algorithm", c.than_algorithm.is_some()), ("precondition", c.precondition.is_some()), ("min_effect_rel", c.min_effect_rel.is_some())] {
+            for (k, set) in [
+                ("at", !c.at.is_empty()),
+                ("than", !c.than.is_empty()),
+                ("over", !c.over.is_empty()),
+                ("than_algorithm", c.than_algorithm.is_some()),
+                ("precondition", c.precondition.is_some()),
+                ("min_effect_rel", c.min_effect_rel.is_some()),
+            ] {
                 if set {
-                    err(&key(k), "an index claim is about the whole design, not cells: leave this key out".into());
+                    err(
+                        &key(k),
+                        "an index claim is about the whole design, not cells: leave this key out"
+                            .into(),
+                    );
                 }
             }
         } else {
-            for (k, set) in [("parameter", !c.parameter.is_empty()), ("than_parameter", !c.than_parameter.is_empty())] {
+            for (k, set) in [
+                ("parameter", !c.parameter.is_empty()),
+                ("than_parameter", !c.than_parameter.is_empty()),
+            ] {
                 if set {
                     err(&key(k), "only an index claim (`index = …`) names a parameter".into());
                 }
@@ -784,7 +951,10 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         }
         if c.test == ClaimTest::Fails {
             if !c.metric.is_empty() {
-                err(&key("metric"), "a `fails` claim tests run failures, not a metric: leave `metric` out".into());
+                err(
+                    &key("metric"),
+                    "a `fails` claim tests run failures, not a metric: leave `metric` out".into(),
+                );
             }
         } else if c.metric.is_empty() {
             err(&key("metric"), "this test needs a `metric`".into());
@@ -795,29 +965,51 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
             err(&key("failure"), "only a `fails` claim has a `failure` text".into());
         }
         let missing = match c.test {
-            ClaimTest::Above | ClaimTest::Below => c.value.is_none().then_some("a threshold `value`"),
-            ClaimTest::Fails => None,
-            ClaimTest::Between => (c.value.is_none() || c.upper.is_none()).then_some("bounds `value` and `upper`"),
-            ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
-                (c.index.is_none() && c.than.is_empty() && c.than_algorithm.is_none()).then_some("a cell (`than`) or an algorithm (`than_algorithm`) to compare with")
+            ClaimTest::Above | ClaimTest::Below => {
+                c.value.is_none().then_some("a threshold `value`")
             }
-            ClaimTest::Flat => (c.over.len() != 1 || c.tolerance.is_some() == c.tolerance_rel.is_some()).then_some("one parameter's values in `over` and either `tolerance` or `tolerance_rel`"),
+            ClaimTest::Fails => None,
+            ClaimTest::Between => {
+                (c.value.is_none() || c.upper.is_none()).then_some("bounds `value` and `upper`")
+            }
+            ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
+                (c.index.is_none() && c.than.is_empty() && c.than_algorithm.is_none())
+                    .then_some("a cell (`than`) or an algorithm (`than_algorithm`) to compare with")
+            }
+            ClaimTest::Flat => {
+                (c.over.len() != 1 || c.tolerance.is_some() == c.tolerance_rel.is_some()).then_some(
+                    "one parameter's values in `over` and either `tolerance` or `tolerance_rel`",
+                )
+            }
         };
         if let Some(what) = missing {
             err(&format!("claims[{i}]"), format!("this test needs {what}"));
         }
-        let comparative = matches!(c.test, ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess);
+        let comparative = matches!(
+            c.test,
+            ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess
+        );
         for (k, v) in [("tolerance", c.tolerance), ("tolerance_rel", c.tolerance_rel)] {
             match v {
-                Some(_) if c.test != ClaimTest::Flat => err(&key(k), "only a `flat` claim has a tolerance".into()),
-                Some(t) if !(t.is_finite() && t > 0.0) => err(&key(k), format!("must be a finite number > 0, got {t}")),
+                Some(_) if c.test != ClaimTest::Flat => {
+                    err(&key(k), "only a `flat` claim has a tolerance".into())
+                }
+                Some(t) if !(t.is_finite() && t > 0.0) => {
+                    err(&key(k), format!("must be a finite number > 0, got {t}"))
+                }
                 _ => {}
             }
         }
         for (k, v) in [("min_effect", c.min_effect), ("min_effect_rel", c.min_effect_rel)] {
             match v {
-                Some(_) if !comparative => err(&key(k), "only greater, less, not_greater and not_less claims have a minimum effect".into()),
-                Some(t) if !(t.is_finite() && t >= 0.0) => err(&key(k), format!("must be a finite number ≥ 0, got {t}")),
+                Some(_) if !comparative => err(
+                    &key(k),
+                    "only greater, less, not_greater and not_less claims have a minimum effect"
+                        .into(),
+                ),
+                Some(t) if !(t.is_finite() && t >= 0.0) => {
+                    err(&key(k), format!("must be a finite number ≥ 0, got {t}"))
+                }
                 _ => {}
             }
         }
@@ -838,12 +1030,21 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         if c.direction != FlatDirection::Both && c.test != ClaimTest::Flat {
             err(&key("direction"), "only a `flat` claim has a direction".into());
         }
-        let needs_why = c.test == ClaimTest::Flat || matches!(c.test, ClaimTest::NotGreater | ClaimTest::NotLess) || c.min_effect.is_some() || c.min_effect_rel.is_some();
+        let needs_why = c.test == ClaimTest::Flat
+            || matches!(c.test, ClaimTest::NotGreater | ClaimTest::NotLess)
+            || c.min_effect.is_some()
+            || c.min_effect_rel.is_some();
         if needs_why && c.why.trim().is_empty() {
             err(&key("why"), "say why the tolerance, margin or minimum effect is what it is (a `why` is required for flat, not_greater and not_less claims and any explicit minimum effect)".into());
         }
         if c.kind == ClaimKind::Seed && c.seed_tag().is_none() {
-            err(&key("source"), format!("a `seed` claim's source must start with the reference work's tag, e.g. \"[FT] §7 claim 5\", got {:?}", c.source));
+            err(
+                &key("source"),
+                format!(
+                    "a `seed` claim's source must start with the reference work's tag, e.g. \"[FT] §7 claim 5\", got {:?}",
+                    c.source
+                ),
+            );
         }
         for m in &c.maps {
             if !spec.maps.contains(m) {
@@ -865,13 +1066,25 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     if !errors.is_empty() {
         return Err(SpecError::new(path, errors));
     }
-    Ok(LoadedSpec { path: path.to_path_buf(), hash: blake3::hash(text.as_bytes()).to_hex().to_string(), locator, spec, sweeps })
+    Ok(LoadedSpec {
+        path: path.to_path_buf(),
+        hash: blake3::hash(text.as_bytes()).to_hex().to_string(),
+        locator,
+        spec,
+        sweeps,
+    })
 }
 
 /// Checks a morris / sobol block: `ranges` of known parameters read by the study's algorithms,
 /// `[low, high]` numbers with low < high (integers for an integer parameter), `log` ranges
 /// above 0, `tied` keys following a ranged parameter, and the design's sizes.
-fn check_design(i: usize, block: &SweepSpec, base_leaves: &[(String, toml::Value)], algorithms: &[AlgorithmKind], err: &mut dyn FnMut(&str, String)) -> Option<DesignSpec> {
+fn check_design(
+    i: usize,
+    block: &SweepSpec,
+    base_leaves: &[(String, toml::Value)],
+    algorithms: &[AlgorithmKind],
+    err: &mut dyn FnMut(&str, String),
+) -> Option<DesignSpec> {
     let key = |k: &str| format!("sweeps[{i}].{k}");
     let before = std::cell::Cell::new(0usize);
     let mut fail = |k: String, m: String| {
@@ -879,7 +1092,10 @@ fn check_design(i: usize, block: &SweepSpec, base_leaves: &[(String, toml::Value
         err(&k, m)
     };
     if !block.values.is_empty() {
-        fail(key("values"), "a morris or sobol sweep samples `ranges`, not lists of `values`".into());
+        fail(
+            key("values"),
+            "a morris or sobol sweep samples `ranges`, not lists of `values`".into(),
+        );
     }
     if !block.labels.is_empty() {
         fail(key("labels"), "only a zip sweep can name its points".into());
@@ -887,43 +1103,85 @@ fn check_design(i: usize, block: &SweepSpec, base_leaves: &[(String, toml::Value
     let mut ranged = Vec::new();
     flatten_sweep(&block.ranges, "", &key("ranges"), &mut ranged);
     if ranged.is_empty() {
-        fail(key("ranges"), "give each parameter's range, e.g. ranges = { \"features.dmax_m\" = [0.001, 0.1] }".into());
+        fail(
+            key("ranges"),
+            "give each parameter's range, e.g. ranges = { \"features.dmax_m\" = [0.001, 0.1] }"
+                .into(),
+        );
     }
     let mut params = Vec::new();
     for p in &ranged {
         let Some((_, base)) = base_leaves.iter().find(|(k, _)| *k == p.path) else {
             let names: Vec<_> = base_leaves.iter().map(|(k, _)| k.as_str()).collect();
-            fail(p.key.clone(), format!("unknown parameter `{}` (parameters: {})", p.path, names.join(", ")));
+            fail(
+                p.key.clone(),
+                format!("unknown parameter `{}` (parameters: {})", p.path, names.join(", ")),
+            );
             continue;
         };
-        let read: Vec<&str> = algorithms.iter().flat_map(|a| crate::world::WorldKind::ALL.into_iter().flat_map(move |k| a.sections_read(k))).collect();
+        let read: Vec<&str> = algorithms
+            .iter()
+            .flat_map(|a| {
+                crate::world::WorldKind::ALL.into_iter().flat_map(move |k| a.sections_read(k))
+            })
+            .collect();
         if !read.contains(&p.path.split('.').next().unwrap_or("")) {
             let names: Vec<&str> = algorithms.iter().map(|a| a.name()).collect();
-            fail(p.key.clone(), format!("`{}` is not read by any of this study's algorithms ({}): its indices would be zero by construction", p.path, names.join(", ")));
+            fail(
+                p.key.clone(),
+                format!(
+                    "`{}` is not read by any of this study's algorithms ({}): its indices would be zero by construction",
+                    p.path,
+                    names.join(", ")
+                ),
+            );
             continue;
         }
         let integer = base.is_integer();
         if !(base.is_integer() || base.is_float()) {
-            fail(p.key.clone(), format!("`{}` is not a number: a range needs a numeric parameter", p.path));
+            fail(
+                p.key.clone(),
+                format!("`{}` is not a number: a range needs a numeric parameter", p.path),
+            );
             continue;
         }
-        let bounds: Vec<Option<f64>> = p.values.iter().map(|v| v.as_float().or(v.as_integer().map(|n| n as f64))).collect();
+        let bounds: Vec<Option<f64>> =
+            p.values.iter().map(|v| v.as_float().or(v.as_integer().map(|n| n as f64))).collect();
         let (low, high) = match bounds[..] {
             [Some(lo), Some(hi)] if lo.is_finite() && hi.is_finite() && lo < hi => (lo, hi),
             _ => {
-                fail(p.key.clone(), "must be [low, high], two finite numbers with low < high".into());
+                fail(
+                    p.key.clone(),
+                    "must be [low, high], two finite numbers with low < high".into(),
+                );
                 continue;
             }
         };
         if integer && !p.values.iter().all(toml::Value::is_integer) {
-            fail(p.key.clone(), format!("`{}` is an integer parameter: give integer bounds", p.path));
+            fail(
+                p.key.clone(),
+                format!("`{}` is an integer parameter: give integer bounds", p.path),
+            );
             continue;
         }
         let log = block.log.contains(&p.path);
         if log && low <= 0.0 {
-            fail(p.key.clone(), format!("`{}` is sampled on a log scale (`log`): its low bound must be > 0", p.path));
+            fail(
+                p.key.clone(),
+                format!(
+                    "`{}` is sampled on a log scale (`log`): its low bound must be > 0",
+                    p.path
+                ),
+            );
         }
-        params.push(RangedParam { path: p.path.clone(), key: p.key.clone(), low, high, log, integer });
+        params.push(RangedParam {
+            path: p.path.clone(),
+            key: p.key.clone(),
+            low,
+            high,
+            log,
+            integer,
+        });
     }
     for (j, l) in block.log.iter().enumerate() {
         if !ranged.iter().any(|p| &p.path == l) {
@@ -946,11 +1204,18 @@ fn check_design(i: usize, block: &SweepSpec, base_leaves: &[(String, toml::Value
     }
     let d = params.len();
     let or_default = |v: Option<u32>, default: u32| v.unwrap_or(default) as usize;
-    let (levels, trajectories, samples) = (or_default(block.levels, 4), or_default(block.trajectories, 10), or_default(block.samples, 64));
+    let (levels, trajectories, samples) = (
+        or_default(block.levels, 4),
+        or_default(block.trajectories, 10),
+        or_default(block.samples, 64),
+    );
     match block.kind {
         SweepKind::Morris => {
             if block.samples.is_some() {
-                fail(key("samples"), "a morris sweep has `trajectories` and `levels`, not `samples`".into());
+                fail(
+                    key("samples"),
+                    "a morris sweep has `trajectories` and `levels`, not `samples`".into(),
+                );
             }
             if !(2..=64).contains(&levels) || levels % 2 == 1 {
                 fail(key("levels"), format!("must be an even number in [2, 64], got {levels}"));
@@ -960,17 +1225,30 @@ fn check_design(i: usize, block: &SweepSpec, base_leaves: &[(String, toml::Value
             }
         }
         _ => {
-            for (k, set) in [("levels", block.levels.is_some()), ("trajectories", block.trajectories.is_some())] {
+            for (k, set) in
+                [("levels", block.levels.is_some()), ("trajectories", block.trajectories.is_some())]
+            {
                 if set {
                     fail(key(k), "a sobol sweep has `samples`, not this key".into());
                 }
             }
             if !samples.is_power_of_two() || !(8..=65_536).contains(&samples) {
-                fail(key("samples"), format!("must be a power of two in [8, 65536] (the Sobol' sequence's balance), got {samples}"));
+                fail(
+                    key("samples"),
+                    format!(
+                        "must be a power of two in [8, 65536] (the Sobol' sequence's balance), got {samples}"
+                    ),
+                );
             }
             let most = crate::stats::sensitivity::MAX_DIMENSIONS / 2;
             if !(2..=most).contains(&d) && !ranged.is_empty() {
-                fail(key("ranges"), format!("a sobol sweep takes 2 to {most} parameters (its design uses 2d Sobol' dimensions, {} available), got {d}", crate::stats::sensitivity::MAX_DIMENSIONS));
+                fail(
+                    key("ranges"),
+                    format!(
+                        "a sobol sweep takes 2 to {most} parameters (its design uses 2d Sobol' dimensions, {} available), got {d}",
+                        crate::stats::sensitivity::MAX_DIMENSIONS
+                    ),
+                );
             }
         }
     }
@@ -985,7 +1263,9 @@ fn flatten_sweep(table: &toml::Table, prefix: &str, key_prefix: &str, out: &mut 
         let key = join_key(key_prefix, k);
         match v {
             toml::Value::Table(t) => flatten_sweep(t, &path, &key, out),
-            toml::Value::Array(values) => out.push(SweptParam { path, key, values: values.clone() }),
+            toml::Value::Array(values) => {
+                out.push(SweptParam { path, key, values: values.clone() })
+            }
             _ => out.push(SweptParam { path, key, values: Vec::new() }),
         }
     }
@@ -1026,14 +1306,37 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
     #[test]
     fn good_spec_flattens_sweeps_in_written_order() {
         let s = parse(Path::new("x.toml"), GOOD).unwrap();
-        let paths: Vec<_> = s.sweeps[0].params.iter().map(|p| (p.path.as_str(), p.key.as_str())).collect();
-        assert_eq!(paths, vec![("odometry.k", "sweeps[0].values.\"odometry.k\""), ("sim.dt_s", "sweeps[0].values.sim.dt_s")]);
-        assert_eq!(s.spec.base.odometry, crate::world::odometry::OdometryNoise::Proportional { k: 0.1, k_is: crate::world::odometry::Spread::Std });
+        let paths: Vec<_> =
+            s.sweeps[0].params.iter().map(|p| (p.path.as_str(), p.key.as_str())).collect();
+        assert_eq!(
+            paths,
+            vec![
+                ("odometry.k", "sweeps[0].values.\"odometry.k\""),
+                ("sim.dt_s", "sweeps[0].values.sim.dt_s")
+            ]
+        );
+        assert_eq!(
+            s.spec.base.odometry,
+            crate::world::odometry::OdometryNoise::Proportional {
+                k: 0.1,
+                k_is: crate::world::odometry::Spread::Std
+            }
+        );
     }
 
     #[test]
     fn seed_tags() {
-        let tag = |source: &str| ClaimSpec { source: source.into(), ..toml::from_str::<ClaimSpec>("id = \"c\"\nsource = \"\"\nkind = \"seed\"\ntext = \"t\"\ntest = \"fails\"").unwrap() }.seed_tag().map(str::to_string);
+        let tag = |source: &str| {
+            ClaimSpec {
+                source: source.into(),
+                ..toml::from_str::<ClaimSpec>(
+                    "id = \"c\"\nsource = \"\"\nkind = \"seed\"\ntext = \"t\"\ntest = \"fails\"",
+                )
+                .unwrap()
+            }
+            .seed_tag()
+            .map(str::to_string)
+        };
         assert_eq!(tag("[FT] §7 claim 5").as_deref(), Some("FT"));
         assert_eq!(tag("Montemerlo et al. 2003"), None);
         assert_eq!(tag("[EP] claim C2 on real scans").as_deref(), Some("EP"));
@@ -1047,14 +1350,34 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let keys = |body: &str| errs(&claim(body)).into_iter().map(|e| e.key).collect::<Vec<_>>();
         let ok = "source = \"[FT] x\"\nkind = \"seed\"\nmetric = \"ate_rmse_m\"\ntest = \"flat\"\nover = { \"odometry.k\" = [0.0, 0.1] }\ntolerance_rel = 0.2\nwhy = \"the thesis's rerun\"";
         assert!(parse(Path::new("x.toml"), &claim(ok)).is_ok(), "{:?}", keys(ok));
-        assert!(keys(&ok.replace("\nwhy = \"the thesis's rerun\"", "")).contains(&"claims[0].why".to_string()));
-        assert!(keys(&ok.replace("[FT] x", "Montemerlo")).contains(&"claims[0].source".to_string()), "a seed claim names its work");
+        assert!(
+            keys(&ok.replace("\nwhy = \"the thesis's rerun\"", ""))
+                .contains(&"claims[0].why".to_string())
+        );
+        assert!(
+            keys(&ok.replace("[FT] x", "Montemerlo")).contains(&"claims[0].source".to_string()),
+            "a seed claim names its work"
+        );
         assert!(!keys(&ok.replace("kind = \"seed\"\n", "")).is_empty(), "the kind is required");
-        assert!(keys(&ok.replace("tolerance_rel = 0.2", "tolerance_rel = 0.2\ntolerance = 0.1")).contains(&"claims[0]".to_string()), "one tolerance");
-        let fails = "source = \"[FT] x\"\nkind = \"seed\"\ntest = \"fails\"\nat = { \"odometry.k\" = 0.1 }";
+        assert!(
+            keys(&ok.replace("tolerance_rel = 0.2", "tolerance_rel = 0.2\ntolerance = 0.1"))
+                .contains(&"claims[0]".to_string()),
+            "one tolerance"
+        );
+        let fails =
+            "source = \"[FT] x\"\nkind = \"seed\"\ntest = \"fails\"\nat = { \"odometry.k\" = 0.1 }";
         assert!(parse(Path::new("x.toml"), &claim(fails)).is_ok(), "{:?}", keys(fails));
-        assert!(keys(&format!("{fails}\nmetric = \"ate_rmse_m\"")).contains(&"claims[0].metric".to_string()));
-        assert!(keys(&fails.replace("test = \"fails\"", "test = \"greater\"\nthan = { \"odometry.k\" = 0.0 }")).contains(&"claims[0].metric".to_string()));
+        assert!(
+            keys(&format!("{fails}\nmetric = \"ate_rmse_m\""))
+                .contains(&"claims[0].metric".to_string())
+        );
+        assert!(
+            keys(&fails.replace(
+                "test = \"fails\"",
+                "test = \"greater\"\nthan = { \"odometry.k\" = 0.0 }"
+            ))
+            .contains(&"claims[0].metric".to_string())
+        );
     }
 
     #[test]
@@ -1088,7 +1411,9 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
     #[test]
     fn sweeping_what_no_algorithm_reads_is_refused() {
         // the odometry baseline reads no laser: runs would differ in label only
-        let e = errs(&GOOD.replace("\"odometry.k\" = [0.0, 0.1]", "\"laser.max_range_m\" = [4.0, 8.0]"));
+        let e = errs(
+            &GOOD.replace("\"odometry.k\" = [0.0, 0.1]", "\"laser.max_range_m\" = [4.0, 8.0]"),
+        );
         assert_eq!(e[0].key, "sweeps[0].values.\"laser.max_range_m\"");
         assert!(e[0].message.contains("not read by any"), "{}", e[0].message);
     }
@@ -1107,19 +1432,34 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
 
     #[test]
     fn display_is_file_line_column_key_message() {
-        let err = parse(Path::new("experiments/x.toml"), &GOOD.replace("replicates = 2", "replicates = 0")).unwrap_err();
+        let err = parse(
+            Path::new("experiments/x.toml"),
+            &GOOD.replace("replicates = 2", "replicates = 0"),
+        )
+        .unwrap_err();
         assert_eq!(err.to_string(), "experiments/x.toml:5:1: key `replicates`: must be ≥ 1");
     }
 
     #[test]
     fn diff_criteria_are_checked_and_resolved_per_metric() {
-        let text = format!("{GOOD}\n[report.diff]\nalpha = 0.01\n[report.diff.metrics.ate_rmse_m]\nmin_effect = 0.05\n");
+        let text = format!(
+            "{GOOD}\n[report.diff]\nalpha = 0.01\n[report.diff.metrics.ate_rmse_m]\nmin_effect = 0.05\n"
+        );
         let spec = parse(Path::new("t.toml"), &text).unwrap().spec;
         assert_eq!(spec.report.diff.for_metric("ate_rmse_m", (0.05, 0.01)), (0.01, 0.05));
         assert_eq!(spec.report.diff.for_metric("ate_mean_m", (0.05, 0.01)), (0.01, 0.01));
-        let e = errs(&format!("{GOOD}\n[report.diff]\nalpha = 1.5\n[report.diff.metrics.nope]\nmin_effect = -1.0\n"));
+        let e = errs(&format!(
+            "{GOOD}\n[report.diff]\nalpha = 1.5\n[report.diff.metrics.nope]\nmin_effect = -1.0\n"
+        ));
         let keys: Vec<&str> = e.iter().map(|e| e.key.as_str()).collect();
-        assert_eq!(keys, ["report.diff.alpha", "report.diff.metrics.nope", "report.diff.metrics.nope.min_effect"]);
+        assert_eq!(
+            keys,
+            [
+                "report.diff.alpha",
+                "report.diff.metrics.nope",
+                "report.diff.metrics.nope.min_effect"
+            ]
+        );
     }
 
     const DESIGN_HEAD: &str = "id = \"t\"\ntitle = \"T\"\nseed = 1\nreplicates = 2\nmaps = [\"a\"]\nalgorithms = [\"fastslam1\"]\n";
@@ -1129,40 +1469,116 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
     /// power-of-two sample count, no `values`; each error at its key.
     #[test]
     fn design_sweeps_are_checked_key_by_key() {
-        let good = format!("{DESIGN_HEAD}[[sweeps]]\nkind = \"sobol\"\nsamples = 16\nranges = {{ \"features.dmax_m\" = [0.001, 0.1], \"fastslam.particles\" = [5, 500], \"fastslam.motion_x\" = [0.0001, 0.02] }}\nlog = [\"features.dmax_m\", \"fastslam.particles\"]\ntied = {{ \"fastslam.motion_y\" = \"fastslam.motion_x\" }}\n");
+        let good = format!(
+            "{DESIGN_HEAD}[[sweeps]]\nkind = \"sobol\"\nsamples = 16\nranges = {{ \"features.dmax_m\" = [0.001, 0.1], \"fastslam.particles\" = [5, 500], \"fastslam.motion_x\" = [0.0001, 0.02] }}\nlog = [\"features.dmax_m\", \"fastslam.particles\"]\ntied = {{ \"fastslam.motion_y\" = \"fastslam.motion_x\" }}\n"
+        );
         let s = parse(Path::new("x.toml"), &good).unwrap();
         let d = s.sweeps[0].design.as_ref().unwrap();
-        let summary: Vec<(&str, bool, bool)> = d.params.iter().map(|p| (p.path.as_str(), p.log, p.integer)).collect();
-        assert_eq!(summary, [("features.dmax_m", true, false), ("fastslam.particles", true, true), ("fastslam.motion_x", false, false)]);
+        let summary: Vec<(&str, bool, bool)> =
+            d.params.iter().map(|p| (p.path.as_str(), p.log, p.integer)).collect();
+        assert_eq!(
+            summary,
+            [
+                ("features.dmax_m", true, false),
+                ("fastslam.particles", true, true),
+                ("fastslam.motion_x", false, false)
+            ]
+        );
         assert_eq!((d.tied.clone(), d.samples), (vec![("fastslam.motion_y".to_string(), 2)], 16));
         let keys = |text: String| errs(&text).into_iter().map(|e| e.key).collect::<Vec<_>>();
-        assert_eq!(keys(good.replace("[5, 500]", "[5.0, 500.0]")), ["sweeps[0].ranges.\"fastslam.particles\""], "integer parameter, float bounds");
-        assert_eq!(keys(good.replace("[0.001, 0.1]", "[0.1, 0.001]")), ["sweeps[0].ranges.\"features.dmax_m\""], "low ≥ high");
-        assert_eq!(keys(good.replace("[0.001, 0.1]", "[0.0, 0.1]")), ["sweeps[0].ranges.\"features.dmax_m\""], "log from 0");
+        assert_eq!(
+            keys(good.replace("[5, 500]", "[5.0, 500.0]")),
+            ["sweeps[0].ranges.\"fastslam.particles\""],
+            "integer parameter, float bounds"
+        );
+        assert_eq!(
+            keys(good.replace("[0.001, 0.1]", "[0.1, 0.001]")),
+            ["sweeps[0].ranges.\"features.dmax_m\""],
+            "low ≥ high"
+        );
+        assert_eq!(
+            keys(good.replace("[0.001, 0.1]", "[0.0, 0.1]")),
+            ["sweeps[0].ranges.\"features.dmax_m\""],
+            "log from 0"
+        );
         assert_eq!(keys(good.replace("samples = 16", "samples = 24")), ["sweeps[0].samples"]);
-        assert_eq!(keys(good.replace("\"fastslam.motion_x\" }", "\"fastslam.motion_z\" }")), ["sweeps[0].tied.\"fastslam.motion_y\""]);
-        assert_eq!(keys(good.replace("features.dmax_m\" = [", "features.dmax\" = [")).first().map(String::as_str), Some("sweeps[0].ranges.\"features.dmax\""));
-        assert_eq!(keys(good.replace("\"fastslam.particles\" = [5, 500]", "\"ekf.gate\" = [1.0, 9.0]")).first().map(String::as_str), Some("sweeps[0].ranges.\"ekf.gate\""), "{:?}", errs(&good.replace("\"fastslam.particles\" = [5, 500]", "\"ekf.gate\" = [1.0, 9.0]")));
-        assert_eq!(keys(good.replace("samples = 16", "samples = 16\nvalues = { \"fastslam.p0\" = [0.1] }")), ["sweeps[0].values"]);
-        assert_eq!(keys(good.replace("samples = 16", "samples = 16\nlevels = 4")), ["sweeps[0].levels"]);
+        assert_eq!(
+            keys(good.replace("\"fastslam.motion_x\" }", "\"fastslam.motion_z\" }")),
+            ["sweeps[0].tied.\"fastslam.motion_y\""]
+        );
+        assert_eq!(
+            keys(good.replace("features.dmax_m\" = [", "features.dmax\" = ["))
+                .first()
+                .map(String::as_str),
+            Some("sweeps[0].ranges.\"features.dmax\"")
+        );
+        assert_eq!(
+            keys(good.replace("\"fastslam.particles\" = [5, 500]", "\"ekf.gate\" = [1.0, 9.0]"))
+                .first()
+                .map(String::as_str),
+            Some("sweeps[0].ranges.\"ekf.gate\""),
+            "{:?}",
+            errs(&good.replace("\"fastslam.particles\" = [5, 500]", "\"ekf.gate\" = [1.0, 9.0]"))
+        );
+        assert_eq!(
+            keys(
+                good.replace("samples = 16", "samples = 16\nvalues = { \"fastslam.p0\" = [0.1] }")
+            ),
+            ["sweeps[0].values"]
+        );
+        assert_eq!(
+            keys(good.replace("samples = 16", "samples = 16\nlevels = 4")),
+            ["sweeps[0].levels"]
+        );
         // morris: even levels; a grid sweep has no ranges
-        let morris = good.replace("kind = \"sobol\"\nsamples = 16", "kind = \"morris\"\nlevels = 5");
+        let morris =
+            good.replace("kind = \"sobol\"\nsamples = 16", "kind = \"morris\"\nlevels = 5");
         assert_eq!(keys(morris), ["sweeps[0].levels"]);
-        let grid = format!("{DESIGN_HEAD}[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"fastslam.p0\" = [0.1] }}\nranges = {{ \"fastslam.p0\" = [0.1, 1.0] }}\n");
+        let grid = format!(
+            "{DESIGN_HEAD}[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"fastslam.p0\" = [0.1] }}\nranges = {{ \"fastslam.p0\" = [0.1, 1.0] }}\n"
+        );
         assert_eq!(keys(grid), ["sweeps[0].ranges"]);
     }
 
     /// Index claims name a ranged parameter of a sweep of their index's kind and no cells.
     #[test]
     fn index_claims_are_checked() {
-        let base = format!("{DESIGN_HEAD}[[sweeps]]\nkind = \"sobol\"\nsamples = 16\nranges = {{ \"features.dmax_m\" = [0.001, 0.1], \"fastslam.particles\" = [5, 500] }}\n[[claims]]\nid = \"c\"\nsource = \"slamlab\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"st\"\nparameter = \"fastslam.particles\"\ntest = \"above\"\nvalue = 0.3\n");
+        let base = format!(
+            "{DESIGN_HEAD}[[sweeps]]\nkind = \"sobol\"\nsamples = 16\nranges = {{ \"features.dmax_m\" = [0.001, 0.1], \"fastslam.particles\" = [5, 500] }}\n[[claims]]\nid = \"c\"\nsource = \"slamlab\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"st\"\nparameter = \"fastslam.particles\"\ntest = \"above\"\nvalue = 0.3\n"
+        );
         assert!(parse(Path::new("x.toml"), &base).is_ok());
         let keys = |text: String| errs(&text).into_iter().map(|e| e.key).collect::<Vec<_>>();
-        assert_eq!(keys(base.replace("index = \"st\"", "index = \"mu_star\"")), ["claims[0].index"], "no morris sweep");
-        assert_eq!(keys(base.replace("parameter = \"fastslam.particles\"", "parameter = \"fastslam.p0\"")), ["claims[0].parameter"]);
-        assert_eq!(keys(base.replace("test = \"above\"", "test = \"greater\"")), ["claims[0]"], "greater needs than_parameter");
-        assert!(parse(Path::new("x.toml"), &base.replace("test = \"above\"", "test = \"greater\"\nthan_parameter = \"features.dmax_m\"")).is_ok());
-        assert_eq!(keys(base.replace("test = \"above\"", "test = \"flat\"")).first().map(String::as_str), Some("claims[0].test"));
-        assert_eq!(keys(base.replace("value = 0.3", "value = 0.3\nat = { \"fastslam.p0\" = 0.1 }")), ["claims[0].at"]);
+        assert_eq!(
+            keys(base.replace("index = \"st\"", "index = \"mu_star\"")),
+            ["claims[0].index"],
+            "no morris sweep"
+        );
+        assert_eq!(
+            keys(base.replace("parameter = \"fastslam.particles\"", "parameter = \"fastslam.p0\"")),
+            ["claims[0].parameter"]
+        );
+        assert_eq!(
+            keys(base.replace("test = \"above\"", "test = \"greater\"")),
+            ["claims[0]"],
+            "greater needs than_parameter"
+        );
+        assert!(
+            parse(
+                Path::new("x.toml"),
+                &base.replace(
+                    "test = \"above\"",
+                    "test = \"greater\"\nthan_parameter = \"features.dmax_m\""
+                )
+            )
+            .is_ok()
+        );
+        assert_eq!(
+            keys(base.replace("test = \"above\"", "test = \"flat\"")).first().map(String::as_str),
+            Some("claims[0].test")
+        );
+        assert_eq!(
+            keys(base.replace("value = 0.3", "value = 0.3\nat = { \"fastslam.p0\" = 0.1 }")),
+            ["claims[0].at"]
+        );
     }
 }

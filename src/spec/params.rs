@@ -16,7 +16,7 @@ use crate::world::WorldKind;
 use crate::world::laser::LaserParams;
 use crate::world::odometry::OdometryNoise;
 use crate::world::point_sensor::PointSensorParams;
-use crate::world::{sensor_period_steps, SimParams};
+use crate::world::{SimParams, sensor_period_steps};
 use serde::{Deserialize, Serialize};
 
 /// The resolved parameters of one sweep point. Omitted sections and keys take their defaults.
@@ -69,9 +69,16 @@ impl Params {
         c.nested("epsm", self.epsm.validate());
         c.nested("pose_search", self.pose_search.validate());
         c.nested("brute_force", self.brute_force.validate());
-        let in_use = [("laser", self.laser.rate_hz, sensors.laser), ("landmark_sensor", self.landmark_sensor.rate_hz, sensors.landmarks)];
+        let in_use = [
+            ("laser", self.laser.rate_hz, sensors.laser),
+            ("landmark_sensor", self.landmark_sensor.rate_hz, sensors.landmarks),
+        ];
         for (section, rate, used) in in_use {
-            if used && rate > 0.0 && self.sim.dt_s > 0.0 && sensor_period_steps(rate, self.sim.dt_s).is_none() {
+            if used
+                && rate > 0.0
+                && self.sim.dt_s > 0.0
+                && sensor_period_steps(rate, self.sim.dt_s).is_none()
+            {
                 c.fail(&format!("{section}.rate_hz"), format!("1/(rate_hz·sim.dt_s) must be a whole number of odometry steps, got {rate} Hz at Δt = {} s", self.sim.dt_s));
             }
         }
@@ -138,6 +145,10 @@ mod tests {
         let mut out = Vec::new();
         flatten("", &toml::Value::Table(Params::default().to_table()), &mut out);
         let names: Vec<_> = out.iter().map(|(k, _)| k.as_str()).collect();
-        assert!(names.contains(&"odometry.model") && names.contains(&"odometry.k") && names.contains(&"laser.max_range_m"));
+        assert!(
+            names.contains(&"odometry.model")
+                && names.contains(&"odometry.k")
+                && names.contains(&"laser.max_range_m")
+        );
     }
 }

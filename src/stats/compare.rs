@@ -38,10 +38,19 @@ pub struct PairedContrast {
     pub against_mean: f64,
 }
 
-pub fn paired_contrast(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>, confidence: f64) -> PairedContrast {
+pub fn paired_contrast(
+    a: &BTreeMap<u32, f64>,
+    b: &BTreeMap<u32, f64>,
+    confidence: f64,
+) -> PairedContrast {
     let d = paired_differences(a, b);
     let against: Vec<f64> = a.keys().filter_map(|r| b.get(r).copied()).collect();
-    PairedContrast { pairs: d.len(), mean: mean(&d), ci: t_interval(&d, confidence), against_mean: mean(&against) }
+    PairedContrast {
+        pairs: d.len(),
+        mean: mean(&d),
+        ci: t_interval(&d, confidence),
+        against_mean: mean(&against),
+    }
 }
 
 /// Two-sided Student t interval of the mean of `x` at `confidence` (e.g. 0.95, or 0.90 for TOST);
@@ -108,7 +117,10 @@ pub fn prediction_interval(x: &[f64], confidence: f64, m: u32) -> (f64, f64) {
     let n = x.len() as f64;
     let c = mean(x);
     let half = match student(n - 1.0) {
-        Some(t) => t.inverse_cdf(0.5 + confidence / 2.0) * (variance(x) * (1.0 / n + 1.0 / m as f64)).sqrt(),
+        Some(t) => {
+            t.inverse_cdf(0.5 + confidence / 2.0)
+                * (variance(x) * (1.0 / n + 1.0 / m as f64)).sqrt()
+        }
         None => f64::NAN,
     };
     (c - half, c + half)
@@ -189,7 +201,11 @@ mod tests {
         let c = paired_contrast(&a, &b, 0.95);
         assert_eq!((c.pairs, c.mean, c.against_mean), (3, 2.0, 2.0));
         // 2 ± t(0.975, 2)·1/√3 = 2 ± 4.3027·0.57735
-        assert!((c.ci.0 - (2.0 - 2.48414)).abs() < 1e-4 && (c.ci.1 - (2.0 + 2.48414)).abs() < 1e-4, "{:?}", c.ci);
+        assert!(
+            (c.ci.0 - (2.0 - 2.48414)).abs() < 1e-4 && (c.ci.1 - (2.0 + 2.48414)).abs() < 1e-4,
+            "{:?}",
+            c.ci
+        );
     }
     use rand_distr::{Distribution, Normal as RNormal};
 
@@ -197,7 +213,10 @@ mod tests {
     #[test]
     fn t_interval_textbook() {
         let (lo, hi) = t_interval(&[1.0, 2.0, 3.0, 4.0, 5.0], 0.95);
-        assert!((lo - (3.0 - 1.963243161337696)).abs() < 1e-9 && (hi - (3.0 + 1.963243161337696)).abs() < 1e-9);
+        assert!(
+            (lo - (3.0 - 1.963243161337696)).abs() < 1e-9
+                && (hi - (3.0 + 1.963243161337696)).abs() < 1e-9
+        );
         assert_eq!(t_interval(&[2.0, 2.0, 2.0], 0.95), (2.0, 2.0));
         assert!(t_interval(&[1.0], 0.95).0.is_nan());
         assert!(t_interval(&[1.0, f64::INFINITY], 0.95).0.is_nan());
@@ -218,8 +237,14 @@ mod tests {
     /// Wikipedia's example in [`super::super::hypothesis`]).
     #[test]
     fn welch_from_summaries() {
-        let a = [27.5, 21.0, 19.0, 23.6, 17.0, 17.9, 16.9, 20.1, 21.9, 22.6, 23.1, 19.6, 19.0, 21.7, 21.4];
-        let b = [27.1, 22.0, 20.8, 23.4, 23.4, 23.5, 25.8, 22.0, 24.8, 20.2, 21.9, 22.1, 22.9, 20.5, 24.4];
+        let a = [
+            27.5, 21.0, 19.0, 23.6, 17.0, 17.9, 16.9, 20.1, 21.9, 22.6, 23.1, 19.6, 19.0, 21.7,
+            21.4,
+        ];
+        let b = [
+            27.1, 22.0, 20.8, 23.4, 23.4, 23.5, 25.8, 22.0, 24.8, 20.2, 21.9, 22.1, 22.9, 20.5,
+            24.4,
+        ];
         let p = welch_summary_p(mean(&a), variance(&a), a.len(), mean(&b), variance(&b), b.len());
         let (.., p_raw) = crate::stats::hypothesis::welch_p(&a, &b);
         assert!((p - p_raw).abs() < 1e-9, "p = {p}, from the samples {p_raw}");

@@ -336,7 +336,6 @@ mod tests {
         (a - b).abs() <= tol
     }
 
-
     /// Hand enumeration: d = [1, 2, 3, 4], observed |mean| = 2.5; flipping any non-empty proper subset
     /// lowers |Σ| (all d > 0), so only ++++ and −−−− reach it ⇒ p = 2/16 = 0.125.
     #[test]
@@ -369,7 +368,8 @@ mod tests {
     /// Assumes the exact enumerator is right (tested above at small n).
     #[test]
     fn diffstats_sign_flip_monte_carlo_matches_exact() {
-        let d: Vec<f64> = (1..=22).map(|i| if i % 3 == 0 { -(i as f64) } else { 0.6 * i as f64 }).collect();
+        let d: Vec<f64> =
+            (1..=22).map(|i| if i % 3 == 0 { -(i as f64) } else { 0.6 * i as f64 }).collect();
         let scale: f64 = d.iter().map(|v| v.abs()).sum();
         let obs = d.iter().sum::<f64>().abs();
         let exact = sign_flip_exact(&d, obs, SIGN_FLIP_REL_TOL * scale);
@@ -380,17 +380,20 @@ mod tests {
         assert_eq!(mc, sign_flip_p(&d));
     }
 
-
-
-
     /// Wikipedia "Welch's t-test", Examples, example 1 (A1, A2 with n = 15 each): |t| = 2.46,
     /// ν ≈ 25.0, p = 0.021. Precise reference (scipy `ttest_ind(A2, A1, equal_var=False)`):
     /// t = 2.455356398286006, ν = 24.9885, p = 0.021378001462866992, 95 % CI of mean(A2) − mean(A1)
     /// = (0.3492370661924069, 3.984096267140929), diff = 2.1666…
     #[test]
     fn diffstats_welch_wikipedia_example() {
-        let a1 = [27.5, 21.0, 19.0, 23.6, 17.0, 17.9, 16.9, 20.1, 21.9, 22.6, 23.1, 19.6, 19.0, 21.7, 21.4];
-        let a2 = [27.1, 22.0, 20.8, 23.4, 23.4, 23.5, 25.8, 22.0, 24.8, 20.2, 21.9, 22.1, 22.9, 20.5, 24.4];
+        let a1 = [
+            27.5, 21.0, 19.0, 23.6, 17.0, 17.9, 16.9, 20.1, 21.9, 22.6, 23.1, 19.6, 19.0, 21.7,
+            21.4,
+        ];
+        let a2 = [
+            27.1, 22.0, 20.8, 23.4, 23.4, 23.5, 25.8, 22.0, 24.8, 20.2, 21.9, 22.1, 22.9, 20.5,
+            24.4,
+        ];
         let (diff, lo, hi, p) = welch_p(&a1, &a2);
         assert!(close(diff, 2.166666666666668, 1e-9));
         assert!(close(p, 0.021378001462866992, 1e-6), "p = {p}");

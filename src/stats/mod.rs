@@ -29,13 +29,24 @@ pub struct Summary {
 
 /// Two-sided Student-t quantile t_{(1+CONFIDENCE)/2, df}.
 pub fn t_quantile(df: usize) -> f64 {
-    StudentsT::new(0.0, 1.0, df as f64).map(|t| t.inverse_cdf(0.5 + CONFIDENCE / 2.0)).unwrap_or(f64::NAN)
+    StudentsT::new(0.0, 1.0, df as f64)
+        .map(|t| t.inverse_cdf(0.5 + CONFIDENCE / 2.0))
+        .unwrap_or(f64::NAN)
 }
 
 pub fn summarize(values: &[f64]) -> Summary {
     let n = values.len();
     if n == 0 {
-        return Summary { n, mean: f64::NAN, std: f64::NAN, ci_low: f64::NAN, ci_high: f64::NAN, median: f64::NAN, min: f64::NAN, max: f64::NAN };
+        return Summary {
+            n,
+            mean: f64::NAN,
+            std: f64::NAN,
+            ci_low: f64::NAN,
+            ci_high: f64::NAN,
+            median: f64::NAN,
+            min: f64::NAN,
+            max: f64::NAN,
+        };
     }
     let mean = values.iter().sum::<f64>() / n as f64;
     let (std, half) = if n >= 2 && mean.is_finite() {

@@ -86,7 +86,10 @@ pub fn sobol(n: usize, d: usize, seed: u64) -> Vec<Vec<f64>> {
                 let above = if i == 0 { 0 } else { rng.random::<u32>() & (!0u32 << (BITS - i)) };
                 above | (1 << (BITS - 1 - i))
             });
-            v.map(|x| (0..BITS).fold(0u32, |acc, i| acc | ((rows[i] & x).count_ones() & 1) << (BITS - 1 - i)))
+            v.map(|x| {
+                (0..BITS)
+                    .fold(0u32, |acc, i| acc | ((rows[i] & x).count_ones() & 1) << (BITS - 1 - i))
+            })
         })
         .collect();
     let shifts: Vec<u32> = (0..d).map(|_| rng.random::<u32>()).collect();
@@ -159,7 +162,10 @@ pub struct Indices {
 impl Indices {
     /// STᵢ − S1ᵢ (the share of variance in interactions) and its bootstrap replicates.
     pub fn interaction(&self, i: usize) -> (f64, Vec<f64>) {
-        (self.st[i].value - self.s1[i].value, self.boot_st[i].iter().zip(&self.boot_s1[i]).map(|(t, s)| t - s).collect())
+        (
+            self.st[i].value - self.s1[i].value,
+            self.boot_st[i].iter().zip(&self.boot_s1[i]).map(|(t, s)| t - s).collect(),
+        )
     }
 }
 
@@ -167,7 +173,13 @@ impl Indices {
 pub fn percentile_interval(value: f64, boot: &[f64]) -> Estimate {
     let mut b = boot.to_vec();
     b.sort_by(f64::total_cmp);
-    let q = |p: f64| if b.is_empty() { f64::NAN } else { b[((p * (b.len() - 1) as f64).round() as usize).min(b.len() - 1)] };
+    let q = |p: f64| {
+        if b.is_empty() {
+            f64::NAN
+        } else {
+            b[((p * (b.len() - 1) as f64).round() as usize).min(b.len() - 1)]
+        }
+    };
     Estimate { value, low: q(0.025), high: q(0.975) }
 }
 
@@ -177,16 +189,30 @@ pub fn percentile_interval(value: f64, boot: &[f64]) -> Estimate {
 /// the same expectation but a variance that grows with f̄²), STᵢ = mean((f_A − f_ABᵢ)²) / 2V (Jansen 1999), V the variance of f_A
 /// and f_B together. Intervals: `resamples` bootstrap
 /// resamples of the rows (seeded), 2.5 and 97.5 percentiles.
-pub fn sobol_indices(fa: &[f64], fb: &[f64], fab: &[Vec<f64>], resamples: usize, seed: u64) -> Indices {
+pub fn sobol_indices(
+    fa: &[f64],
+    fb: &[f64],
+    fab: &[Vec<f64>],
+    resamples: usize,
+    seed: u64,
+) -> Indices {
     let n = fa.len();
     let estimate = |rows: &[usize]| -> (Vec<f64>, Vec<f64>) {
         let m = rows.len() as f64;
         let mean = rows.iter().map(|&k| fa[k] + fb[k]).sum::<f64>() / (2.0 * m);
-        let var = rows.iter().map(|&k| (fa[k] - mean).powi(2) + (fb[k] - mean).powi(2)).sum::<f64>() / (2.0 * m);
+        let var =
+            rows.iter().map(|&k| (fa[k] - mean).powi(2) + (fb[k] - mean).powi(2)).sum::<f64>()
+                / (2.0 * m);
         // f_B centred: E[f_ABᵢ − f_A] = 0, so centring leaves the estimator unbiased and removes
         // the variance a large output mean (ln of an error, a landmark count) would add
-        let s1 = fab.iter().map(|f| rows.iter().map(|&k| (fb[k] - mean) * (f[k] - fa[k])).sum::<f64>() / m / var).collect();
-        let st = fab.iter().map(|f| rows.iter().map(|&k| (fa[k] - f[k]).powi(2)).sum::<f64>() / m / (2.0 * var)).collect();
+        let s1 = fab
+            .iter()
+            .map(|f| rows.iter().map(|&k| (fb[k] - mean) * (f[k] - fa[k])).sum::<f64>() / m / var)
+            .collect();
+        let st = fab
+            .iter()
+            .map(|f| rows.iter().map(|&k| (fa[k] - f[k]).powi(2)).sum::<f64>() / m / (2.0 * var))
+            .collect();
         (s1, st)
     };
     let all: Vec<usize> = (0..n).collect();
@@ -202,7 +228,9 @@ pub fn sobol_indices(fa: &[f64], fb: &[f64], fab: &[Vec<f64>], resamples: usize,
             boot_st[i].push(bt[i]);
         }
     }
-    let with_ci = |values: Vec<f64>, boot: &[Vec<f64>]| -> Vec<Estimate> { values.into_iter().zip(boot).map(|(value, b)| percentile_interval(value, b)).collect() };
+    let with_ci = |values: Vec<f64>, boot: &[Vec<f64>]| -> Vec<Estimate> {
+        values.into_iter().zip(boot).map(|(value, b)| percentile_interval(value, b)).collect()
+    };
     Indices { s1: with_ci(s1, &boot_s1), st: with_ci(st, &boot_st), boot_s1, boot_st }
 }
 
@@ -229,7 +257,8 @@ impl Morris {
         let mut moved = Vec::with_capacity(trajectories);
         for _ in 0..trajectories {
             // a grid level from which both x and x + Δ are on the grid, then either end of that pair
-            let mut x: Vec<f64> = (0..d).map(|_| rng.random_range(0..levels / 2) as f64 * step).collect();
+            let mut x: Vec<f64> =
+                (0..d).map(|_| rng.random_range(0..levels / 2) as f64 * step).collect();
             let up: Vec<bool> = (0..d).map(|_| rng.random::<bool>()).collect();
             for (xi, &u) in x.iter_mut().zip(&up) {
                 if !u {
@@ -269,7 +298,12 @@ pub struct Screening {
 
 /// The elementary effects EEᵢ = (f(after) − f(before)) / (±Δ) of the outputs `f[t][k]` at the
 /// design's points, summarised per parameter.
-pub fn morris_indices(design: &Morris, f: &[Vec<f64>], resamples: usize, seed: u64) -> Vec<Screening> {
+pub fn morris_indices(
+    design: &Morris,
+    f: &[Vec<f64>],
+    resamples: usize,
+    seed: u64,
+) -> Vec<Screening> {
     screen(&design.points, &design.moved, f, resamples, seed)
 }
 
@@ -277,7 +311,13 @@ pub fn morris_indices(design: &Morris, f: &[Vec<f64>], resamples: usize, seed: u
 /// run, after rounding), the parameter each step moves, and the outputs `f[t][k]`: each
 /// effect divides by its realised step; a step of zero is dropped and counted; a trajectory
 /// whose `f` is not finite at either end of a step loses that effect only.
-pub fn screen(points: &[Vec<Vec<f64>>], moved: &[Vec<usize>], f: &[Vec<f64>], resamples: usize, seed: u64) -> Vec<Screening> {
+pub fn screen(
+    points: &[Vec<Vec<f64>>],
+    moved: &[Vec<usize>],
+    f: &[Vec<f64>],
+    resamples: usize,
+    seed: u64,
+) -> Vec<Screening> {
     let d = moved.first().map_or(0, Vec::len);
     // effects[i][t]
     let mut effects = vec![Vec::with_capacity(f.len()); d];
@@ -296,7 +336,11 @@ pub fn screen(points: &[Vec<Vec<f64>>], moved: &[Vec<usize>], f: &[Vec<f64>], re
     // intervals too); a trajectory contributes the effects it has
     let t = f.len();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let picks: Vec<Vec<usize>> = if t == 0 { Vec::new() } else { (0..resamples).map(|_| (0..t).map(|_| rng.random_range(0..t)).collect()).collect() };
+    let picks: Vec<Vec<usize>> = if t == 0 {
+        Vec::new()
+    } else {
+        (0..resamples).map(|_| (0..t).map(|_| rng.random_range(0..t)).collect()).collect()
+    };
     effects
         .iter()
         .zip(dropped)
@@ -305,7 +349,11 @@ pub fn screen(points: &[Vec<Vec<f64>>], moved: &[Vec<usize>], f: &[Vec<f64>], re
             let values: Vec<f64> = ee.iter().map(|e| e.1).collect();
             let mu = values.iter().sum::<f64>() / n;
             let mu_star = values.iter().map(|v| v.abs()).sum::<f64>() / n;
-            let sigma = if ee.len() > 1 { (values.iter().map(|e| (e - mu).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() } else { f64::NAN };
+            let sigma = if ee.len() > 1 {
+                (values.iter().map(|e| (e - mu).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+            } else {
+                f64::NAN
+            };
             let mut by_trajectory: Vec<Vec<f64>> = vec![Vec::new(); t];
             for &(tj, e) in ee {
                 by_trajectory[tj].push(e.abs());
@@ -316,12 +364,22 @@ pub fn screen(points: &[Vec<Vec<f64>>], moved: &[Vec<usize>], f: &[Vec<f64>], re
                 picks
                     .iter()
                     .map(|pick| {
-                        let (sum, count) = pick.iter().flat_map(|&tj| &by_trajectory[tj]).fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
+                        let (sum, count) = pick
+                            .iter()
+                            .flat_map(|&tj| &by_trajectory[tj])
+                            .fold((0.0, 0usize), |(s, c), v| (s + v, c + 1));
                         if count == 0 { f64::NAN } else { sum / count as f64 }
                     })
                     .collect()
             };
-            Screening { mu, mu_star: percentile_interval(mu_star, &boot), sigma, effects: ee.len(), dropped, boot_mu_star: boot }
+            Screening {
+                mu,
+                mu_star: percentile_interval(mu_star, &boot),
+                sigma,
+                effects: ee.len(),
+                dropped,
+                boot_mu_star: boot,
+            }
         })
         .collect()
 }
@@ -349,7 +407,8 @@ pub fn variance_shares(y: &[Vec<f64>]) -> Option<VarianceShares> {
     }
     let grand = y.iter().flatten().sum::<f64>() / (p * r) as f64;
     let point_means: Vec<f64> = y.iter().map(|row| row.iter().sum::<f64>() / r as f64).collect();
-    let rep_means: Vec<f64> = (0..r).map(|k| y.iter().map(|row| row[k]).sum::<f64>() / p as f64).collect();
+    let rep_means: Vec<f64> =
+        (0..r).map(|k| y.iter().map(|row| row[k]).sum::<f64>() / p as f64).collect();
     let total: f64 = y.iter().flatten().map(|v| (v - grand).powi(2)).sum();
     let ss_points = r as f64 * point_means.iter().map(|m| (m - grand).powi(2)).sum::<f64>();
     let ss_world = p as f64 * rep_means.iter().map(|m| (m - grand).powi(2)).sum::<f64>();
@@ -357,7 +416,12 @@ pub fn variance_shares(y: &[Vec<f64>]) -> Option<VarianceShares> {
     if total <= 0.0 {
         return None;
     }
-    Some(VarianceShares { params: ss_points / total, world: ss_world / total, residual: ss_res / total, residual_var: ss_res / ((p - 1) * (r - 1)) as f64 })
+    Some(VarianceShares {
+        params: ss_points / total,
+        world: ss_world / total,
+        residual: ss_res / total,
+        residual_var: ss_res / ((p - 1) * (r - 1)) as f64,
+    })
 }
 
 #[cfg(test)]
@@ -400,7 +464,8 @@ mod tests {
 
     fn screen(model: impl Fn(&[f64]) -> f64, d: usize) -> Vec<Screening> {
         let design = Morris::new(d, 4, 50, 5);
-        let f: Vec<Vec<f64>> = design.points.iter().map(|path| path.iter().map(|x| model(x)).collect()).collect();
+        let f: Vec<Vec<f64>> =
+            design.points.iter().map(|path| path.iter().map(|x| model(x)).collect()).collect();
         morris_indices(&design, &f, 500, 3)
     }
 
@@ -414,10 +479,14 @@ mod tests {
             assert_eq!(sorted, [0, 1, 2, 3, 4]);
             for x in path.iter().flatten() {
                 let level = x * 3.0;
-                assert!((level - level.round()).abs() < 1e-12 && (0.0..=1.0).contains(x), "{x} is off the grid");
+                assert!(
+                    (level - level.round()).abs() < 1e-12 && (0.0..=1.0).contains(x),
+                    "{x} is off the grid"
+                );
             }
             for (k, &i) in order.iter().enumerate() {
-                let changed: Vec<usize> = (0..5).filter(|&j| path[k][j] != path[k + 1][j]).collect();
+                let changed: Vec<usize> =
+                    (0..5).filter(|&j| path[k][j] != path[k + 1][j]).collect();
                 assert_eq!(changed, [i]);
                 assert!(((path[k + 1][i] - path[k][i]).abs() - m.delta).abs() < 1e-12);
             }
@@ -430,37 +499,60 @@ mod tests {
         let c = [3.0, -2.0, 0.5, 0.0];
         let s = screen(|x| x.iter().zip(&c).map(|(x, c)| x * c).sum(), 4);
         for (si, ci) in s.iter().zip(c) {
-            assert!((si.mu - ci).abs() < 1e-9 && (si.mu_star.value - ci.abs()).abs() < 1e-9 && si.sigma < 1e-9, "{si:?} for c = {ci}");
+            assert!(
+                (si.mu - ci).abs() < 1e-9
+                    && (si.mu_star.value - ci.abs()).abs() < 1e-9
+                    && si.sigma < 1e-9,
+                "{si:?} for c = {ci}"
+            );
         }
     }
 
     #[test]
     fn morris_ranks_the_g_function_by_its_coefficients_and_sees_interactions() {
         let a = [0.0, 1.0, 4.5, 9.0, 99.0];
-        let s = screen(|x| x.iter().zip(&a).map(|(x, a)| ((4.0 * x - 2.0).abs() + a) / (1.0 + a)).product(), 5);
+        let s = screen(
+            |x| x.iter().zip(&a).map(|(x, a)| ((4.0 * x - 2.0).abs() + a) / (1.0 + a)).product(),
+            5,
+        );
         for w in s.windows(2) {
             assert!(w[0].mu_star.value > w[1].mu_star.value, "μ* must fall as a grows: {s:?}");
         }
         assert!(s[4].mu_star.high < 0.1 * s[0].mu_star.low, "a = 99 is negligible: {s:?}");
         // f = x₁x₂: each effect depends on the other parameter (σ > 0); x₃ does nothing
         let s = screen(|x| x[0] * x[1], 3);
-        assert!(s[0].sigma > 0.1 && s[1].sigma > 0.1 && s[2].mu_star.value == 0.0 && s[2].sigma == 0.0, "{s:?}");
+        assert!(
+            s[0].sigma > 0.1 && s[1].sigma > 0.1 && s[2].mu_star.value == 0.0 && s[2].sigma == 0.0,
+            "{s:?}"
+        );
     }
 
     fn run(model: impl Fn(&[f64]) -> f64, n: usize, d: usize) -> Indices {
         let design = Saltelli::new(n, d, 2026);
         let fa: Vec<f64> = design.a.iter().map(|x| model(x)).collect();
         let fb: Vec<f64> = design.b.iter().map(|x| model(x)).collect();
-        let fab: Vec<Vec<f64>> = design.ab.iter().map(|m| m.iter().map(|x| model(x)).collect()).collect();
+        let fab: Vec<Vec<f64>> =
+            design.ab.iter().map(|m| m.iter().map(|x| model(x)).collect()).collect();
         sobol_indices(&fa, &fb, &fab, 500, 11)
     }
 
     fn assert_covers(what: &str, got: &[Estimate], truth: &[f64], tolerance: f64) {
         for (i, (e, t)) in got.iter().zip(truth).enumerate() {
-            assert!(e.low <= *t && *t <= e.high, "{what}[{i}] = {} [{}, {}] misses the analytic {t}", e.value, e.low, e.high);
+            assert!(
+                e.low <= *t && *t <= e.high,
+                "{what}[{i}] = {} [{}, {}] misses the analytic {t}",
+                e.value,
+                e.low,
+                e.high
+            );
             assert!((e.value - t).abs() < tolerance, "{what}[{i}] = {} against {t}", e.value);
             // an interval that covers by being wide proves nothing
-            assert!(e.high - e.low < 4.0 * tolerance, "{what}[{i}]: interval [{}, {}] too wide to test", e.low, e.high);
+            assert!(
+                e.high - e.low < 4.0 * tolerance,
+                "{what}[{i}]: interval [{}, {}] too wide to test",
+                e.low,
+                e.high
+            );
         }
     }
 
@@ -487,7 +579,9 @@ mod tests {
     #[test]
     fn g_function_indices_match_the_analytic_ones() {
         let a = [0.0, 1.0, 4.5, 9.0, 99.0, 99.0, 99.0, 99.0];
-        let g = |x: &[f64]| x.iter().zip(&a).map(|(x, a)| ((4.0 * x - 2.0).abs() + a) / (1.0 + a)).product::<f64>();
+        let g = |x: &[f64]| {
+            x.iter().zip(&a).map(|(x, a)| ((4.0 * x - 2.0).abs() + a) / (1.0 + a)).product::<f64>()
+        };
         let vi: Vec<f64> = a.iter().map(|a| 1.0 / (3.0 * (1.0 + a) * (1.0 + a))).collect();
         let v = vi.iter().map(|x| 1.0 + x).product::<f64>() - 1.0;
         let s1: Vec<f64> = vi.iter().map(|x| x / v).collect();
@@ -504,7 +598,10 @@ mod tests {
     /// calc_second_order=False)`. Checks the layout it writes.
     #[test]
     fn salib_export() {
-        let out = std::env::var_os("SLAMLAB_SALIB_OUT").map(std::path::PathBuf::from).unwrap_or_else(|| std::env::temp_dir().join(format!("slamlab-salib-{}", std::process::id())));
+        let out =
+            std::env::var_os("SLAMLAB_SALIB_OUT").map(std::path::PathBuf::from).unwrap_or_else(
+                || std::env::temp_dir().join(format!("slamlab-salib-{}", std::process::id())),
+            );
         let ishigami = |u: &[f64]| {
             let x: Vec<f64> = u.iter().map(|v| -PI + 2.0 * PI * v).collect();
             x[0].sin() + 7.0 * x[1].sin().powi(2) + 0.1 * x[2].powi(4) * x[0].sin()
@@ -512,7 +609,8 @@ mod tests {
         let design = Saltelli::new(1 << 13, 3, 2026);
         let fa: Vec<f64> = design.a.iter().map(|x| ishigami(x)).collect();
         let fb: Vec<f64> = design.b.iter().map(|x| ishigami(x)).collect();
-        let fab: Vec<Vec<f64>> = design.ab.iter().map(|m| m.iter().map(|x| ishigami(x)).collect()).collect();
+        let fab: Vec<Vec<f64>> =
+            design.ab.iter().map(|m| m.iter().map(|x| ishigami(x)).collect()).collect();
         let mut y = String::new();
         for k in 0..fa.len() {
             y.push_str(&format!("{:e}\n", fa[k]));
@@ -524,10 +622,23 @@ mod tests {
         std::fs::create_dir_all(&out).unwrap();
         std::fs::write(out.join("y.txt"), &y).unwrap();
         let got = sobol_indices(&fa, &fb, &fab, 1000, 11);
-        let line = |e: &[Estimate]| e.iter().map(|e| format!("{:.4} [{:.4}, {:.4}]", e.value, e.low, e.high)).collect::<Vec<_>>().join("  ");
-        std::fs::write(out.join("ours.txt"), format!("S1 {}\nST {}\n", line(&got.s1), line(&got.st))).unwrap();
+        let line = |e: &[Estimate]| {
+            e.iter()
+                .map(|e| format!("{:.4} [{:.4}, {:.4}]", e.value, e.low, e.high))
+                .collect::<Vec<_>>()
+                .join("  ")
+        };
+        std::fs::write(
+            out.join("ours.txt"),
+            format!("S1 {}\nST {}\n", line(&got.s1), line(&got.st)),
+        )
+        .unwrap();
         // SALib's layout: d + 2 lines per base row, A first and B last
-        let back: Vec<f64> = std::fs::read_to_string(out.join("y.txt")).unwrap().lines().map(|l| l.parse().unwrap()).collect();
+        let back: Vec<f64> = std::fs::read_to_string(out.join("y.txt"))
+            .unwrap()
+            .lines()
+            .map(|l| l.parse().unwrap())
+            .collect();
         assert_eq!(back.len(), fa.len() * 5);
         for k in [0, 1, fa.len() - 1] {
             assert_eq!((back[5 * k], back[5 * k + 2], back[5 * k + 4]), (fa[k], fab[1][k], fb[k]));
@@ -541,14 +652,24 @@ mod tests {
     /// sums of squares; noise on top moves share into the residual.
     #[test]
     fn variance_shares_split_points_world_and_residual() {
-        let y: Vec<Vec<f64>> = (0..6).map(|i| (0..3).map(|k| i as f64 + 0.5 * k as f64).collect()).collect();
+        let y: Vec<Vec<f64>> =
+            (0..6).map(|i| (0..3).map(|k| i as f64 + 0.5 * k as f64).collect()).collect();
         let s = variance_shares(&y).unwrap();
         // SS_points = 3·Σ(i − 2.5)² = 52.5; SS_world = 6·Σ(0.5k − 0.5)² = 3
-        assert!((s.params - 52.5 / 55.5).abs() < 1e-12 && (s.world - 3.0 / 55.5).abs() < 1e-12 && s.residual.abs() < 1e-12, "{s:?}");
+        assert!(
+            (s.params - 52.5 / 55.5).abs() < 1e-12
+                && (s.world - 3.0 / 55.5).abs() < 1e-12
+                && s.residual.abs() < 1e-12,
+            "{s:?}"
+        );
         let mut noisy = y.clone();
         noisy[2][1] += 1.0;
         assert!(variance_shares(&noisy).unwrap().residual > 0.0);
-        assert!(variance_shares(&y[..1]).is_none() && variance_shares(&[vec![1.0], vec![2.0]]).is_none(), "needs 2 points and 2 replicates");
+        assert!(
+            variance_shares(&y[..1]).is_none()
+                && variance_shares(&[vec![1.0], vec![2.0]]).is_none(),
+            "needs 2 points and 2 replicates"
+        );
     }
 
     /// Each effect divides by its realised step; a step that rounding made zero is dropped and
@@ -581,9 +702,33 @@ mod tests {
             }
         }
         let scipy: [(u32, [u32; 21]); 3] = [
-            (5, [3758096384, 3758096384, 536870912, 1610612736, 3758096384, 2684354560, 3758096384, 1610612736, 1610612736, 536870912, 1610612736, 3758096384, 3758096384, 536870912, 3758096384, 1610612736, 3758096384, 1610612736, 1610612736, 2684354560, 2684354560]),
-            (700, [1203765248, 423624704, 591396864, 2025848832, 239075328, 1505755136, 339738624, 3015704576, 4022337536, 4013948928, 1799356416, 2361393152, 3015704576, 3200253952, 1363148800, 339738624, 448790528, 1589641216, 3544186880, 54525952, 1396703232]),
-            (1023, [4194304, 3233808384, 2629828608, 624951296, 801112064, 1883242496, 599785472, 2654994432, 1480589312, 3653238784, 2915041280, 155189248, 557842432, 2856321024, 1556086784, 1992294400, 1346371584, 3762290688, 2512388096, 1371537408, 3720347648]),
+            (
+                5,
+                [
+                    3758096384, 3758096384, 536870912, 1610612736, 3758096384, 2684354560,
+                    3758096384, 1610612736, 1610612736, 536870912, 1610612736, 3758096384,
+                    3758096384, 536870912, 3758096384, 1610612736, 3758096384, 1610612736,
+                    1610612736, 2684354560, 2684354560,
+                ],
+            ),
+            (
+                700,
+                [
+                    1203765248, 423624704, 591396864, 2025848832, 239075328, 1505755136, 339738624,
+                    3015704576, 4022337536, 4013948928, 1799356416, 2361393152, 3015704576,
+                    3200253952, 1363148800, 339738624, 448790528, 1589641216, 3544186880, 54525952,
+                    1396703232,
+                ],
+            ),
+            (
+                1023,
+                [
+                    4194304, 3233808384, 2629828608, 624951296, 801112064, 1883242496, 599785472,
+                    2654994432, 1480589312, 3653238784, 2915041280, 155189248, 557842432,
+                    2856321024, 1556086784, 1992294400, 1346371584, 3762290688, 2512388096,
+                    1371537408, 3720347648,
+                ],
+            ),
         ];
         for (i, expected) in scipy {
             assert_eq!(rows[&i], expected, "row {i}");

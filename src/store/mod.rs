@@ -156,18 +156,34 @@ pub struct TraceRows {
 
 impl TraceRows {
     pub fn empty(run_id: &str) -> Self {
-        Self { run_id: run_id.to_string(), dt_s: 0.0, truth: Vec::new(), estimate: Vec::new(), neff: Vec::new() }
+        Self {
+            run_id: run_id.to_string(),
+            dt_s: 0.0,
+            truth: Vec::new(),
+            estimate: Vec::new(),
+            neff: Vec::new(),
+        }
     }
 }
 
 /// One landmark of a run's final map (world frame): a line (ρ, θ) or a corner (x, y).
 #[derive(Debug, Clone, PartialEq)]
 pub enum LandmarkRow {
-    Line { rho_m: f64, theta_rad: f64 },
-    Corner { x_m: f64, y_m: f64 },
+    Line {
+        rho_m: f64,
+        theta_rad: f64,
+    },
+    Corner {
+        x_m: f64,
+        y_m: f64,
+    },
     /// A point landmark (point-landmark worlds and datasets), with the true landmark it was
     /// created from when the filter knew it (known association).
-    Point { x_m: f64, y_m: f64, id: Option<u32> },
+    Point {
+        x_m: f64,
+        y_m: f64,
+        id: Option<u32>,
+    },
 }
 
 /// A run's final map.
@@ -287,17 +303,23 @@ pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> 
     write_dir_atomically(dir, |tmp| {
         let mut runs = parquet::runs_frame(out.runs).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("runs.parquet"), &mut runs)?;
-        let mut traces = parquet::traces_frame(out.traces).map_err(|e| StoreError::format(dir, e))?;
+        let mut traces =
+            parquet::traces_frame(out.traces).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("traces.parquet"), &mut traces)?;
-        let mut landmarks = parquet::landmarks_frame(out.landmarks).map_err(|e| StoreError::format(dir, e))?;
+        let mut landmarks =
+            parquet::landmarks_frame(out.landmarks).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("landmarks.parquet"), &mut landmarks)?;
-        let mut matches = parquet::matches_frame(out.matches).map_err(|e| StoreError::format(dir, e))?;
+        let mut matches =
+            parquet::matches_frame(out.matches).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("matches.parquet"), &mut matches)?;
-        let mut timings = parquet::timings_frame(out.timings).map_err(|e| StoreError::format(dir, e))?;
+        let mut timings =
+            parquet::timings_frame(out.timings).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("timings.parquet"), &mut timings)?;
         let resolved = toml::to_string(out.resolved).map_err(|e| StoreError::format(dir, e))?;
         write_file(&tmp.join("resolved.toml"), resolved.as_bytes())?;
-        let manifest = serde_json::to_string_pretty(out.manifest).map_err(|e| StoreError::format(dir, e))? + "\n";
+        let manifest = serde_json::to_string_pretty(out.manifest)
+            .map_err(|e| StoreError::format(dir, e))?
+            + "\n";
         write_file(&tmp.join("manifest.json"), manifest.as_bytes())?;
         if let Some(text) = out.reference {
             write_file(&tmp.join("reference.csv"), text.as_bytes())?;
@@ -320,10 +342,15 @@ pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> 
 /// probe file in each. A folder that cannot be written is an error naming it.
 pub fn check_writable(results_dir: &Path, studies: &[&str]) -> Result<(), StoreError> {
     std::fs::create_dir_all(results_dir).map_err(|e| StoreError::io(results_dir, e))?;
-    let dirs = std::iter::once(results_dir.to_path_buf()).chain(studies.iter().map(|s| results_dir.join(s)).filter(|d| d.is_dir()));
+    let dirs = std::iter::once(results_dir.to_path_buf())
+        .chain(studies.iter().map(|s| results_dir.join(s)).filter(|d| d.is_dir()));
     for dir in dirs {
         let probe = dir.join(format!(".slamlab-write-check-{}", std::process::id()));
-        std::fs::OpenOptions::new().write(true).create_new(true).open(&probe).map_err(|e| StoreError::io(&dir, e))?;
+        std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&probe)
+            .map_err(|e| StoreError::io(&dir, e))?;
         std::fs::remove_file(&probe).map_err(|e| StoreError::io(&probe, e))?;
     }
     Ok(())
@@ -333,7 +360,9 @@ pub fn check_writable(results_dir: &Path, studies: &[&str]) -> Result<(), StoreE
 const DIAGNOSTICS: &str = "diagnostics.json";
 
 /// A scan-matching study's diagnostics, verified; `None` when the study has none.
-pub fn read_diagnostics(dir: &Path) -> Result<Option<crate::scanmatch::diagnose::Diagnostics>, StoreError> {
+pub fn read_diagnostics(
+    dir: &Path,
+) -> Result<Option<crate::scanmatch::diagnose::Diagnostics>, StoreError> {
     let path = dir.join(DIAGNOSTICS);
     if !path.is_file() {
         return Ok(None);
@@ -346,10 +375,20 @@ pub fn read_diagnostics(dir: &Path) -> Result<Option<crate::scanmatch::diagnose:
 /// Whether `dir` already holds exactly this study: the same runs (by id and content hash), and
 /// byte-identical resolved spec, manifest, maps and reference rows, and diagnostics when
 /// `diagnostics` (a scan-matching study). Then rewriting it would change nothing.
-pub fn is_up_to_date(dir: &Path, runs: &[(String, String)], resolved: &ResolvedStudy, manifest: &Manifest, maps: &[(String, String)], reference: Option<&str>, diagnostics: bool) -> bool {
-    let same_text = |name: &str, text: &str| std::fs::read_to_string(dir.join(name)).is_ok_and(|t| t == text);
+pub fn is_up_to_date(
+    dir: &Path,
+    runs: &[(String, String)],
+    resolved: &ResolvedStudy,
+    manifest: &Manifest,
+    maps: &[(String, String)],
+    reference: Option<&str>,
+    diagnostics: bool,
+) -> bool {
+    let same_text =
+        |name: &str, text: &str| std::fs::read_to_string(dir.join(name)).is_ok_and(|t| t == text);
     let resolved_ok = toml::to_string(resolved).is_ok_and(|t| same_text("resolved.toml", &t));
-    let manifest_ok = serde_json::to_string_pretty(manifest).is_ok_and(|t| same_text("manifest.json", &(t + "\n")));
+    let manifest_ok = serde_json::to_string_pretty(manifest)
+        .is_ok_and(|t| same_text("manifest.json", &(t + "\n")));
     let maps_ok = maps.iter().all(|(name, text)| same_text(&format!("maps/{name}.toml"), text))
         && std::fs::read_dir(dir.join("maps")).map(|d| d.count()).unwrap_or(0) == maps.len();
     let reference_ok = match reference {
@@ -357,7 +396,14 @@ pub fn is_up_to_date(dir: &Path, runs: &[(String, String)], resolved: &ResolvedS
         None => !dir.join("reference.csv").exists(),
     };
     let diagnostics_ok = !diagnostics || dir.join(DIAGNOSTICS).is_file();
-    if !(resolved_ok && manifest_ok && maps_ok && reference_ok && diagnostics_ok && dir.join("traces.parquet").is_file() && dir.join("landmarks.parquet").is_file()) {
+    if !(resolved_ok
+        && manifest_ok
+        && maps_ok
+        && reference_ok
+        && diagnostics_ok
+        && dir.join("traces.parquet").is_file()
+        && dir.join("landmarks.parquet").is_file())
+    {
         return false;
     }
     // a directory whose files changed (or that predates checksums) is rewritten
@@ -365,7 +411,8 @@ pub fn is_up_to_date(dir: &Path, runs: &[(String, String)], resolved: &ResolvedS
         return false;
     }
     let Ok(stored) = read_runs(dir) else { return false };
-    let mut stored: Vec<(String, String)> = stored.into_iter().map(|r| (r.run_id, r.run_hash)).collect();
+    let mut stored: Vec<(String, String)> =
+        stored.into_iter().map(|r| (r.run_id, r.run_hash)).collect();
     let mut wanted = runs.to_vec();
     stored.sort();
     wanted.sort();
@@ -388,10 +435,21 @@ pub struct StudyData {
 impl StudyData {
     /// Replicate → value of `metric` over the successful runs of one cell (map, algorithm, sweep
     /// point): what every verdict compares (replicate k of two cells saw the same world).
-    pub fn replicate_values(&self, map: &str, algorithm: &str, point: &str, metric: &str) -> std::collections::BTreeMap<u32, f64> {
+    pub fn replicate_values(
+        &self,
+        map: &str,
+        algorithm: &str,
+        point: &str,
+        metric: &str,
+    ) -> std::collections::BTreeMap<u32, f64> {
         self.runs
             .iter()
-            .filter(|r| r.map == map && r.algorithm == algorithm && r.point == point && r.status == RunStatus::Ok)
+            .filter(|r| {
+                r.map == map
+                    && r.algorithm == algorithm
+                    && r.point == point
+                    && r.status == RunStatus::Ok
+            })
             .filter_map(|r| r.metric(metric).map(|v| (r.replicate, v)))
             .collect()
     }
@@ -403,11 +461,15 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
         verified(dir, Some(file))?;
     }
     let resolved_path = dir.join("resolved.toml");
-    let text = std::fs::read_to_string(&resolved_path).map_err(|e| StoreError::io(&resolved_path, e))?;
-    let resolved: ResolvedStudy = toml::from_str(&text).map_err(|e| StoreError::format(&resolved_path, e))?;
+    let text =
+        std::fs::read_to_string(&resolved_path).map_err(|e| StoreError::io(&resolved_path, e))?;
+    let resolved: ResolvedStudy =
+        toml::from_str(&text).map_err(|e| StoreError::format(&resolved_path, e))?;
     let manifest_path = dir.join("manifest.json");
-    let text = std::fs::read_to_string(&manifest_path).map_err(|e| StoreError::io(&manifest_path, e))?;
-    let manifest: Manifest = serde_json::from_str(&text).map_err(|e| StoreError::format(&manifest_path, e))?;
+    let text =
+        std::fs::read_to_string(&manifest_path).map_err(|e| StoreError::io(&manifest_path, e))?;
+    let manifest: Manifest =
+        serde_json::from_str(&text).map_err(|e| StoreError::format(&manifest_path, e))?;
     let runs_path = dir.join("runs.parquet");
     let runs = in_range(&runs_path, parquet::read_runs(&runs_path)?)?;
     let maps_dir = dir.join("maps");
@@ -417,7 +479,10 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
         if path.extension().is_some_and(|x| x == "toml") {
             let name = path.file_stem().unwrap_or_default().to_string_lossy().into_owned();
             verified(dir, Some(&format!("maps/{name}.toml")))?;
-            maps.push((name, std::fs::read_to_string(&path).map_err(|e| StoreError::io(&path, e))?));
+            maps.push((
+                name,
+                std::fs::read_to_string(&path).map_err(|e| StoreError::io(&path, e))?,
+            ));
         }
     }
     maps.sort();
@@ -439,7 +504,10 @@ pub fn read_traces(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<TraceR
 }
 
 /// Reads the final maps of the runs `keep` accepts.
-pub fn read_landmarks(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<RunLandmarks>, StoreError> {
+pub fn read_landmarks(
+    dir: &Path,
+    keep: &dyn Fn(&str) -> bool,
+) -> Result<Vec<RunLandmarks>, StoreError> {
     verified(dir, Some("landmarks.parquet"))?;
     parquet::read_landmarks(&dir.join("landmarks.parquet"), keep)
 }
@@ -470,8 +538,16 @@ pub fn read_runs(dir: &Path) -> Result<Vec<RunRow>, StoreError> {
 /// error naming the file, the run and the metric.
 fn in_range(path: &Path, rows: Vec<RunRow>) -> Result<Vec<RunRow>, StoreError> {
     for r in rows.iter().filter(|r| r.status == RunStatus::Ok) {
-        if let Some((name, value)) = crate::metrics::out_of_range(r.metrics.iter().map(|(k, v)| (k.as_str(), *v))) {
-            return Err(StoreError::Integrity { path: path.to_path_buf(), message: format!("run {}: {name} = {value} is negative, which no metric can be; refusing to use it", r.run_id) });
+        if let Some((name, value)) =
+            crate::metrics::out_of_range(r.metrics.iter().map(|(k, v)| (k.as_str(), *v)))
+        {
+            return Err(StoreError::Integrity {
+                path: path.to_path_buf(),
+                message: format!(
+                    "run {}: {name} = {value} is negative, which no metric can be; refusing to use it",
+                    r.run_id
+                ),
+            });
         }
     }
     Ok(rows)
@@ -487,7 +563,10 @@ pub fn list_studies(results_dir: &Path) -> Result<Vec<PathBuf>, StoreError> {
     let mut dirs: Vec<PathBuf> = entries
         .flatten()
         .map(|e| e.path())
-        .filter(|p| p.join("manifest.json").is_file() && !p.file_name().unwrap_or_default().to_string_lossy().starts_with('.'))
+        .filter(|p| {
+            p.join("manifest.json").is_file()
+                && !p.file_name().unwrap_or_default().to_string_lossy().starts_with('.')
+        })
         .collect();
     dirs.sort();
     Ok(dirs)
@@ -546,7 +625,9 @@ impl Cache {
         match check_seal(&dir) {
             Ok(Seal::Intact) => self.get(hash).map_or(Lookup::Absent, Lookup::Hit),
             Ok(Seal::Unsealed) => self.get(hash).map_or(Lookup::Absent, Lookup::Unsealed),
-            Ok(Seal::Broken { path, message }) => Lookup::Corrupt(format!("{}: {message}", path.display())),
+            Ok(Seal::Broken { path, message }) => {
+                Lookup::Corrupt(format!("{}: {message}", path.display()))
+            }
             Err(e) => Lookup::Corrupt(e.to_string()),
         }
     }
@@ -559,11 +640,19 @@ impl Cache {
         let mut row = rows.pop()?;
         let wall_ms = row.metric(CACHE_WALL_MS).unwrap_or(f64::NAN);
         row.metrics.retain(|(k, _)| k != CACHE_WALL_MS);
-        let trace = parquet::read_traces(&dir.join("trace.parquet"), &|_| true).ok()?.pop().unwrap_or_else(|| TraceRows::empty(&row.run_id));
-        let landmarks = parquet::read_landmarks(&dir.join("landmarks.parquet"), &|_| true).ok()?.pop().unwrap_or_else(|| RunLandmarks { run_id: row.run_id.clone(), landmarks: Vec::new() });
+        let trace = parquet::read_traces(&dir.join("trace.parquet"), &|_| true)
+            .ok()?
+            .pop()
+            .unwrap_or_else(|| TraceRows::empty(&row.run_id));
+        let landmarks = parquet::read_landmarks(&dir.join("landmarks.parquet"), &|_| true)
+            .ok()?
+            .pop()
+            .unwrap_or_else(|| RunLandmarks { run_id: row.run_id.clone(), landmarks: Vec::new() });
         // Entries written before scan matching existed have no matches file: no matches.
         let matches = match dir.join("matches.parquet") {
-            p if p.is_file() => parquet::read_matches(&p, &|_| true).ok()?.pop().unwrap_or_default(),
+            p if p.is_file() => {
+                parquet::read_matches(&p, &|_| true).ok()?.pop().unwrap_or_default()
+            }
             _ => MatchRows::default(),
         };
         let matches = MatchRows { run_id: row.run_id.clone(), ..matches };
@@ -580,15 +669,19 @@ impl Cache {
         let mut row = run.row.clone();
         row.metrics.push((CACHE_WALL_MS.to_string(), run.wall_ms));
         write_dir_atomically(&dir, |tmp| {
-            let mut df = parquet::runs_frame(std::slice::from_ref(&row)).map_err(|e| StoreError::format(&dir, e))?;
+            let mut df = parquet::runs_frame(std::slice::from_ref(&row))
+                .map_err(|e| StoreError::format(&dir, e))?;
             parquet::write(&tmp.join("run.parquet"), &mut df)?;
-            let mut df = parquet::landmarks_frame(std::slice::from_ref(&run.landmarks)).map_err(|e| StoreError::format(&dir, e))?;
+            let mut df = parquet::landmarks_frame(std::slice::from_ref(&run.landmarks))
+                .map_err(|e| StoreError::format(&dir, e))?;
             parquet::write(&tmp.join("landmarks.parquet"), &mut df)?;
             if !run.matches.matches.is_empty() {
-                let mut df = parquet::matches_frame(std::slice::from_ref(&run.matches)).map_err(|e| StoreError::format(&dir, e))?;
+                let mut df = parquet::matches_frame(std::slice::from_ref(&run.matches))
+                    .map_err(|e| StoreError::format(&dir, e))?;
                 parquet::write(&tmp.join("matches.parquet"), &mut df)?;
             }
-            let mut df = parquet::traces_frame(std::slice::from_ref(&run.trace)).map_err(|e| StoreError::format(&dir, e))?;
+            let mut df = parquet::traces_frame(std::slice::from_ref(&run.trace))
+                .map_err(|e| StoreError::format(&dir, e))?;
             parquet::write(&tmp.join("trace.parquet"), &mut df)?;
             seal(tmp)
         })
@@ -625,7 +718,11 @@ fn files_under(root: &Path) -> Result<Vec<(String, PathBuf)>, StoreError> {
             if path.is_dir() {
                 walk(root, &path, out)?;
             } else {
-                let rel = path.strip_prefix(root).expect("below root").to_string_lossy().replace('\\', "/");
+                let rel = path
+                    .strip_prefix(root)
+                    .expect("below root")
+                    .to_string_lossy()
+                    .replace('\\', "/");
                 if rel != CHECKSUMS {
                     out.push((rel, path));
                 }
@@ -680,22 +777,36 @@ fn seal_of(dir: &Path, file: Option<&str>) -> Result<Seal, StoreError> {
     let mut recorded: BTreeMap<String, String> = BTreeMap::new();
     for (n, line) in text.lines().enumerate() {
         let Some((hash, rel)) = line.split_once("  ") else {
-            return Ok(Seal::Broken { path: list.clone(), message: format!("line {}: not `<hash>  <path>`", n + 1) });
+            return Ok(Seal::Broken {
+                path: list.clone(),
+                message: format!("line {}: not `<hash>  <path>`", n + 1),
+            });
         };
         recorded.insert(rel.to_string(), hash.to_string());
     }
     if let Some(f) = file.filter(|f| !recorded.contains_key(*f)) {
-        return Ok(Seal::Broken { path: dir.join(f), message: format!("not listed in {CHECKSUMS}: added after the directory was written") });
+        return Ok(Seal::Broken {
+            path: dir.join(f),
+            message: format!("not listed in {CHECKSUMS}: added after the directory was written"),
+        });
     }
     // Files added beside them later (the timing page of `slamlab report`) are not the store's and
     // are not read by it.
     for (rel, hash) in recorded.iter().filter(|(rel, _)| file.is_none_or(|f| f == rel.as_str())) {
         let path = dir.join(rel);
         if !path.is_file() {
-            return Ok(Seal::Broken { path, message: format!("listed in {CHECKSUMS} but missing") });
+            return Ok(Seal::Broken {
+                path,
+                message: format!("listed in {CHECKSUMS} but missing"),
+            });
         }
         if *hash != file_hash(&path)? {
-            return Ok(Seal::Broken { path, message: format!("content does not match its checksum in {CHECKSUMS}: the file changed after it was written") });
+            return Ok(Seal::Broken {
+                path,
+                message: format!(
+                    "content does not match its checksum in {CHECKSUMS}: the file changed after it was written"
+                ),
+            });
         }
     }
     Ok(Seal::Intact)
@@ -728,13 +839,25 @@ const STALE_AFTER: std::time::Duration = std::time::Duration::from_secs(3600);
 /// Fills a fresh temporary directory beside `dir`, then renames it into place (replacing an old
 /// `dir`). Temporary names are unique per process and write, so concurrent writers never share
 /// one; left-overs of interrupted writes (older than an hour) are removed.
-pub fn write_dir_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<(), StoreError>) -> Result<(), StoreError> {
+pub fn write_dir_atomically(
+    dir: &Path,
+    fill: impl FnOnce(&Path) -> Result<(), StoreError>,
+) -> Result<(), StoreError> {
     let parent = dir.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = dir.file_name().ok_or_else(|| StoreError::format(dir, "not a directory name"))?.to_string_lossy().into_owned();
+    let name = dir
+        .file_name()
+        .ok_or_else(|| StoreError::format(dir, "not a directory name"))?
+        .to_string_lossy()
+        .into_owned();
     std::fs::create_dir_all(parent).map_err(|e| StoreError::io(parent, e))?;
     remove_stale(parent, &name);
     // unique among the processes of every node writing to a shared filesystem (pids repeat across nodes)
-    let unique = format!("{}-{}-{}", host_tag(), std::process::id(), WRITE_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed));
+    let unique = format!(
+        "{}-{}-{}",
+        host_tag(),
+        std::process::id(),
+        WRITE_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    );
     let tmp = parent.join(format!(".{name}.tmp-{unique}"));
     std::fs::create_dir(&tmp).map_err(|e| StoreError::io(&tmp, e))?;
     if let Err(e) = fill(&tmp) {
@@ -763,8 +886,16 @@ pub fn write_dir_atomically(dir: &Path, fill: impl FnOnce(&Path) -> Result<(), S
 fn host_tag() -> &'static str {
     static TAG: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     TAG.get_or_init(|| {
-        let name = std::fs::read_to_string("/proc/sys/kernel/hostname").ok().or_else(|| std::env::var("HOSTNAME").ok()).unwrap_or_default();
-        let tag: String = name.trim().chars().filter(|c| c.is_ascii_alphanumeric() || *c == '-').take(40).collect();
+        let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
+            .ok()
+            .or_else(|| std::env::var("HOSTNAME").ok())
+            .unwrap_or_default();
+        let tag: String = name
+            .trim()
+            .chars()
+            .filter(|c| c.is_ascii_alphanumeric() || *c == '-')
+            .take(40)
+            .collect();
         if tag.is_empty() { "host".to_string() } else { tag }
     })
 }
@@ -777,7 +908,12 @@ fn remove_stale(parent: &Path, name: &str) {
     let prefixes = [format!(".{name}.tmp-"), format!(".{name}.old-")];
     for e in std::fs::read_dir(parent).into_iter().flatten().flatten() {
         let file = e.file_name().to_string_lossy().into_owned();
-        let old_enough = e.metadata().and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok()).is_some_and(|age| age > STALE_AFTER);
+        let old_enough = e
+            .metadata()
+            .and_then(|m| m.modified())
+            .ok()
+            .and_then(|t| t.elapsed().ok())
+            .is_some_and(|age| age > STALE_AFTER);
         if old_enough && prefixes.iter().any(|p| file.starts_with(p.as_str())) {
             let _ = std::fs::remove_dir_all(e.path());
         }
@@ -791,7 +927,15 @@ mod tests {
     #[test]
     fn long_labels_get_short_stable_distinct_file_names() {
         assert_eq!(short_name("bigloop2--fastslam1--base--r00"), "bigloop2--fastslam1--base--r00");
-        let long = |i: u32| format!("bigloop2--fastslam1--{}--r00", (0..15).map(|k| format!("fastslam.param_{k}={}", i + k)).collect::<Vec<_>>().join(","));
+        let long = |i: u32| {
+            format!(
+                "bigloop2--fastslam1--{}--r00",
+                (0..15)
+                    .map(|k| format!("fastslam.param_{k}={}", i + k))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            )
+        };
         let (a, b) = (short_name(&long(1)), short_name(&long(2)));
         assert!(a.len() <= MAX_NAME && b.len() <= MAX_NAME && a != b, "{a} {b}");
         assert!(a.starts_with("bigloop2--fastslam1--fastslam.param_0=1"));
@@ -820,18 +964,25 @@ mod tests {
         // one flipped bit
         std::fs::write(dir.join("maps/a.toml"), b"name = 'b'").unwrap();
         match check_seal(&dir).unwrap() {
-            Seal::Broken { path, message } => assert!(path.ends_with("maps/a.toml") && message.contains("does not match"), "{message}"),
+            Seal::Broken { path, message } => assert!(
+                path.ends_with("maps/a.toml") && message.contains("does not match"),
+                "{message}"
+            ),
             other => panic!("{other:?}"),
         }
         let err = verified(&dir, None).unwrap_err().to_string();
         assert!(err.contains("a.toml") && err.contains("refusing"), "{err}");
         // a read of another file hashes only that one; an unlisted file is refused
         assert!(verified(&dir, Some("runs.parquet")).is_ok());
-        assert!(verified(&dir, Some("timings.html")).unwrap_err().to_string().contains("not listed"));
+        assert!(
+            verified(&dir, Some("timings.html")).unwrap_err().to_string().contains("not listed")
+        );
         // a missing file
         std::fs::write(dir.join("maps/a.toml"), b"name = 'a'").unwrap();
         std::fs::remove_file(dir.join("runs.parquet")).unwrap();
-        assert!(matches!(check_seal(&dir).unwrap(), Seal::Broken { ref message, .. } if message.contains("missing")));
+        assert!(
+            matches!(check_seal(&dir).unwrap(), Seal::Broken { ref message, .. } if message.contains("missing"))
+        );
         // no checksum file: written before checksums
         std::fs::remove_file(dir.join(CHECKSUMS)).unwrap();
         assert_eq!(check_seal(&dir).unwrap(), Seal::Unsealed);
@@ -853,8 +1004,16 @@ mod tests {
             run_hash: "ab".into(),
             params_hash: "cd".into(),
             code_version: "v".into(),
-            params: vec![("odometry.model".into(), ParamValue::Str("proportional".into())), ("odometry.k".into(), ParamValue::Float(0.1)), ("trajectory.laps".into(), ParamValue::Int(2))],
-            metrics: if status == RunStatus::Failed { vec![] } else { vec![("ate_rmse_m".into(), 1.5), ("landmark_error_m".into(), f64::INFINITY)] },
+            params: vec![
+                ("odometry.model".into(), ParamValue::Str("proportional".into())),
+                ("odometry.k".into(), ParamValue::Float(0.1)),
+                ("trajectory.laps".into(), ParamValue::Int(2)),
+            ],
+            metrics: if status == RunStatus::Failed {
+                vec![]
+            } else {
+                vec![("ate_rmse_m".into(), 1.5), ("landmark_error_m".into(), f64::INFINITY)]
+            },
         }
     }
 
@@ -865,7 +1024,12 @@ mod tests {
         let mut bad = good;
         bad[0].metrics.push(("ate_rmse_m".into(), -3.1e58));
         let err = in_range(Path::new("runs.parquet"), bad).unwrap_err().to_string();
-        assert!(err.contains("runs.parquet") && err.contains("run a: ate_rmse_m = -31") && err.contains("negative"), "{err}");
+        assert!(
+            err.contains("runs.parquet")
+                && err.contains("run a: ate_rmse_m = -31")
+                && err.contains("negative"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -886,7 +1050,11 @@ mod tests {
             dt_s: 0.1,
             truth: (0..n).map(|i| Pose2::new(i as f64, 0.5, 0.1)).collect(),
             estimate: (0..n).map(|i| Pose2::new(i as f64 + 0.25, 0.0, -0.1)).collect(),
-            neff: if id == "a" { (0..n).map(|i| (i % 2 == 0).then_some(i as f64)).collect() } else { Vec::new() },
+            neff: if id == "a" {
+                (0..n).map(|i| (i % 2 == 0).then_some(i as f64)).collect()
+            } else {
+                Vec::new()
+            },
         };
         let traces = vec![t("a", 5), t("b", 3)];
         let mut df = parquet::traces_frame(&traces).unwrap();
@@ -907,8 +1075,20 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let cache = Cache::new(dir.path());
         assert!(!cache.contains("abcdef"));
-        let landmarks = RunLandmarks { run_id: "a".into(), landmarks: vec![LandmarkRow::Line { rho_m: 1.0, theta_rad: -1.5 }, LandmarkRow::Corner { x_m: 2.0, y_m: 3.0 }] };
-        let run = CachedRun { row: row("a", RunStatus::Ok), trace: TraceRows { neff: vec![], ..TraceRows::empty("a") }, landmarks, matches: MatchRows::default(), wall_ms: 12.5 };
+        let landmarks = RunLandmarks {
+            run_id: "a".into(),
+            landmarks: vec![
+                LandmarkRow::Line { rho_m: 1.0, theta_rad: -1.5 },
+                LandmarkRow::Corner { x_m: 2.0, y_m: 3.0 },
+            ],
+        };
+        let run = CachedRun {
+            row: row("a", RunStatus::Ok),
+            trace: TraceRows { neff: vec![], ..TraceRows::empty("a") },
+            landmarks,
+            matches: MatchRows::default(),
+            wall_ms: 12.5,
+        };
         cache.put("abcdef", &run, false).unwrap();
         assert!(cache.contains("abcdef"));
         let back = cache.get("abcdef").unwrap();
@@ -930,12 +1110,22 @@ mod tests {
         std::thread::scope(|s| {
             for i in 0..8 {
                 let target = &target;
-                s.spawn(move || write_dir_atomically(target, |t| write_file(&t.join("x"), format!("{i}").as_bytes())).unwrap());
+                s.spawn(move || {
+                    write_dir_atomically(target, |t| {
+                        write_file(&t.join("x"), format!("{i}").as_bytes())
+                    })
+                    .unwrap()
+                });
             }
         });
         assert!(target.join("x").is_file());
-        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().map(|e| e.file_name()).collect();
-        assert_eq!(names, vec![std::ffi::OsString::from("entry")], "no temporary directory left behind");
+        let names: Vec<_> =
+            std::fs::read_dir(dir.path()).unwrap().flatten().map(|e| e.file_name()).collect();
+        assert_eq!(
+            names,
+            vec![std::ffi::OsString::from("entry")],
+            "no temporary directory left behind"
+        );
     }
 
     #[test]
@@ -949,7 +1139,8 @@ mod tests {
         });
         assert!(err.is_err());
         assert_eq!(std::fs::read(target.join("a")).unwrap(), b"1");
-        let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().map(|e| e.file_name()).collect();
+        let leftovers: Vec<_> =
+            std::fs::read_dir(dir.path()).unwrap().flatten().map(|e| e.file_name()).collect();
         assert_eq!(leftovers.len(), 1, "{leftovers:?}");
     }
 }

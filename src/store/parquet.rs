@@ -1,15 +1,31 @@
 //! Typed rows ⇄ Parquet. The only polars code in slamlab. Column names and units are documented
 //! in the README ("Results schema").
 
-use super::{LandmarkRow, MatchRows, ParamValue, RunLandmarks, RunRow, RunStatus, StoreError, Timing, TraceRows};
-use crate::scanmatch::track::MatchRecord;
+use super::{
+    LandmarkRow, MatchRows, ParamValue, RunLandmarks, RunRow, RunStatus, StoreError, Timing,
+    TraceRows,
+};
 use crate::geom::Pose2;
+use crate::scanmatch::track::MatchRecord;
 use polars::prelude::*;
 use std::path::Path;
 
 /// Fixed leading columns of `runs.parquet` (then parameters, then metrics).
-const RUN_COLUMNS: &[&str] =
-    &["study", "run_id", "map", "algorithm", "point", "replicate", "world_seed", "filter_seed", "status", "error", "run_hash", "params_hash", "code_version"];
+const RUN_COLUMNS: &[&str] = &[
+    "study",
+    "run_id",
+    "map",
+    "algorithm",
+    "point",
+    "replicate",
+    "world_seed",
+    "filter_seed",
+    "status",
+    "error",
+    "run_hash",
+    "params_hash",
+    "code_version",
+];
 
 fn err(path: &Path, e: PolarsError) -> StoreError {
     StoreError::Parquet { path: path.to_path_buf(), message: e.to_string() }
@@ -19,14 +35,22 @@ fn err(path: &Path, e: PolarsError) -> StoreError {
 /// its own pool's jobs meanwhile, so Parquet IO inside a parallel loop nests job inside job until
 /// the stack overflows: every read and write happens off rayon's workers (see `run::run_study`).
 fn assert_off_worker_pool(path: &Path) {
-    assert!(rayon::current_thread_index().is_none(), "Parquet IO on a rayon worker thread ({}): do it on the calling thread", path.display());
+    assert!(
+        rayon::current_thread_index().is_none(),
+        "Parquet IO on a rayon worker thread ({}): do it on the calling thread",
+        path.display()
+    );
 }
 
 pub(super) fn write(path: &Path, df: &mut DataFrame) -> Result<(), StoreError> {
     assert_off_worker_pool(path);
     let file = std::fs::File::create(path).map_err(|e| StoreError::io(path, e))?;
     let mut w = std::io::BufWriter::new(file);
-    ParquetWriter::new(&mut w).with_compression(ParquetCompression::Zstd(None)).set_parallel(false).finish(df).map_err(|e| err(path, e))?;
+    ParquetWriter::new(&mut w)
+        .with_compression(ParquetCompression::Zstd(None))
+        .set_parallel(false)
+        .finish(df)
+        .map_err(|e| err(path, e))?;
     std::io::Write::flush(&mut w).map_err(|e| StoreError::io(path, e))?;
     w.get_ref().sync_all().map_err(|e| StoreError::io(path, e))
 }
@@ -52,23 +76,57 @@ pub(super) fn runs_frame(rows: &[RunRow]) -> PolarsResult<DataFrame> {
         Column::new("world_seed".into(), rows.iter().map(|r| r.world_seed).collect::<Vec<u64>>()),
         Column::new("filter_seed".into(), rows.iter().map(|r| r.filter_seed).collect::<Vec<u64>>()),
         Column::new("status".into(), strs(&|r| r.status.as_str().to_string())),
-        Column::new("error".into(), rows.iter().map(|r| r.error.clone()).collect::<Vec<Option<String>>>()),
+        Column::new(
+            "error".into(),
+            rows.iter().map(|r| r.error.clone()).collect::<Vec<Option<String>>>(),
+        ),
         Column::new("run_hash".into(), strs(&|r| r.run_hash.clone())),
         Column::new("params_hash".into(), strs(&|r| r.params_hash.clone())),
         Column::new("code_version".into(), strs(&|r| r.code_version.clone())),
     ];
     for name in union_of_names(rows.iter().map(|r| r.params.iter().map(|(k, _)| k.as_str()))) {
-        let values: Vec<Option<&ParamValue>> = rows.iter().map(|r| r.params.iter().find(|(k, _)| k == name).map(|(_, v)| v)).collect();
+        let values: Vec<Option<&ParamValue>> =
+            rows.iter().map(|r| r.params.iter().find(|(k, _)| k == name).map(|(_, v)| v)).collect();
         let col = match values.iter().flatten().next() {
-            Some(ParamValue::Float(_)) => Column::new(name.into(), values.iter().map(|v| v.and_then(ParamValue::as_f64)).collect::<Vec<Option<f64>>>()),
-            Some(ParamValue::Int(_)) => Column::new(name.into(), values.iter().map(|v| match v { Some(ParamValue::Int(i)) => Some(*i), _ => None }).collect::<Vec<Option<i64>>>()),
-            Some(ParamValue::Bool(_)) => Column::new(name.into(), values.iter().map(|v| match v { Some(ParamValue::Bool(b)) => Some(*b), _ => None }).collect::<Vec<Option<bool>>>()),
-            _ => Column::new(name.into(), values.iter().map(|v| v.map(ParamValue::to_string)).collect::<Vec<Option<String>>>()),
+            Some(ParamValue::Float(_)) => Column::new(
+                name.into(),
+                values.iter().map(|v| v.and_then(ParamValue::as_f64)).collect::<Vec<Option<f64>>>(),
+            ),
+            Some(ParamValue::Int(_)) => Column::new(
+                name.into(),
+                values
+                    .iter()
+                    .map(|v| match v {
+                        Some(ParamValue::Int(i)) => Some(*i),
+                        _ => None,
+                    })
+                    .collect::<Vec<Option<i64>>>(),
+            ),
+            Some(ParamValue::Bool(_)) => Column::new(
+                name.into(),
+                values
+                    .iter()
+                    .map(|v| match v {
+                        Some(ParamValue::Bool(b)) => Some(*b),
+                        _ => None,
+                    })
+                    .collect::<Vec<Option<bool>>>(),
+            ),
+            _ => Column::new(
+                name.into(),
+                values
+                    .iter()
+                    .map(|v| v.map(ParamValue::to_string))
+                    .collect::<Vec<Option<String>>>(),
+            ),
         };
         cols.push(col);
     }
     for name in union_of_names(rows.iter().map(|r| r.metrics.iter().map(|(k, _)| k.as_str()))) {
-        let values: Vec<Option<f64>> = rows.iter().map(|r| r.metrics.iter().find(|(k, _)| k == name).map(|(_, v)| *v)).collect();
+        let values: Vec<Option<f64>> = rows
+            .iter()
+            .map(|r| r.metrics.iter().find(|(k, _)| k == name).map(|(_, v)| *v))
+            .collect();
         cols.push(Column::new(name.into(), values));
     }
     DataFrame::new(n, cols)
@@ -89,14 +147,40 @@ pub(super) fn read_runs(path: &Path) -> Result<Vec<RunRow>, StoreError> {
     let df = read(path)?;
     let e = |x: PolarsError| err(path, x);
     let s = |name: &str| -> Result<Vec<String>, StoreError> {
-        Ok(df.column(name).map_err(e)?.str().map_err(e)?.iter().map(|v| v.unwrap_or_default().to_string()).collect())
+        Ok(df
+            .column(name)
+            .map_err(e)?
+            .str()
+            .map_err(e)?
+            .iter()
+            .map(|v| v.unwrap_or_default().to_string())
+            .collect())
     };
-    let (study, run_id, map, algorithm, point, status, run_hash, params_hash, code_version) =
-        (s("study")?, s("run_id")?, s("map")?, s("algorithm")?, s("point")?, s("status")?, s("run_hash")?, s("params_hash")?, s("code_version")?);
-    let error: Vec<Option<String>> = df.column("error").map_err(e)?.str().map_err(e)?.iter().map(|v| v.map(str::to_string)).collect();
-    let replicate: Vec<u32> = df.column("replicate").map_err(e)?.u32().map_err(e)?.into_no_null_iter().collect();
-    let world_seed: Vec<u64> = df.column("world_seed").map_err(e)?.u64().map_err(e)?.into_no_null_iter().collect();
-    let filter_seed: Vec<u64> = df.column("filter_seed").map_err(e)?.u64().map_err(e)?.into_no_null_iter().collect();
+    let (study, run_id, map, algorithm, point, status, run_hash, params_hash, code_version) = (
+        s("study")?,
+        s("run_id")?,
+        s("map")?,
+        s("algorithm")?,
+        s("point")?,
+        s("status")?,
+        s("run_hash")?,
+        s("params_hash")?,
+        s("code_version")?,
+    );
+    let error: Vec<Option<String>> = df
+        .column("error")
+        .map_err(e)?
+        .str()
+        .map_err(e)?
+        .iter()
+        .map(|v| v.map(str::to_string))
+        .collect();
+    let replicate: Vec<u32> =
+        df.column("replicate").map_err(e)?.u32().map_err(e)?.into_no_null_iter().collect();
+    let world_seed: Vec<u64> =
+        df.column("world_seed").map_err(e)?.u64().map_err(e)?.into_no_null_iter().collect();
+    let filter_seed: Vec<u64> =
+        df.column("filter_seed").map_err(e)?.u64().map_err(e)?.into_no_null_iter().collect();
 
     let mut rows: Vec<RunRow> = (0..df.height())
         .map(|i| RunRow {
@@ -125,10 +209,21 @@ pub(super) fn read_runs(path: &Path) -> Result<Vec<RunRow>, StoreError> {
         // Parameters are dotted paths (`odometry.k`); metrics never contain a dot.
         if name.contains('.') {
             let values: Vec<Option<ParamValue>> = match col.dtype() {
-                DataType::Float64 => col.f64().map_err(e)?.iter().map(|v| v.map(ParamValue::Float)).collect(),
-                DataType::Int64 => col.i64().map_err(e)?.iter().map(|v| v.map(ParamValue::Int)).collect(),
-                DataType::Boolean => col.bool().map_err(e)?.iter().map(|v| v.map(ParamValue::Bool)).collect(),
-                _ => col.str().map_err(e)?.iter().map(|v| v.map(|s| ParamValue::Str(s.to_string()))).collect(),
+                DataType::Float64 => {
+                    col.f64().map_err(e)?.iter().map(|v| v.map(ParamValue::Float)).collect()
+                }
+                DataType::Int64 => {
+                    col.i64().map_err(e)?.iter().map(|v| v.map(ParamValue::Int)).collect()
+                }
+                DataType::Boolean => {
+                    col.bool().map_err(e)?.iter().map(|v| v.map(ParamValue::Bool)).collect()
+                }
+                _ => col
+                    .str()
+                    .map_err(e)?
+                    .iter()
+                    .map(|v| v.map(|s| ParamValue::Str(s.to_string())))
+                    .collect(),
             };
             for (row, v) in rows.iter_mut().zip(values) {
                 if let Some(v) = v {
@@ -146,7 +241,16 @@ pub(super) fn read_runs(path: &Path) -> Result<Vec<RunRow>, StoreError> {
     Ok(rows)
 }
 
-const TRACE_COLUMNS: [&str; 8] = ["truth_x_m", "truth_y_m", "truth_theta_rad", "est_x_m", "est_y_m", "est_theta_rad", "t_s", "step"];
+const TRACE_COLUMNS: [&str; 8] = [
+    "truth_x_m",
+    "truth_y_m",
+    "truth_theta_rad",
+    "est_x_m",
+    "est_y_m",
+    "est_theta_rad",
+    "t_s",
+    "step",
+];
 
 pub(super) fn traces_frame(traces: &[TraceRows]) -> PolarsResult<DataFrame> {
     let n: usize = traces.iter().map(|t| t.truth.len()).sum();
@@ -159,13 +263,24 @@ pub(super) fn traces_frame(traces: &[TraceRows]) -> PolarsResult<DataFrame> {
             run_id.push(t.run_id.as_str());
             step.push(k as u32);
             t_s.push(k as f64 * t.dt_s);
-            for (c, v) in cols.iter_mut().zip([truth.x, truth.y, truth.theta, est.x, est.y, est.theta]) {
+            for (c, v) in
+                cols.iter_mut().zip([truth.x, truth.y, truth.theta, est.x, est.y, est.theta])
+            {
                 c.push(v);
             }
         }
     }
-    let neff: Vec<Option<f64>> = traces.iter().flat_map(|t| (0..t.truth.len().min(t.estimate.len())).map(|k| t.neff.get(k).copied().flatten())).collect();
-    let mut columns = vec![Column::new("run_id".into(), run_id), Column::new("step".into(), step), Column::new("t_s".into(), t_s)];
+    let neff: Vec<Option<f64>> = traces
+        .iter()
+        .flat_map(|t| {
+            (0..t.truth.len().min(t.estimate.len())).map(|k| t.neff.get(k).copied().flatten())
+        })
+        .collect();
+    let mut columns = vec![
+        Column::new("run_id".into(), run_id),
+        Column::new("step".into(), step),
+        Column::new("t_s".into(), t_s),
+    ];
     for (name, c) in TRACE_COLUMNS.iter().zip(cols) {
         columns.push(Column::new((*name).into(), c));
     }
@@ -175,13 +290,32 @@ pub(super) fn traces_frame(traces: &[TraceRows]) -> PolarsResult<DataFrame> {
 
 /// Reads traces, keeping only the runs `keep` accepts. Rows of one run are contiguous and in
 /// step order (as written).
-pub(super) fn read_traces(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<TraceRows>, StoreError> {
+pub(super) fn read_traces(
+    path: &Path,
+    keep: &dyn Fn(&str) -> bool,
+) -> Result<Vec<TraceRows>, StoreError> {
     let df = read(path)?;
     let e = |x: PolarsError| err(path, x);
     let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
     let t = df.column("t_s").map_err(e)?.f64().map_err(e)?;
-    let f = |name: &str| -> Result<Vec<f64>, StoreError> { Ok(df.column(name).map_err(e)?.f64().map_err(e)?.iter().map(|v| v.unwrap_or(f64::NAN)).collect()) };
-    let (tx, ty, tt, ex, ey, et) = (f("truth_x_m")?, f("truth_y_m")?, f("truth_theta_rad")?, f("est_x_m")?, f("est_y_m")?, f("est_theta_rad")?);
+    let f = |name: &str| -> Result<Vec<f64>, StoreError> {
+        Ok(df
+            .column(name)
+            .map_err(e)?
+            .f64()
+            .map_err(e)?
+            .iter()
+            .map(|v| v.unwrap_or(f64::NAN))
+            .collect())
+    };
+    let (tx, ty, tt, ex, ey, et) = (
+        f("truth_x_m")?,
+        f("truth_y_m")?,
+        f("truth_theta_rad")?,
+        f("est_x_m")?,
+        f("est_y_m")?,
+        f("est_theta_rad")?,
+    );
     let neff: Vec<Option<f64>> = df.column("neff").map_err(e)?.f64().map_err(e)?.iter().collect();
     let mut out: Vec<TraceRows> = Vec::new();
     for i in 0..df.height() {
@@ -212,8 +346,11 @@ pub(super) fn read_traces(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Ve
 
 /// Final maps: one row per landmark; lines fill `rho_m`/`theta_rad`, corners `x_m`/`y_m`.
 pub(super) fn landmarks_frame(maps: &[RunLandmarks]) -> PolarsResult<DataFrame> {
-    let rows: Vec<(&str, &LandmarkRow)> = maps.iter().flat_map(|m| m.landmarks.iter().map(move |l| (m.run_id.as_str(), l))).collect();
-    let get = |f: &dyn Fn(&LandmarkRow) -> Option<f64>| rows.iter().map(|(_, l)| f(l)).collect::<Vec<Option<f64>>>();
+    let rows: Vec<(&str, &LandmarkRow)> =
+        maps.iter().flat_map(|m| m.landmarks.iter().map(move |l| (m.run_id.as_str(), l))).collect();
+    let get = |f: &dyn Fn(&LandmarkRow) -> Option<f64>| {
+        rows.iter().map(|(_, l)| f(l)).collect::<Vec<Option<f64>>>()
+    };
     DataFrame::new(
         rows.len(),
         vec![
@@ -228,21 +365,68 @@ pub(super) fn landmarks_frame(maps: &[RunLandmarks]) -> PolarsResult<DataFrame> 
                     })
                     .collect::<Vec<_>>(),
             ),
-            Column::new("rho_m".into(), get(&|l| if let LandmarkRow::Line { rho_m, .. } = l { Some(*rho_m) } else { None })),
-            Column::new("theta_rad".into(), get(&|l| if let LandmarkRow::Line { theta_rad, .. } = l { Some(*theta_rad) } else { None })),
-            Column::new("x_m".into(), get(&|l| if let LandmarkRow::Corner { x_m, .. } | LandmarkRow::Point { x_m, .. } = l { Some(*x_m) } else { None })),
-            Column::new("y_m".into(), get(&|l| if let LandmarkRow::Corner { y_m, .. } | LandmarkRow::Point { y_m, .. } = l { Some(*y_m) } else { None })),
-            Column::new("landmark_id".into(), rows.iter().map(|(_, l)| if let LandmarkRow::Point { id, .. } = l { *id } else { None }).collect::<Vec<Option<u32>>>()),
+            Column::new(
+                "rho_m".into(),
+                get(&|l| if let LandmarkRow::Line { rho_m, .. } = l { Some(*rho_m) } else { None }),
+            ),
+            Column::new(
+                "theta_rad".into(),
+                get(&|l| {
+                    if let LandmarkRow::Line { theta_rad, .. } = l {
+                        Some(*theta_rad)
+                    } else {
+                        None
+                    }
+                }),
+            ),
+            Column::new(
+                "x_m".into(),
+                get(&|l| {
+                    if let LandmarkRow::Corner { x_m, .. } | LandmarkRow::Point { x_m, .. } = l {
+                        Some(*x_m)
+                    } else {
+                        None
+                    }
+                }),
+            ),
+            Column::new(
+                "y_m".into(),
+                get(&|l| {
+                    if let LandmarkRow::Corner { y_m, .. } | LandmarkRow::Point { y_m, .. } = l {
+                        Some(*y_m)
+                    } else {
+                        None
+                    }
+                }),
+            ),
+            Column::new(
+                "landmark_id".into(),
+                rows.iter()
+                    .map(|(_, l)| if let LandmarkRow::Point { id, .. } = l { *id } else { None })
+                    .collect::<Vec<Option<u32>>>(),
+            ),
         ],
     )
 }
 
-pub(super) fn read_landmarks(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<RunLandmarks>, StoreError> {
+pub(super) fn read_landmarks(
+    path: &Path,
+    keep: &dyn Fn(&str) -> bool,
+) -> Result<Vec<RunLandmarks>, StoreError> {
     let df = read(path)?;
     let e = |x: PolarsError| err(path, x);
     let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
     let kind = df.column("kind").map_err(e)?.str().map_err(e)?;
-    let f = |name: &str| -> Result<Vec<f64>, StoreError> { Ok(df.column(name).map_err(e)?.f64().map_err(e)?.iter().map(|v| v.unwrap_or(f64::NAN)).collect()) };
+    let f = |name: &str| -> Result<Vec<f64>, StoreError> {
+        Ok(df
+            .column(name)
+            .map_err(e)?
+            .f64()
+            .map_err(e)?
+            .iter()
+            .map(|v| v.unwrap_or(f64::NAN))
+            .collect())
+    };
     let (rho, theta, x, y) = (f("rho_m")?, f("theta_rad")?, f("x_m")?, f("y_m")?);
     // files written before point landmarks had identities lack the column: no identities
     let landmark_id: Vec<Option<u32>> = match df.column("landmark_id") {
@@ -269,11 +453,25 @@ pub(super) fn read_landmarks(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result
 }
 
 /// Scan matches: one row per match, poses of the current scan in the reference frame.
-const MATCH_POSE_COLUMNS: [&str; 9] = ["truth_dx_m", "truth_dy_m", "truth_dtheta_rad", "initial_dx_m", "initial_dy_m", "initial_dtheta_rad", "est_dx_m", "est_dy_m", "est_dtheta_rad"];
+const MATCH_POSE_COLUMNS: [&str; 9] = [
+    "truth_dx_m",
+    "truth_dy_m",
+    "truth_dtheta_rad",
+    "initial_dx_m",
+    "initial_dy_m",
+    "initial_dtheta_rad",
+    "est_dx_m",
+    "est_dy_m",
+    "est_dtheta_rad",
+];
 
 pub(super) fn matches_frame(runs: &[MatchRows]) -> PolarsResult<DataFrame> {
-    let rows: Vec<(&str, usize, &MatchRecord)> = runs.iter().flat_map(|r| r.matches.iter().enumerate().map(move |(i, m)| (r.run_id.as_str(), i, m))).collect();
-    let f = |g: &dyn Fn(&MatchRecord) -> f64| rows.iter().map(|(_, _, m)| g(m)).collect::<Vec<f64>>();
+    let rows: Vec<(&str, usize, &MatchRecord)> = runs
+        .iter()
+        .flat_map(|r| r.matches.iter().enumerate().map(move |(i, m)| (r.run_id.as_str(), i, m)))
+        .collect();
+    let f =
+        |g: &dyn Fn(&MatchRecord) -> f64| rows.iter().map(|(_, _, m)| g(m)).collect::<Vec<f64>>();
     let pose = |m: &MatchRecord, i: usize| {
         let p = [m.truth, m.initial, m.estimate][i / 3];
         [p.x, p.y, p.theta][i % 3]
@@ -281,8 +479,14 @@ pub(super) fn matches_frame(runs: &[MatchRows]) -> PolarsResult<DataFrame> {
     let mut columns = vec![
         Column::new("run_id".into(), rows.iter().map(|(id, _, _)| *id).collect::<Vec<_>>()),
         Column::new("match".into(), rows.iter().map(|(_, i, _)| *i as u32).collect::<Vec<_>>()),
-        Column::new("reference_step".into(), rows.iter().map(|(_, _, m)| m.reference_step as u32).collect::<Vec<_>>()),
-        Column::new("current_step".into(), rows.iter().map(|(_, _, m)| m.current_step as u32).collect::<Vec<_>>()),
+        Column::new(
+            "reference_step".into(),
+            rows.iter().map(|(_, _, m)| m.reference_step as u32).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "current_step".into(),
+            rows.iter().map(|(_, _, m)| m.current_step as u32).collect::<Vec<_>>(),
+        ),
     ];
     for (i, name) in MATCH_POSE_COLUMNS.iter().enumerate() {
         columns.push(Column::new((*name).into(), f(&|m| pose(m, i))));
@@ -291,26 +495,64 @@ pub(super) fn matches_frame(runs: &[MatchRows]) -> PolarsResult<DataFrame> {
         Column::new("f".into(), f(&|m| m.f)),
         Column::new("f_initial".into(), f(&|m| m.f_initial)),
         Column::new("pairs".into(), rows.iter().map(|(_, _, m)| m.pairs).collect::<Vec<_>>()),
-        Column::new("iterations".into(), rows.iter().map(|(_, _, m)| m.iterations).collect::<Vec<_>>()),
-        Column::new("evaluations".into(), rows.iter().map(|(_, _, m)| m.evaluations).collect::<Vec<_>>()),
+        Column::new(
+            "iterations".into(),
+            rows.iter().map(|(_, _, m)| m.iterations).collect::<Vec<_>>(),
+        ),
+        Column::new(
+            "evaluations".into(),
+            rows.iter().map(|(_, _, m)| m.evaluations).collect::<Vec<_>>(),
+        ),
         Column::new("fallback".into(), rows.iter().map(|(_, _, m)| m.fallback).collect::<Vec<_>>()),
-        Column::new("stop".into(), rows.iter().map(|(_, _, m)| m.stop.as_str()).collect::<Vec<_>>()),
+        Column::new(
+            "stop".into(),
+            rows.iter().map(|(_, _, m)| m.stop.as_str()).collect::<Vec<_>>(),
+        ),
         Column::new("time_s".into(), f(&|m| m.time_s)),
     ]);
     DataFrame::new(rows.len(), columns)
 }
 
-pub(super) fn read_matches(path: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<MatchRows>, StoreError> {
+pub(super) fn read_matches(
+    path: &Path,
+    keep: &dyn Fn(&str) -> bool,
+) -> Result<Vec<MatchRows>, StoreError> {
     let df = read(path)?;
     let e = |x: PolarsError| err(path, x);
     let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
-    let f = |name: &str| -> Result<Vec<f64>, StoreError> { Ok(df.column(name).map_err(e)?.f64().map_err(e)?.iter().map(|v| v.unwrap_or(f64::NAN)).collect()) };
-    let u = |name: &str| -> Result<Vec<u32>, StoreError> { Ok(df.column(name).map_err(e)?.u32().map_err(e)?.iter().map(|v| v.unwrap_or(0)).collect()) };
+    let f = |name: &str| -> Result<Vec<f64>, StoreError> {
+        Ok(df
+            .column(name)
+            .map_err(e)?
+            .f64()
+            .map_err(e)?
+            .iter()
+            .map(|v| v.unwrap_or(f64::NAN))
+            .collect())
+    };
+    let u = |name: &str| -> Result<Vec<u32>, StoreError> {
+        Ok(df.column(name).map_err(e)?.u32().map_err(e)?.iter().map(|v| v.unwrap_or(0)).collect())
+    };
     let poses: Vec<Vec<f64>> = MATCH_POSE_COLUMNS.iter().map(|c| f(c)).collect::<Result<_, _>>()?;
     let (fv, fi, time) = (f("f")?, f("f_initial")?, f("time_s")?);
-    let (rs, cs, pairs, iters) = (u("reference_step")?, u("current_step")?, u("pairs")?, u("iterations")?);
-    let evals: Vec<u64> = df.column("evaluations").map_err(e)?.u64().map_err(e)?.iter().map(|v| v.unwrap_or(0)).collect();
-    let fallback: Vec<bool> = df.column("fallback").map_err(e)?.bool().map_err(e)?.iter().map(|v| v.unwrap_or(false)).collect();
+    let (rs, cs, pairs, iters) =
+        (u("reference_step")?, u("current_step")?, u("pairs")?, u("iterations")?);
+    let evals: Vec<u64> = df
+        .column("evaluations")
+        .map_err(e)?
+        .u64()
+        .map_err(e)?
+        .iter()
+        .map(|v| v.unwrap_or(0))
+        .collect();
+    let fallback: Vec<bool> = df
+        .column("fallback")
+        .map_err(e)?
+        .bool()
+        .map_err(e)?
+        .iter()
+        .map(|v| v.unwrap_or(false))
+        .collect();
     let stop = df.column("stop").map_err(e)?.str().map_err(e)?;
     let mut out: Vec<MatchRows> = Vec::new();
     for i in 0..df.height() {
@@ -345,7 +587,10 @@ pub(super) fn timings_frame(timings: &[Timing]) -> PolarsResult<DataFrame> {
     DataFrame::new(
         timings.len(),
         vec![
-            Column::new("run_id".into(), timings.iter().map(|t| t.run_id.as_str()).collect::<Vec<_>>()),
+            Column::new(
+                "run_id".into(),
+                timings.iter().map(|t| t.run_id.as_str()).collect::<Vec<_>>(),
+            ),
             Column::new("wall_ms".into(), timings.iter().map(|t| t.wall_ms).collect::<Vec<_>>()),
             Column::new("steps".into(), timings.iter().map(|t| t.steps).collect::<Vec<_>>()),
             Column::new("cached".into(), timings.iter().map(|t| t.cached).collect::<Vec<_>>()),
@@ -361,6 +606,11 @@ pub(super) fn read_timings(path: &Path) -> Result<Vec<Timing>, StoreError> {
     let cached = df.column("cached").map_err(e)?.bool().map_err(e)?;
     let steps = df.column("steps").map_err(e)?.u32().map_err(e)?;
     Ok((0..df.height())
-        .map(|i| Timing { run_id: ids.get(i).unwrap_or_default().to_string(), wall_ms: ms.get(i).unwrap_or(f64::NAN), steps: steps.get(i).unwrap_or(0), cached: cached.get(i).unwrap_or(false) })
+        .map(|i| Timing {
+            run_id: ids.get(i).unwrap_or_default().to_string(),
+            wall_ms: ms.get(i).unwrap_or(f64::NAN),
+            steps: steps.get(i).unwrap_or(0),
+            cached: cached.get(i).unwrap_or(false),
+        })
         .collect())
 }

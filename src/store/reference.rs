@@ -56,14 +56,29 @@ fn parse_cells(text: &str) -> Result<Vec<ReferenceRow>, String> {
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let (_, header) = lines.next().ok_or("the file is empty")?;
     let columns: Vec<&str> = header.split(',').map(str::trim).collect();
-    let keys: Vec<usize> = CELL_KEYS.iter().map(|k| columns.iter().position(|c| c == k).ok_or_else(|| format!("line 1: missing column `{k}`"))).collect::<Result<_, _>>()?;
+    let keys: Vec<usize> = CELL_KEYS
+        .iter()
+        .map(|k| {
+            columns
+                .iter()
+                .position(|c| c == k)
+                .ok_or_else(|| format!("line 1: missing column `{k}`"))
+        })
+        .collect::<Result<_, _>>()?;
     let mut rows = Vec::new();
     for (n, line) in lines {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
         if fields.len() != columns.len() {
-            return Err(format!("line {}: {} fields, the header has {}", n + 1, fields.len(), columns.len()));
+            return Err(format!(
+                "line {}: {} fields, the header has {}",
+                n + 1,
+                fields.len(),
+                columns.len()
+            ));
         }
-        let value = number(fields[keys[6]]).ok_or_else(|| format!("line {}: column `value` is not a number: {:?}", n + 1, fields[keys[6]]))?;
+        let value = number(fields[keys[6]]).ok_or_else(|| {
+            format!("line {}: column `value` is not a number: {:?}", n + 1, fields[keys[6]])
+        })?;
         rows.push(ReferenceRow {
             experiment: fields[keys[0]].to_string(),
             table: fields[keys[0]].to_string(),
@@ -86,20 +101,43 @@ pub fn parse(text: &str) -> Result<Vec<ReferenceRow>, String> {
     let mut lines = text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty());
     let (_, header) = lines.next().ok_or("the file is empty")?;
     let columns: Vec<&str> = header.split(',').map(str::trim).collect();
-    let index = |name: &str| columns.iter().position(|c| *c == name).ok_or_else(|| format!("line 1: missing column `{name}`"));
+    let index = |name: &str| {
+        columns
+            .iter()
+            .position(|c| *c == name)
+            .ok_or_else(|| format!("line 1: missing column `{name}`"))
+    };
     let keys: Vec<usize> = KEYS.iter().map(|k| index(k)).collect::<Result<_, _>>()?;
-    let metric_columns: Vec<(usize, &str)> =
-        columns.iter().enumerate().filter(|(_, c)| metric_def(c).is_some() || c.strip_suffix("_var").is_some_and(|m| metric_def(m).is_some())).map(|(i, c)| (i, *c)).collect();
+    let metric_columns: Vec<(usize, &str)> = columns
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| {
+            metric_def(c).is_some()
+                || c.strip_suffix("_var").is_some_and(|m| metric_def(m).is_some())
+        })
+        .map(|(i, c)| (i, *c))
+        .collect();
     let mut rows = Vec::new();
     for (n, line) in lines {
         let fields: Vec<&str> = line.split(',').map(str::trim).collect();
         if fields.len() != columns.len() {
-            return Err(format!("line {}: {} fields, the header has {}", n + 1, fields.len(), columns.len()));
+            return Err(format!(
+                "line {}: {} fields, the header has {}",
+                n + 1,
+                fields.len(),
+                columns.len()
+            ));
         }
-        let value = number(fields[keys[4]]).ok_or_else(|| format!("line {}: column `value` is not a number: {:?}", n + 1, fields[keys[4]]))?;
+        let value = number(fields[keys[4]]).ok_or_else(|| {
+            format!("line {}: column `value` is not a number: {:?}", n + 1, fields[keys[4]])
+        })?;
         let metrics = metric_columns
             .iter()
-            .map(|&(i, name)| number(fields[i]).map(|v| (name.to_string(), v)).ok_or_else(|| format!("line {}: column `{name}` is not a number: {:?}", n + 1, fields[i])))
+            .map(|&(i, name)| {
+                number(fields[i]).map(|v| (name.to_string(), v)).ok_or_else(|| {
+                    format!("line {}: column `{name}` is not a number: {:?}", n + 1, fields[i])
+                })
+            })
             .collect::<Result<_, _>>()?;
         rows.push(ReferenceRow {
             experiment: fields[keys[0]].to_string(),
@@ -120,9 +158,15 @@ pub fn select(text: &str, experiments: &[String]) -> String {
     let mut lines = text.lines();
     let header = lines.next().unwrap_or_default();
     // The long layout's experiments are its tables.
-    let at = header.split(',').position(|c| c.trim() == "experiment").or_else(|| header.split(',').position(|c| c.trim() == "table")).unwrap_or(0);
+    let at = header
+        .split(',')
+        .position(|c| c.trim() == "experiment")
+        .or_else(|| header.split(',').position(|c| c.trim() == "table"))
+        .unwrap_or(0);
     let mut out = format!("{header}\n");
-    for l in lines.filter(|l| l.split(',').nth(at).map(str::trim).is_some_and(|e| experiments.iter().any(|x| x == e))) {
+    for l in lines.filter(|l| {
+        l.split(',').nth(at).map(str::trim).is_some_and(|e| experiments.iter().any(|x| x == e))
+    }) {
         out.push_str(l);
         out.push('\n');
     }
@@ -151,7 +195,10 @@ mod tests {
     #[test]
     fn bad_fields_name_their_line() {
         let bad = TEXT.replace("0.0015", "lots");
-        assert_eq!(parse(&bad).unwrap_err(), "line 2: column `landmark_error_m_var` is not a number: \"lots\"");
+        assert_eq!(
+            parse(&bad).unwrap_err(),
+            "line 2: column `landmark_error_m_var` is not a number: \"lots\""
+        );
         assert!(parse(&TEXT.replace(",L3-4", "")).unwrap_err().starts_with("line 3:"));
     }
 
@@ -179,9 +226,16 @@ mod tests {
 
     #[test]
     fn the_thesis_tables_parse() {
-        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/data/reference/fastslam-thesis.csv")).unwrap();
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/data/reference/fastslam-thesis.csv"
+        ))
+        .unwrap();
         let rows = parse(&text).unwrap();
         assert_eq!(rows.len(), 183);
-        assert!(rows.iter().all(|r| r.metric("landmark_error_m").is_some() && r.metric("landmarks_detected").is_some()));
+        assert!(
+            rows.iter().all(|r| r.metric("landmark_error_m").is_some()
+                && r.metric("landmarks_detected").is_some())
+        );
     }
 }

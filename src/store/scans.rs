@@ -15,9 +15,18 @@ use std::fmt::Write;
 
 /// `scans.txt` of a world's laser scans.
 pub fn scans_text(geometry: &LaserGeometry, scans: &[Scan]) -> String {
-    let mut s = String::from("# step n_beams angle_min_rad angle_increment_rad ranges_m (inf = no return)\n");
+    let mut s = String::from(
+        "# step n_beams angle_min_rad angle_increment_rad ranges_m (inf = no return)\n",
+    );
     for scan in scans {
-        let _ = write!(s, "{} {} {} {}", scan.step, scan.ranges_m.len(), geometry.angle_min_rad, geometry.angle_increment_rad);
+        let _ = write!(
+            s,
+            "{} {} {} {}",
+            scan.step,
+            scan.ranges_m.len(),
+            geometry.angle_min_rad,
+            geometry.angle_increment_rad
+        );
         for r in &scan.ranges_m {
             match r {
                 Some(r) => {
@@ -35,19 +44,34 @@ pub fn scans_text(geometry: &LaserGeometry, scans: &[Scan]) -> String {
 pub fn pairs_text(matches: &[MatchRecord]) -> String {
     let mut s = String::from("# ref_step cur_step guess_x_m guess_y_m guess_theta_rad\n");
     for m in matches {
-        let _ = writeln!(s, "{} {} {} {} {}", m.reference_step, m.current_step, m.initial.x, m.initial.y, m.initial.theta);
+        let _ = writeln!(
+            s,
+            "{} {} {} {} {}",
+            m.reference_step, m.current_step, m.initial.x, m.initial.y, m.initial.theta
+        );
     }
     s
 }
 
 /// `matches.txt`: each pair with the truth and slamlab's estimate.
 pub fn matches_text(matches: &[MatchRecord]) -> String {
-    let mut s = String::from("# ref_step cur_step truth_x_m truth_y_m truth_theta_rad estimate_x_m estimate_y_m estimate_theta_rad iterations stop\n");
+    let mut s = String::from(
+        "# ref_step cur_step truth_x_m truth_y_m truth_theta_rad estimate_x_m estimate_y_m estimate_theta_rad iterations stop\n",
+    );
     for m in matches {
         let _ = writeln!(
             s,
             "{} {} {} {} {} {} {} {} {} {}",
-            m.reference_step, m.current_step, m.truth.x, m.truth.y, m.truth.theta, m.estimate.x, m.estimate.y, m.estimate.theta, m.iterations, m.stop
+            m.reference_step,
+            m.current_step,
+            m.truth.x,
+            m.truth.y,
+            m.truth.theta,
+            m.estimate.x,
+            m.estimate.y,
+            m.estimate.theta,
+            m.iterations,
+            m.stop
         );
     }
     s
@@ -60,8 +84,16 @@ mod tests {
 
     #[test]
     fn scans_and_pairs_read_back_bit_for_bit() {
-        let geometry = LaserGeometry { angle_min_rad: -std::f64::consts::FRAC_PI_2, angle_increment_rad: 1f64.to_radians(), beams: 3, max_range_m: 10.0 };
-        let text = scans_text(&geometry, &[Scan { step: 7, ranges_m: vec![Some(0.1 + 0.2), None, Some(2.5)] }]);
+        let geometry = LaserGeometry {
+            angle_min_rad: -std::f64::consts::FRAC_PI_2,
+            angle_increment_rad: 1f64.to_radians(),
+            beams: 3,
+            max_range_m: 10.0,
+        };
+        let text = scans_text(
+            &geometry,
+            &[Scan { step: 7, ranges_m: vec![Some(0.1 + 0.2), None, Some(2.5)] }],
+        );
         let line = text.lines().nth(1).unwrap();
         let f: Vec<&str> = line.split(' ').collect();
         assert_eq!(f[..2], ["7", "3"]);

@@ -4,12 +4,12 @@
 
 use super::RangeNoise;
 use crate::config::{Checks, Violation};
-use crate::geom::{wrap_angle, Point2, Pose2, Segment};
-use std::f64::consts::TAU;
+use crate::geom::{Point2, Pose2, Segment, wrap_angle};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
+use std::f64::consts::TAU;
 
 /// `[base.laser]`. Defaults fill [FT] §10's gaps for a SICK LMS-200 as simulated by Stage.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -42,7 +42,17 @@ pub struct LaserParams {
 
 impl Default for LaserParams {
     fn default() -> Self {
-        Self { fov_deg: 180.0, resolution_deg: 1.0, max_range_m: 8.0, rate_hz: 5.0, range_noise: RangeNoise::Constant, range_sigma_m: 0.01, wall_thickness_m: 0.0, wall_thickness_px: 0.0, range_quantum_m: 0.0 }
+        Self {
+            fov_deg: 180.0,
+            resolution_deg: 1.0,
+            max_range_m: 8.0,
+            rate_hz: 5.0,
+            range_noise: RangeNoise::Constant,
+            range_sigma_m: 0.01,
+            wall_thickness_m: 0.0,
+            wall_thickness_px: 0.0,
+            range_quantum_m: 0.0,
+        }
     }
 }
 
@@ -101,7 +111,10 @@ impl LaserParams {
     /// when both are off.
     pub fn describe_artefacts(&self) -> Option<String> {
         let walls = if self.wall_thickness_px > 0.0 {
-            format!("{} px of each map's source bitmap (its bitmap_m_per_px)", self.wall_thickness_px)
+            format!(
+                "{} px of each map's source bitmap (its bitmap_m_per_px)",
+                self.wall_thickness_px
+            )
         } else {
             format!("{} m", self.wall_thickness_m)
         };
@@ -133,14 +146,28 @@ impl LaserParams {
         c.in_range("wall_thickness_m", self.wall_thickness_m, 0.0, MAX_WALL_THICKNESS_M);
         c.in_range("range_quantum_m", self.range_quantum_m, 0.0, MAX_RANGE_QUANTUM_M);
         c.in_range("wall_thickness_px", self.wall_thickness_px, 0.0, MAX_WALL_THICKNESS_PX);
-        c.require(!(self.wall_thickness_px > 0.0 && self.wall_thickness_m > 0.0), "wall_thickness_px", || {
-            format!("set wall_thickness_m ({}) or wall_thickness_px ({}), not both", self.wall_thickness_m, self.wall_thickness_px)
-        });
+        c.require(
+            !(self.wall_thickness_px > 0.0 && self.wall_thickness_m > 0.0),
+            "wall_thickness_px",
+            || {
+                format!(
+                    "set wall_thickness_m ({}) or wall_thickness_px ({}), not both",
+                    self.wall_thickness_m, self.wall_thickness_px
+                )
+            },
+        );
         if self.fov_deg > 0.0 && self.resolution_deg > 0.0 {
             let n = self.fov_deg / self.resolution_deg;
-            c.require((n - n.round()).abs() < WHOLE_NUMBER_TOL * n.max(1.0), "resolution_deg", || {
-                format!("must divide fov_deg = {} into a whole number of intervals, got {}", self.fov_deg, self.resolution_deg)
-            });
+            c.require(
+                (n - n.round()).abs() < WHOLE_NUMBER_TOL * n.max(1.0),
+                "resolution_deg",
+                || {
+                    format!(
+                        "must divide fov_deg = {} into a whole number of intervals, got {}",
+                        self.fov_deg, self.resolution_deg
+                    )
+                },
+            );
         }
         c.finish()
     }
@@ -159,8 +186,18 @@ impl LaserParams {
                 let (nx, ny) = (-dy * h, dx * h);
                 let a = Point2::new(w.a.x - dx * h, w.a.y - dy * h);
                 let b = Point2::new(w.b.x + dx * h, w.b.y + dy * h);
-                let c = [Point2::new(a.x + nx, a.y + ny), Point2::new(b.x + nx, b.y + ny), Point2::new(b.x - nx, b.y - ny), Point2::new(a.x - nx, a.y - ny)];
-                [Segment::new(c[0], c[1]), Segment::new(c[1], c[2]), Segment::new(c[2], c[3]), Segment::new(c[3], c[0])]
+                let c = [
+                    Point2::new(a.x + nx, a.y + ny),
+                    Point2::new(b.x + nx, b.y + ny),
+                    Point2::new(b.x - nx, b.y - ny),
+                    Point2::new(a.x - nx, a.y - ny),
+                ];
+                [
+                    Segment::new(c[0], c[1]),
+                    Segment::new(c[1], c[2]),
+                    Segment::new(c[2], c[3]),
+                    Segment::new(c[3], c[0]),
+                ]
             })
             .collect()
     }
@@ -179,14 +216,27 @@ impl LaserParams {
 
     /// One scan from `pose`. A standard normal is drawn for every beam, hit or not, so the
     /// noise of beam i is the same draw at every sweep point.
-    pub fn scan(&self, geometry: &LaserGeometry, walls: &[Segment], pose: Pose2, step: usize, rng: &mut ChaCha8Rng) -> Scan {
+    pub fn scan(
+        &self,
+        geometry: &LaserGeometry,
+        walls: &[Segment],
+        pose: Pose2,
+        step: usize,
+        rng: &mut ChaCha8Rng,
+    ) -> Scan {
         let hits = cast_beams(geometry, walls, pose);
         let ranges_m = hits
             .into_iter()
             .map(|hit| {
                 let z: f64 = rng.sample(StandardNormal);
-                hit.map(|r| if self.range_quantum_m > 0.0 { (r / self.range_quantum_m).round() * self.range_quantum_m } else { r })
-                    .map(|r| (r + self.range_noise.sigma(self.range_sigma_m, r) * z).max(0.0))
+                hit.map(|r| {
+                    if self.range_quantum_m > 0.0 {
+                        (r / self.range_quantum_m).round() * self.range_quantum_m
+                    } else {
+                        r
+                    }
+                })
+                .map(|r| (r + self.range_noise.sigma(self.range_sigma_m, r) * z).max(0.0))
             })
             .collect();
         Scan { step, ranges_m }
@@ -198,7 +248,8 @@ impl LaserParams {
 /// inside the angle it spans from the pose (plus one beam of margin) — identical results.
 pub fn cast_beams(geometry: &LaserGeometry, walls: &[Segment], pose: Pose2) -> Vec<Option<f64>> {
     let origin = pose.position();
-    let trig: Vec<(f64, f64)> = (0..geometry.beams).map(|i| (pose.theta + geometry.bearing(i)).sin_cos()).collect();
+    let trig: Vec<(f64, f64)> =
+        (0..geometry.beams).map(|i| (pose.theta + geometry.bearing(i)).sin_cos()).collect();
     let mut best = vec![f64::INFINITY; geometry.beams];
     let inc = geometry.angle_increment_rad;
     for w in walls.iter().filter(|w| w.distance_to_point(origin) <= geometry.max_range_m) {
@@ -247,10 +298,17 @@ mod tests {
 
     #[test]
     fn noise_free_ranges_are_exact() {
-        let params = LaserParams { range_sigma_m: 0.0, max_range_m: 30.0, ..LaserParams::default() };
+        let params =
+            LaserParams { range_sigma_m: 0.0, max_range_m: 30.0, ..LaserParams::default() };
         let g = params.geometry();
         assert_eq!(g.beams, 181);
-        let scan = params.scan(&g, &room(), Pose2::new(0.0, 0.0, 0.0), 0, &mut ChaCha8Rng::seed_from_u64(1));
+        let scan = params.scan(
+            &g,
+            &room(),
+            Pose2::new(0.0, 0.0, 0.0),
+            0,
+            &mut ChaCha8Rng::seed_from_u64(1),
+        );
         // beam 0 looks right (−90°): wall y = −1 at 1 m; beam 90 ahead: x = 19 at 19 m; beam 180 left: 9 m
         assert!((scan.ranges_m[0].unwrap() - 1.0).abs() < 1e-12);
         assert!((scan.ranges_m[90].unwrap() - 19.0).abs() < 1e-12);
@@ -263,14 +321,25 @@ mod tests {
     fn max_range_gives_no_return() {
         let params = LaserParams { range_sigma_m: 0.0, ..LaserParams::default() };
         let g = params.geometry();
-        let scan = params.scan(&g, &room(), Pose2::new(0.0, 0.0, 0.0), 0, &mut ChaCha8Rng::seed_from_u64(1));
+        let scan = params.scan(
+            &g,
+            &room(),
+            Pose2::new(0.0, 0.0, 0.0),
+            0,
+            &mut ChaCha8Rng::seed_from_u64(1),
+        );
         assert_eq!(scan.ranges_m[90], None); // 19 m > 8 m
     }
 
     #[test]
     fn proportional_noise_scales_with_range() {
         // Beam 90 hits at 19 m and beam 0 at 1 m; σ at 1 m = 0.01 ⇒ σ(19 m) = 0.19 m.
-        let params = LaserParams { max_range_m: 30.0, range_noise: RangeNoise::Proportional, range_sigma_m: 0.01, ..LaserParams::default() };
+        let params = LaserParams {
+            max_range_m: 30.0,
+            range_noise: RangeNoise::Proportional,
+            range_sigma_m: 0.01,
+            ..LaserParams::default()
+        };
         let g = params.geometry();
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let n = 4000;
@@ -287,7 +356,12 @@ mod tests {
 
     #[test]
     fn thick_walls_are_seen_half_a_thickness_closer_and_ranges_can_be_quantised() {
-        let thick = LaserParams { range_sigma_m: 0.0, max_range_m: 30.0, wall_thickness_m: 0.1, ..LaserParams::default() };
+        let thick = LaserParams {
+            range_sigma_m: 0.0,
+            max_range_m: 30.0,
+            wall_thickness_m: 0.1,
+            ..LaserParams::default()
+        };
         let g = thick.geometry();
         let surfaces = LaserParams::surfaces(0.1, &room());
         assert_eq!(surfaces.len(), 16);
@@ -295,7 +369,13 @@ mod tests {
         assert!((scan.ranges_m[0].unwrap() - 0.95).abs() < 1e-12);
         assert!((scan.ranges_m[90].unwrap() - 18.95).abs() < 1e-12);
         let quantised = LaserParams { range_quantum_m: 0.02, ..thick.clone() };
-        let q = quantised.scan(&g, &surfaces, Pose2::new(0.0, 0.003, 0.0), 0, &mut ChaCha8Rng::seed_from_u64(1));
+        let q = quantised.scan(
+            &g,
+            &surfaces,
+            Pose2::new(0.0, 0.003, 0.0),
+            0,
+            &mut ChaCha8Rng::seed_from_u64(1),
+        );
         let r = q.ranges_m[0].unwrap(); // true 0.953
         assert!((r / 0.02 - (r / 0.02).round()).abs() < 1e-9 && (r - 0.96).abs() < 1e-9, "{r}");
     }
@@ -309,12 +389,26 @@ mod tests {
         walls.push(Segment::new(p(4.0, -0.5), p(4.0, 6.0)));
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         for fov in [180.0, 270.0, 360.0] {
-            let g = LaserParams { fov_deg: fov, resolution_deg: 0.5, max_range_m: 12.0, ..LaserParams::default() }.geometry();
+            let g = LaserParams {
+                fov_deg: fov,
+                resolution_deg: 0.5,
+                max_range_m: 12.0,
+                ..LaserParams::default()
+            }
+            .geometry();
             for _ in 0..300 {
-                let pose = Pose2::new(rng.random_range(-0.8..18.8), rng.random_range(-0.8..8.8), rng.random_range(-3.2..3.2));
+                let pose = Pose2::new(
+                    rng.random_range(-0.8..18.8),
+                    rng.random_range(-0.8..8.8),
+                    rng.random_range(-3.2..3.2),
+                );
                 let fast = cast_beams(&g, &walls, pose);
                 for (i, f) in fast.iter().enumerate() {
-                    assert_eq!(*f, cast_ray(&walls, pose.position(), pose.theta + g.bearing(i), g.max_range_m), "fov {fov} beam {i} pose {pose:?}");
+                    assert_eq!(
+                        *f,
+                        cast_ray(&walls, pose.position(), pose.theta + g.bearing(i), g.max_range_m),
+                        "fov {fov} beam {i} pose {pose:?}"
+                    );
                 }
             }
         }
@@ -330,11 +424,21 @@ mod tests {
 
     #[test]
     fn describe_names_the_scan_geometry_and_noise() {
-        let l = LaserParams { fov_deg: 240.0, resolution_deg: 0.5, max_range_m: 5.6, rate_hz: 10.0, range_noise: RangeNoise::Proportional, range_sigma_m: 0.02, ..LaserParams::default() };
+        let l = LaserParams {
+            fov_deg: 240.0,
+            resolution_deg: 0.5,
+            max_range_m: 5.6,
+            rate_hz: 10.0,
+            range_noise: RangeNoise::Proportional,
+            range_sigma_m: 0.02,
+            ..LaserParams::default()
+        };
         let s = l.describe();
         assert!(s.contains("240° field of view at 0.5° resolution (481 beams), 5.6 m maximum range, 10 Hz, range noise proportional to range, at 1 m σ = 0.02 m."), "{s}");
         assert_eq!(l.describe_artefacts(), None);
-        let s = LaserParams { wall_thickness_m: 0.05, range_quantum_m: 0.02, ..l }.describe_artefacts().unwrap();
+        let s = LaserParams { wall_thickness_m: 0.05, range_quantum_m: 0.02, ..l }
+            .describe_artefacts()
+            .unwrap();
         assert!(s.contains("0.05 m thick bars") && s.contains("a 0.02 m raster"), "{s}");
     }
 

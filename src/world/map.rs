@@ -108,13 +108,25 @@ impl Map {
     /// Parses and validates a map file's text.
     pub fn from_toml(text: &str) -> Result<Map, Vec<SourceError>> {
         let loc = Locator::new(text);
-        let file: MapFile = toml::from_str(text).map_err(|e| vec![SourceError::from_toml(&loc, &e)])?;
+        let file: MapFile =
+            toml::from_str(text).map_err(|e| vec![SourceError::from_toml(&loc, &e)])?;
         let mut errors = Vec::new();
         let mut err = |key: &str, msg: String| errors.push(SourceError::at_key(&loc, key, msg));
 
         // Map names become file names and parts of run ids.
-        if file.name.is_empty() || !file.name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_' || c == '-') {
-            err("name", format!("must be non-empty lower-case letters, digits, `-` or `_`, got {:?}", file.name));
+        if file.name.is_empty()
+            || !file
+                .name
+                .chars()
+                .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_' || c == '-')
+        {
+            err(
+                "name",
+                format!(
+                    "must be non-empty lower-case letters, digits, `-` or `_`, got {:?}",
+                    file.name
+                ),
+            );
         }
         let mut walls = Vec::new();
         for (i, wall) in file.walls.iter().enumerate() {
@@ -122,17 +134,35 @@ impl Map {
                 err(&format!("walls[{i}].points"), "a wall needs at least two points".into());
             }
             for (j, pair) in wall.points.windows(2).enumerate() {
-                let s = Segment::new(Point2::new(pair[0][0], pair[0][1]), Point2::new(pair[1][0], pair[1][1]));
+                let s = Segment::new(
+                    Point2::new(pair[0][0], pair[0][1]),
+                    Point2::new(pair[1][0], pair[1][1]),
+                );
                 if !(s.length() > GEOMETRY_EPS_M) {
-                    err(&format!("walls[{i}].points[{}]", j + 1), "repeats the previous point (zero-length wall)".into());
+                    err(
+                        &format!("walls[{i}].points[{}]", j + 1),
+                        "repeats the previous point (zero-length wall)".into(),
+                    );
                 } else {
                     walls.push(s);
                 }
             }
         }
         match (&file.trajectory, &file.dataset) {
-            (Some(_), Some(_)) => return Err(vec![SourceError::at_key(&loc, "dataset", "a map has either a [trajectory] (simulation) or a [dataset] (real data), not both")]),
-            (None, None) => return Err(vec![SourceError::at_key(&loc, "", "missing [trajectory] (or [dataset] for real data)")]),
+            (Some(_), Some(_)) => {
+                return Err(vec![SourceError::at_key(
+                    &loc,
+                    "dataset",
+                    "a map has either a [trajectory] (simulation) or a [dataset] (real data), not both",
+                )]);
+            }
+            (None, None) => {
+                return Err(vec![SourceError::at_key(
+                    &loc,
+                    "",
+                    "missing [trajectory] (or [dataset] for real data)",
+                )]);
+            }
             _ => {}
         }
         for v in file.dataset.iter().flat_map(|d| d.validate()) {
@@ -143,13 +173,19 @@ impl Map {
                 err("trajectory.max_speed_mps", format!("must be > 0, got {}", t.max_speed_mps));
             }
             if !(t.max_turn_rate_dps > 0.0 && t.max_turn_rate_dps.is_finite()) {
-                err("trajectory.max_turn_rate_dps", format!("must be > 0, got {}", t.max_turn_rate_dps));
+                err(
+                    "trajectory.max_turn_rate_dps",
+                    format!("must be > 0, got {}", t.max_turn_rate_dps),
+                );
             }
             if t.laps == 0 {
                 err("trajectory.laps", "must be ≥ 1".into());
             }
             if !(t.waypoint_tolerance_m > 0.0 && t.waypoint_tolerance_m.is_finite()) {
-                err("trajectory.waypoint_tolerance_m", format!("must be > 0, got {}", t.waypoint_tolerance_m));
+                err(
+                    "trajectory.waypoint_tolerance_m",
+                    format!("must be > 0, got {}", t.waypoint_tolerance_m),
+                );
             }
             if t.waypoints.is_empty() {
                 err("trajectory.waypoints", "needs at least one waypoint".into());
@@ -157,23 +193,44 @@ impl Map {
         }
         if let Some(s) = file.bitmap_m_per_px {
             if !(s > 0.0 && s <= MAX_BITMAP_M_PER_PX) {
-                err("bitmap_m_per_px", format!("must be in (0, {MAX_BITMAP_M_PER_PX}] m per pixel, got {s}"));
+                err(
+                    "bitmap_m_per_px",
+                    format!("must be in (0, {MAX_BITMAP_M_PER_PX}] m per pixel, got {s}"),
+                );
             }
         }
         // every coordinate finite, each bad one named by its key
         let finite = |p: &[f64; 2]| p.iter().all(|v| v.is_finite());
         for (i, w) in file.walls.iter().enumerate() {
             for (j, p) in w.points.iter().enumerate().filter(|(_, p)| !finite(p)) {
-                err(&format!("walls[{i}].points[{j}]"), format!("coordinates must be finite numbers, got [{}, {}]", p[0], p[1]));
+                err(
+                    &format!("walls[{i}].points[{j}]"),
+                    format!("coordinates must be finite numbers, got [{}, {}]", p[0], p[1]),
+                );
             }
         }
-        for (k, p) in file.trajectory.iter().flat_map(|t| t.waypoints.iter().enumerate()).filter(|(_, p)| !finite(p)) {
-            err(&format!("trajectory.waypoints[{k}]"), format!("coordinates must be finite numbers, got [{}, {}]", p[0], p[1]));
+        for (k, p) in file
+            .trajectory
+            .iter()
+            .flat_map(|t| t.waypoints.iter().enumerate())
+            .filter(|(_, p)| !finite(p))
+        {
+            err(
+                &format!("trajectory.waypoints[{k}]"),
+                format!("coordinates must be finite numbers, got [{}, {}]", p[0], p[1]),
+            );
         }
         for (k, p) in file.landmarks.iter().enumerate().filter(|(_, p)| !finite(p)) {
-            err(&format!("landmarks[{k}]"), format!("coordinates must be finite numbers, got [{}, {}]", p[0], p[1]));
+            err(
+                &format!("landmarks[{k}]"),
+                format!("coordinates must be finite numbers, got [{}, {}]", p[0], p[1]),
+            );
         }
-        for (key, v) in [("start.x_m", file.start.x_m), ("start.y_m", file.start.y_m), ("start.theta_deg", file.start.theta_deg)] {
+        for (key, v) in [
+            ("start.x_m", file.start.x_m),
+            ("start.y_m", file.start.y_m),
+            ("start.theta_deg", file.start.theta_deg),
+        ] {
             if !v.is_finite() {
                 err(key, format!("must be a finite number, got {v}"));
             }
@@ -195,7 +252,11 @@ impl Map {
                 legs.push((format!("waypoint {}", k - 1), points[k - 1], points[k]));
             }
             if t.laps > 1 && points.len() > 1 {
-                legs.push((format!("waypoint {} (the next lap)", points.len() - 1), points[points.len() - 1], points[0]));
+                legs.push((
+                    format!("waypoint {} (the next lap)", points.len() - 1),
+                    points[points.len() - 1],
+                    points[0],
+                ));
             }
             for (k, (from, a, b)) in legs.iter().enumerate() {
                 let length = a.distance(*b);
@@ -203,8 +264,15 @@ impl Map {
                     continue;
                 }
                 let (c, s) = ((b.x - a.x) / length, (b.y - a.y) / length);
-                if let Some(wall) = walls.iter().find(|w| w.ray_intersection(*a, c, s).is_some_and(|d| d > GEOMETRY_EPS_M && d < length - GEOMETRY_EPS_M)) {
-                    let key = if k == 0 { "start".to_string() } else { format!("trajectory.waypoints[{}]", (k).min(points.len() - 1)) };
+                if let Some(wall) = walls.iter().find(|w| {
+                    w.ray_intersection(*a, c, s)
+                        .is_some_and(|d| d > GEOMETRY_EPS_M && d < length - GEOMETRY_EPS_M)
+                }) {
+                    let key = if k == 0 {
+                        "start".to_string()
+                    } else {
+                        format!("trajectory.waypoints[{}]", (k).min(points.len() - 1))
+                    };
                     err(
                         &key,
                         format!(
@@ -272,10 +340,10 @@ pub fn derive_landmarks(walls: &[Segment]) -> (Vec<Line>, Vec<Point2>) {
             if (ax * by - ay * bx).abs() < PARALLEL_EPS_RAD.sin() {
                 continue;
             }
-            let touching = [a.a, a.b]
-                .into_iter()
-                .find(|&p| b.distance_to_point(p) < GEOMETRY_EPS_M)
-                .or_else(|| [b.a, b.b].into_iter().find(|&p| a.distance_to_point(p) < GEOMETRY_EPS_M));
+            let touching =
+                [a.a, a.b].into_iter().find(|&p| b.distance_to_point(p) < GEOMETRY_EPS_M).or_else(
+                    || [b.a, b.b].into_iter().find(|&p| a.distance_to_point(p) < GEOMETRY_EPS_M),
+                );
             if let Some(p) = touching
                 && !corners.iter().any(|c| c.distance(p) < GEOMETRY_EPS_M)
             {
@@ -337,7 +405,9 @@ waypoints = [[18, 0], [0, 0]]
 
     #[test]
     fn errors_name_line_and_key() {
-        let bad = BOX.replace("laps = 2", "laps = 0").replace("max_speed_mps = 0.5", "max_speed_mps = -1.0");
+        let bad = BOX
+            .replace("laps = 2", "laps = 0")
+            .replace("max_speed_mps = 0.5", "max_speed_mps = -1.0");
         let errs = Map::from_toml(&bad).unwrap_err();
         let keys: Vec<_> = errs.iter().map(|e| (e.key.as_str(), e.line)).collect();
         assert_eq!(keys, vec![("trajectory.max_speed_mps", 10), ("trajectory.laps", 11)]);
@@ -346,22 +416,39 @@ waypoints = [[18, 0], [0, 0]]
     #[test]
     fn a_path_through_a_wall_is_an_error_naming_the_waypoint() {
         // the leg from (0, 0) up to (10, 6) crosses the free-standing wall y = 4
-        let bad = BOX.replace("waypoints = [[18, 0], [0, 0]]", "waypoints = [[18, 0], [0, 0], [10, 6]]");
+        let bad =
+            BOX.replace("waypoints = [[18, 0], [0, 0]]", "waypoints = [[18, 0], [0, 0], [10, 6]]");
         let errs = Map::from_toml(&bad).unwrap_err();
         // (and so does the next lap's leg back from (10, 6) to (18, 0))
         assert_eq!(errs.len(), 2, "{errs:?}");
         assert_eq!((errs[0].key.as_str(), errs[0].line), ("trajectory.waypoints[2]", 12));
-        assert!(errs[0].message.contains("from waypoint 1 (0, 0) to (10, 6) crosses the wall from (2, 4) to (16, 4)"), "{}", errs[0].message);
+        assert!(
+            errs[0].message.contains(
+                "from waypoint 1 (0, 0) to (10, 6) crosses the wall from (2, 4) to (16, 4)"
+            ),
+            "{}",
+            errs[0].message
+        );
         // a start outside the room: its leg to the first waypoint crosses the outer wall
-        let outside = BOX.replace("start = { x_m = 0.0, y_m = 0.0", "start = { x_m = -5.0, y_m = 0.0");
+        let outside =
+            BOX.replace("start = { x_m = 0.0, y_m = 0.0", "start = { x_m = -5.0, y_m = 0.0");
         let errs = Map::from_toml(&outside).unwrap_err();
         assert_eq!(errs[0].key, "start");
         assert!(errs[0].message.contains("the path from the start (-5, 0)"), "{}", errs[0].message);
         // the next lap's leg (last waypoint → first) is checked too
-        let wrap = BOX.replace("waypoints = [[18, 0], [0, 0]]", "waypoints = [[18, 0], [0, 0], [0, 6]]");
+        let wrap =
+            BOX.replace("waypoints = [[18, 0], [0, 0]]", "waypoints = [[18, 0], [0, 0], [0, 6]]");
         assert!(Map::from_toml(&wrap).unwrap_err()[0].message.contains("(the next lap)"));
         // touching a wall's end is not crossing it
-        assert!(Map::from_toml(&BOX.replace("waypoints = [[18, 0], [0, 0]]", "waypoints = [[18, 0], [2, 4], [0, 0]]")).is_ok());
+        assert!(
+            Map::from_toml(
+                &BOX.replace(
+                    "waypoints = [[18, 0], [0, 0]]",
+                    "waypoints = [[18, 0], [2, 4], [0, 0]]"
+                )
+            )
+            .is_ok()
+        );
     }
 
     #[test]

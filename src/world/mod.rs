@@ -78,7 +78,14 @@ impl SimParams {
     /// ([`trajectory`]) and the clock. `rate_hz` is 1/Δt as the caller formats numbers (the
     /// report: three significant figures).
     pub fn describe(&self, rate_hz: &str) -> String {
-        let inset = if self.route_inset_m != 0.0 { format!(" (each waypoint moved {} m towards the map's centre in x and y)", self.route_inset_m) } else { String::new() };
+        let inset = if self.route_inset_m != 0.0 {
+            format!(
+                " (each waypoint moved {} m towards the map's centre in x and y)",
+                self.route_inset_m
+            )
+        } else {
+            String::new()
+        };
         format!(
             "Ground truth: a unicycle driven through each map's waypoints{inset} by a turn-then-drive heading controller, integrated exactly at Δt = {} s ({rate_hz} Hz odometry).",
             self.dt_s
@@ -166,7 +173,9 @@ pub struct World {
 
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum WorldError {
-    #[error("trajectory controller did not reach waypoint {waypoint} of lap {lap} within {steps} steps")]
+    #[error(
+        "trajectory controller did not reach waypoint {waypoint} of lap {lap} within {steps} steps"
+    )]
     TrajectoryStuck { waypoint: usize, lap: usize, steps: usize },
     #[error("the trajectory would take about {steps:.0} steps, more than the limit of {max}")]
     TooLong { steps: f64, max: usize },
@@ -174,7 +183,9 @@ pub enum WorldError {
     NoTrajectory,
     #[error("{sensor} rate must be a whole number of odometry steps")]
     SensorRate { sensor: &'static str },
-    #[error("laser.wall_thickness_px needs the map's bitmap scale, but map `{map}` states no bitmap_m_per_px")]
+    #[error(
+        "laser.wall_thickness_px needs the map's bitmap scale, but map `{map}` states no bitmap_m_per_px"
+    )]
     NoBitmapScale { map: String },
 }
 
@@ -189,13 +200,17 @@ pub fn generate(spec: &WorldSpec<'_>, world_seed: u64) -> Result<World, WorldErr
         rng.set_stream(n);
         rng
     };
-    let odometry = spec.odometry.measure(spec.map.start, &truth.controls, dt, &mut stream(ODOMETRY_STREAM));
+    let odometry =
+        spec.odometry.measure(spec.map.start, &truth.controls, dt, &mut stream(ODOMETRY_STREAM));
 
     let (laser, scans) = match spec.laser {
         Some(params) => {
-            let period = sensor_period_steps(params.rate_hz, dt).ok_or(WorldError::SensorRate { sensor: "laser" })?;
+            let period = sensor_period_steps(params.rate_hz, dt)
+                .ok_or(WorldError::SensorRate { sensor: "laser" })?;
             let geometry = params.geometry();
-            let thickness = params.wall_thickness_on(spec.map.bitmap_m_per_px).ok_or_else(|| WorldError::NoBitmapScale { map: spec.map.name.clone() })?;
+            let thickness = params
+                .wall_thickness_on(spec.map.bitmap_m_per_px)
+                .ok_or_else(|| WorldError::NoBitmapScale { map: spec.map.name.clone() })?;
             let surfaces = LaserParams::surfaces(thickness, &spec.map.walls);
             let mut rng = stream(LASER_STREAM);
             let scans = (0..truth.poses.len())
@@ -208,11 +223,20 @@ pub fn generate(spec: &WorldSpec<'_>, world_seed: u64) -> Result<World, WorldErr
     };
     let point_scans = match spec.landmark_sensor {
         Some(params) => {
-            let period = sensor_period_steps(params.rate_hz, dt).ok_or(WorldError::SensorRate { sensor: "landmark sensor" })?;
+            let period = sensor_period_steps(params.rate_hz, dt)
+                .ok_or(WorldError::SensorRate { sensor: "landmark sensor" })?;
             let mut rng = stream(POINT_SENSOR_STREAM);
             (0..truth.poses.len())
                 .step_by(period)
-                .map(|k| params.observe(&spec.map.point_landmarks, &spec.map.walls, truth.poses[k], k, &mut rng))
+                .map(|k| {
+                    params.observe(
+                        &spec.map.point_landmarks,
+                        &spec.map.walls,
+                        truth.poses[k],
+                        k,
+                        &mut rng,
+                    )
+                })
                 .collect()
         }
         None => Vec::new(),
@@ -252,7 +276,13 @@ waypoints = [[9, 0], [9, 2], [0, 2], [0, 0]]
         let map = Map::from_toml(MAP).unwrap();
         let lp = LaserParams::default();
         let pp = PointSensorParams::default();
-        let spec = WorldSpec { map: &map, sim: &SimParams::default(), odometry, laser: laser.then_some(&lp), landmark_sensor: Some(&pp) };
+        let spec = WorldSpec {
+            map: &map,
+            sim: &SimParams::default(),
+            odometry,
+            laser: laser.then_some(&lp),
+            landmark_sensor: Some(&pp),
+        };
         generate(&spec, seed).unwrap()
     }
 

@@ -4,7 +4,7 @@
 //! increments reproduces [FT] Eq. 7.18 exactly.
 
 use crate::config::{Checks, Violation};
-use crate::geom::{unicycle_increment, Pose2};
+use crate::geom::{Pose2, unicycle_increment};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -80,11 +80,15 @@ impl OdometryNoise {
                 }
             ),
             OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => {
-                format!("Odometry: additive per-step pose noise diag(σx², σy², σθ²) = diag({var_x_m2}, {var_y_m2}, {var_theta_rad2}) in the world frame ([FT] Eq. 7.18).")
+                format!(
+                    "Odometry: additive per-step pose noise diag(σx², σy², σθ²) = diag({var_x_m2}, {var_y_m2}, {var_theta_rad2}) in the world frame ([FT] Eq. 7.18)."
+                )
             }
-            OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => format!(
-                "Odometry: v and ω perturbed by N(0, (k·|·|)²) with k = {k} (σ), plus [EV]'s systematic errors: {heading_bias_deg_per_m}°/m of heading drift missed while driving and {turn_slip_m_per_rad} m of phantom forward motion per radian turned (wheel slip)."
-            ),
+            OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => {
+                format!(
+                    "Odometry: v and ω perturbed by N(0, (k·|·|)²) with k = {k} (σ), plus [EV]'s systematic errors: {heading_bias_deg_per_m}°/m of heading drift missed while driving and {turn_slip_m_per_rad} m of phantom forward motion per radian turned (wheel slip)."
+                )
+            }
         }
     }
 
@@ -110,9 +114,17 @@ impl OdometryNoise {
     /// Noisy body-frame increments for the true `controls` (v, ω) applied from `start`.
     /// Draws a fixed number of standard normals per step (2 proportional, 3 pose), whatever the
     /// parameter values, so every sweep point sees the same underlying draws.
-    pub fn measure(&self, start: Pose2, controls: &[(f64, f64)], dt_s: f64, rng: &mut ChaCha8Rng) -> Vec<Pose2> {
+    pub fn measure(
+        &self,
+        start: Pose2,
+        controls: &[(f64, f64)],
+        dt_s: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> Vec<Pose2> {
         match *self {
-            OdometryNoise::None {} => controls.iter().map(|&(v, w)| unicycle_increment(v, w, dt_s)).collect(),
+            OdometryNoise::None {} => {
+                controls.iter().map(|&(v, w)| unicycle_increment(v, w, dt_s)).collect()
+            }
             OdometryNoise::Proportional { k, k_is } => {
                 let sigma = |x: f64| match k_is {
                     Spread::Std => k * x.abs(),
@@ -127,25 +139,35 @@ impl OdometryNoise {
                     })
                     .collect()
             }
-            OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => controls
-                .iter()
-                .map(|&(v, w)| {
-                    let zv: f64 = rng.sample(StandardNormal);
-                    let zw: f64 = rng.sample(StandardNormal);
-                    let v_meas = v + turn_slip_m_per_rad * w.abs() + k * v.abs() * zv;
-                    let w_meas = w - heading_bias_deg_per_m.to_radians() * v + k * w.abs() * zw;
-                    unicycle_increment(v_meas, w_meas, dt_s)
-                })
-                .collect(),
+            OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => {
+                controls
+                    .iter()
+                    .map(|&(v, w)| {
+                        let zv: f64 = rng.sample(StandardNormal);
+                        let zw: f64 = rng.sample(StandardNormal);
+                        let v_meas = v + turn_slip_m_per_rad * w.abs() + k * v.abs() * zv;
+                        let w_meas = w - heading_bias_deg_per_m.to_radians() * v + k * w.abs() * zw;
+                        unicycle_increment(v_meas, w_meas, dt_s)
+                    })
+                    .collect()
+            }
             OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => {
                 let (sx, sy, st) = (var_x_m2.sqrt(), var_y_m2.sqrt(), var_theta_rad2.sqrt());
                 let mut odom = start;
                 controls
                     .iter()
                     .map(|&(v, w)| {
-                        let (zx, zy, zt): (f64, f64, f64) = (rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
+                        let (zx, zy, zt): (f64, f64, f64) = (
+                            rng.sample(StandardNormal),
+                            rng.sample(StandardNormal),
+                            rng.sample(StandardNormal),
+                        );
                         let mut next = odom.compose(unicycle_increment(v, w, dt_s));
-                        next = Pose2::new(next.x + sx * zx, next.y + sy * zy, crate::geom::wrap_angle(next.theta + st * zt));
+                        next = Pose2::new(
+                            next.x + sx * zx,
+                            next.y + sy * zy,
+                            crate::geom::wrap_angle(next.theta + st * zt),
+                        );
                         let delta = next.relative_to(odom);
                         odom = next;
                         delta
@@ -166,7 +188,11 @@ impl OdometryNoise {
         increments
             .iter()
             .map(|d| {
-                let z: [f64; 3] = [rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal)];
+                let z: [f64; 3] = [
+                    rng.sample(StandardNormal),
+                    rng.sample(StandardNormal),
+                    rng.sample(StandardNormal),
+                ];
                 let length = d.x.hypot(d.y);
                 let (sx, sy, st, bias_x, bias_t) = match *self {
                     OdometryNoise::None {} => (0.0, 0.0, 0.0, 0.0, 0.0),
@@ -177,12 +203,26 @@ impl OdometryNoise {
                         };
                         (s(length), s(length), s(d.theta.abs()), 0.0, 0.0)
                     }
-                    OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => (var_x_m2.sqrt(), var_y_m2.sqrt(), var_theta_rad2.sqrt(), 0.0, 0.0),
-                    OdometryNoise::Systematic { k, heading_bias_deg_per_m, turn_slip_m_per_rad } => {
-                        (k * length, k * length, k * d.theta.abs(), turn_slip_m_per_rad * d.theta.abs(), -heading_bias_deg_per_m.to_radians() * length)
+                    OdometryNoise::Pose { var_x_m2, var_y_m2, var_theta_rad2 } => {
+                        (var_x_m2.sqrt(), var_y_m2.sqrt(), var_theta_rad2.sqrt(), 0.0, 0.0)
                     }
+                    OdometryNoise::Systematic {
+                        k,
+                        heading_bias_deg_per_m,
+                        turn_slip_m_per_rad,
+                    } => (
+                        k * length,
+                        k * length,
+                        k * d.theta.abs(),
+                        turn_slip_m_per_rad * d.theta.abs(),
+                        -heading_bias_deg_per_m.to_radians() * length,
+                    ),
                 };
-                Pose2::new(d.x + bias_x + sx * z[0], d.y + sy * z[1], crate::geom::wrap_angle(d.theta + bias_t + st * z[2]))
+                Pose2::new(
+                    d.x + bias_x + sx * z[0],
+                    d.y + sy * z[1],
+                    crate::geom::wrap_angle(d.theta + bias_t + st * z[2]),
+                )
             })
             .collect()
     }
@@ -195,10 +235,12 @@ mod tests {
     fn perturb_scales_with_the_increment_and_keeps_exact_without_noise() {
         let increments = vec![Pose2::new(0.5, 0.0, 0.2); 20_000];
         assert_eq!(OdometryNoise::None {}.perturb(&increments, &mut rng()), increments);
-        let noisy = OdometryNoise::Proportional { k: 0.1, k_is: Spread::Std }.perturb(&increments, &mut rng());
+        let noisy = OdometryNoise::Proportional { k: 0.1, k_is: Spread::Std }
+            .perturb(&increments, &mut rng());
         let std = |f: &dyn Fn(&Pose2) -> f64| {
             let m = noisy.iter().map(f).sum::<f64>() / noisy.len() as f64;
-            (noisy.iter().map(|p| (f(p) - m).powi(2)).sum::<f64>() / (noisy.len() - 1) as f64).sqrt()
+            (noisy.iter().map(|p| (f(p) - m).powi(2)).sum::<f64>() / (noisy.len() - 1) as f64)
+                .sqrt()
         };
         assert!((std(&|p| p.x) - 0.05).abs() < 0.002 && (std(&|p| p.y) - 0.05).abs() < 0.002);
         assert!((std(&|p| p.theta) - 0.02).abs() < 0.001);
@@ -249,10 +291,12 @@ mod tests {
     fn pose_noise_has_the_stated_covariance() {
         let n = 20_000;
         let controls = vec![(0.0, 0.0); n];
-        let noise = OdometryNoise::Pose { var_x_m2: 0.01, var_y_m2: 0.0025, var_theta_rad2: 0.0004 };
+        let noise =
+            OdometryNoise::Pose { var_x_m2: 0.01, var_y_m2: 0.0025, var_theta_rad2: 0.0004 };
         // standing still at θ = 0: world-frame noise equals the increments
         let inc = noise.measure(Pose2::IDENTITY, &controls, 0.1, &mut rng());
-        let var = |f: &dyn Fn(&Pose2) -> f64| inc.iter().map(|d| f(d).powi(2)).sum::<f64>() / n as f64;
+        let var =
+            |f: &dyn Fn(&Pose2) -> f64| inc.iter().map(|d| f(d).powi(2)).sum::<f64>() / n as f64;
         // the first increment is relative to θ = 0, later ones to a drifting heading: use θ stats
         let vt = var(&|d| d.theta);
         assert!((vt - 0.0004).abs() < 0.00003, "{vt}");
@@ -265,15 +309,28 @@ mod tests {
         // regression: `model = "none"` (a unit variant) silently accepted any other key
         let err = toml::from_str::<OdometryNoise>("model = \"none\"\nk = 0.5\n").unwrap_err();
         assert!(err.message().contains("unknown field `k`"), "{}", err.message());
-        assert_eq!(toml::from_str::<OdometryNoise>("model = \"none\"\n").unwrap(), OdometryNoise::None {});
+        assert_eq!(
+            toml::from_str::<OdometryNoise>("model = \"none\"\n").unwrap(),
+            OdometryNoise::None {}
+        );
     }
 
     #[test]
     fn common_random_numbers_across_noise_levels() {
         // The same seed at two noise levels draws the same z: the velocity error scales exactly.
         let controls = vec![(0.4, 0.0); 100];
-        let a = OdometryNoise::Proportional { k: 0.05, k_is: Spread::Std }.measure(Pose2::IDENTITY, &controls, 0.1, &mut rng());
-        let b = OdometryNoise::Proportional { k: 0.2, k_is: Spread::Std }.measure(Pose2::IDENTITY, &controls, 0.1, &mut rng());
+        let a = OdometryNoise::Proportional { k: 0.05, k_is: Spread::Std }.measure(
+            Pose2::IDENTITY,
+            &controls,
+            0.1,
+            &mut rng(),
+        );
+        let b = OdometryNoise::Proportional { k: 0.2, k_is: Spread::Std }.measure(
+            Pose2::IDENTITY,
+            &controls,
+            0.1,
+            &mut rng(),
+        );
         for (da, db) in a.iter().zip(&b) {
             let ea = da.x / 0.1 - 0.4;
             let eb = db.x / 0.1 - 0.4;
@@ -284,7 +341,11 @@ mod tests {
     #[test]
     fn systematic_errors_bias_heading_and_add_phantom_motion() {
         // 1 m straight at 1 m/s, then a quarter turn in place, noise-free apart from the biases
-        let noise = OdometryNoise::Systematic { k: 0.0, heading_bias_deg_per_m: 6.0, turn_slip_m_per_rad: 0.1 / std::f64::consts::FRAC_PI_2 };
+        let noise = OdometryNoise::Systematic {
+            k: 0.0,
+            heading_bias_deg_per_m: 6.0,
+            turn_slip_m_per_rad: 0.1 / std::f64::consts::FRAC_PI_2,
+        };
         let mut controls = vec![(1.0, 0.0); 10];
         controls.extend(vec![(0.0, std::f64::consts::FRAC_PI_2); 10]);
         let inc = noise.measure(Pose2::IDENTITY, &controls, 0.1, &mut rng());
@@ -301,10 +362,21 @@ mod tests {
     fn describe_names_the_model_and_its_parameters() {
         let s = OdometryNoise::Proportional { k: 0.2, k_is: Spread::Variance }.describe();
         assert!(s.contains("read as a variance (k = 0.2 in the base configuration)"), "{s}");
-        let s = OdometryNoise::Pose { var_x_m2: 0.01, var_y_m2: 0.02, var_theta_rad2: 0.003 }.describe();
+        let s = OdometryNoise::Pose { var_x_m2: 0.01, var_y_m2: 0.02, var_theta_rad2: 0.003 }
+            .describe();
         assert!(s.contains("diag(0.01, 0.02, 0.003)"), "{s}");
-        let s = OdometryNoise::Systematic { k: 0.05, heading_bias_deg_per_m: 6.0, turn_slip_m_per_rad: 0.064 }.describe();
-        assert!(s.contains("k = 0.05 (σ)") && s.contains("6°/m of heading drift") && s.contains("0.064 m of phantom"), "{s}");
+        let s = OdometryNoise::Systematic {
+            k: 0.05,
+            heading_bias_deg_per_m: 6.0,
+            turn_slip_m_per_rad: 0.064,
+        }
+        .describe();
+        assert!(
+            s.contains("k = 0.05 (σ)")
+                && s.contains("6°/m of heading drift")
+                && s.contains("0.064 m of phantom"),
+            "{s}"
+        );
         assert_eq!(OdometryNoise::None {}.describe(), "Odometry: noise-free.");
     }
 }

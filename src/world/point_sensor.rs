@@ -5,7 +5,7 @@
 
 use super::RangeNoise;
 use crate::config::{Checks, Violation};
-use crate::geom::{wrap_angle, Point2, Pose2, Segment};
+use crate::geom::{Point2, Pose2, Segment, wrap_angle};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -62,7 +62,9 @@ impl PointSensorParams {
         let mut c = Checks::new();
         c.positive("max_range_m", self.max_range_m);
         c.non_negative("min_range_m", self.min_range_m);
-        c.require(!(self.min_range_m >= self.max_range_m), "min_range_m", || format!("must be below max_range_m = {}, got {}", self.max_range_m, self.min_range_m));
+        c.require(!(self.min_range_m >= self.max_range_m), "min_range_m", || {
+            format!("must be below max_range_m = {}, got {}", self.max_range_m, self.min_range_m)
+        });
         c.in_range("fov_deg", self.fov_deg, f64::MIN_POSITIVE, 360.0);
         c.positive("rate_hz", self.rate_hz);
         c.non_negative("range_sigma_m", self.range_sigma_m);
@@ -80,7 +82,11 @@ impl PointSensorParams {
             self.fov_deg,
             self.rate_hz,
             if self.occlusion { ", hidden by walls" } else { "" },
-            if self.max_observations > 0 { format!(", at most {} per reading (the nearest)", self.max_observations) } else { String::new() },
+            if self.max_observations > 0 {
+                format!(", at most {} per reading (the nearest)", self.max_observations)
+            } else {
+                String::new()
+            },
             self.range_noise.describe(),
             if self.range_noise == RangeNoise::Constant { "," } else { ":" },
             self.range_sigma_m,
@@ -90,12 +96,23 @@ impl PointSensorParams {
 
     /// The noise model filters are told.
     pub fn noise(&self) -> PointNoise {
-        PointNoise { range_noise: self.range_noise, range_sigma_m: self.range_sigma_m, bearing_sigma_rad: self.bearing_sigma_rad }
+        PointNoise {
+            range_noise: self.range_noise,
+            range_sigma_m: self.range_sigma_m,
+            bearing_sigma_rad: self.bearing_sigma_rad,
+        }
     }
 
     /// Observes `landmarks` from `pose`. Two standard normals are drawn for every landmark,
     /// visible or not, so each landmark's noise is the same draw at every sweep point.
-    pub fn observe(&self, landmarks: &[Point2], walls: &[Segment], pose: Pose2, step: usize, rng: &mut ChaCha8Rng) -> PointScan {
+    pub fn observe(
+        &self,
+        landmarks: &[Point2],
+        walls: &[Segment],
+        pose: Pose2,
+        step: usize,
+        rng: &mut ChaCha8Rng,
+    ) -> PointScan {
         let half_fov = self.fov_deg.to_radians() / 2.0;
         let mut seen: Vec<(f64, PointObservation)> = landmarks
             .iter()
@@ -104,7 +121,10 @@ impl PointSensorParams {
                 let (zr, zb): (f64, f64) = (rng.sample(StandardNormal), rng.sample(StandardNormal));
                 let r = pose.position().distance(*m);
                 let b = wrap_angle((m.y - pose.y).atan2(m.x - pose.x) - pose.theta); // Eq. 7.21
-                let visible = r <= self.max_range_m && r >= self.min_range_m && b.abs() <= half_fov && !(self.occlusion && hidden(walls, pose.position(), *m));
+                let visible = r <= self.max_range_m
+                    && r >= self.min_range_m
+                    && b.abs() <= half_fov
+                    && !(self.occlusion && hidden(walls, pose.position(), *m));
                 visible.then(|| {
                     let o = PointObservation {
                         landmark: i,
@@ -133,7 +153,10 @@ fn hidden(walls: &[Segment], from: Point2, to: Point2) -> bool {
         return false;
     }
     let (c, s) = ((to.x - from.x) / d, (to.y - from.y) / d);
-    walls.iter().any(|w| w.ray_intersection(from, c, s).is_some_and(|t| t > OCCLUSION_EPS_M && t < d - OCCLUSION_EPS_M))
+    walls.iter().any(|w| {
+        w.ray_intersection(from, c, s)
+            .is_some_and(|t| t > OCCLUSION_EPS_M && t < d - OCCLUSION_EPS_M)
+    })
 }
 
 /// Landmarks closer than this [m] to a wall along the sight line are not hidden by it (a
@@ -184,8 +207,19 @@ mod tests {
 
     #[test]
     fn range_and_field_of_view_gate_visibility() {
-        let params = PointSensorParams { max_range_m: 5.0, fov_deg: 180.0, range_sigma_m: 0.0, bearing_sigma_rad: 0.0, ..Default::default() };
-        let lms = [Point2::new(3.0, 0.0), Point2::new(0.0, 4.0), Point2::new(-2.0, 0.0), Point2::new(6.0, 0.0)];
+        let params = PointSensorParams {
+            max_range_m: 5.0,
+            fov_deg: 180.0,
+            range_sigma_m: 0.0,
+            bearing_sigma_rad: 0.0,
+            ..Default::default()
+        };
+        let lms = [
+            Point2::new(3.0, 0.0),
+            Point2::new(0.0, 4.0),
+            Point2::new(-2.0, 0.0),
+            Point2::new(6.0, 0.0),
+        ];
         let scan = params.observe(&lms, &[], Pose2::IDENTITY, 0, &mut ChaCha8Rng::seed_from_u64(1));
         let seen: Vec<usize> = scan.observations.iter().map(|o| o.landmark).collect();
         assert_eq!(seen, vec![0, 1]); // behind (2) and too far (3) are not seen
@@ -195,7 +229,8 @@ mod tests {
 
     #[test]
     fn noise_has_the_stated_spread() {
-        let params = PointSensorParams { range_sigma_m: 0.2, bearing_sigma_rad: 0.05, ..Default::default() };
+        let params =
+            PointSensorParams { range_sigma_m: 0.2, bearing_sigma_rad: 0.05, ..Default::default() };
         let lm = [Point2::new(3.0, 4.0)];
         let mut rng = ChaCha8Rng::seed_from_u64(9);
         let n = 10_000;
@@ -211,14 +246,31 @@ mod tests {
 
     #[test]
     fn walls_hide_landmarks_and_min_range_and_count_limit_apply() {
-        let params = PointSensorParams { range_sigma_m: 0.0, bearing_sigma_rad: 0.0, min_range_m: 0.5, ..Default::default() };
-        let lms = [Point2::new(3.0, 0.0), Point2::new(0.0, 3.0), Point2::new(0.3, 0.0), Point2::new(2.0, 1.0)];
+        let params = PointSensorParams {
+            range_sigma_m: 0.0,
+            bearing_sigma_rad: 0.0,
+            min_range_m: 0.5,
+            ..Default::default()
+        };
+        let lms = [
+            Point2::new(3.0, 0.0),
+            Point2::new(0.0, 3.0),
+            Point2::new(0.3, 0.0),
+            Point2::new(2.0, 1.0),
+        ];
         let wall = [Segment::new(Point2::new(2.0, -1.0), Point2::new(2.0, 0.5))];
-        let scan = params.observe(&lms, &wall, Pose2::IDENTITY, 0, &mut ChaCha8Rng::seed_from_u64(1));
+        let scan =
+            params.observe(&lms, &wall, Pose2::IDENTITY, 0, &mut ChaCha8Rng::seed_from_u64(1));
         let seen: Vec<usize> = scan.observations.iter().map(|o| o.landmark).collect();
         assert_eq!(seen, vec![1, 3]); // 0 behind the wall, 2 too close; 3 is beyond the wall's end
         let no_occlusion = PointSensorParams { occlusion: false, max_observations: 2, ..params };
-        let scan = no_occlusion.observe(&lms, &wall, Pose2::IDENTITY, 0, &mut ChaCha8Rng::seed_from_u64(1));
+        let scan = no_occlusion.observe(
+            &lms,
+            &wall,
+            Pose2::IDENTITY,
+            0,
+            &mut ChaCha8Rng::seed_from_u64(1),
+        );
         let seen: Vec<usize> = scan.observations.iter().map(|o| o.landmark).collect();
         // the two nearest of 0, 1, 3 (3.0, 3.0, 2.24 m): 3, then the 0/1 tie goes to the first
         assert_eq!(seen, vec![0, 3]);
@@ -226,10 +278,24 @@ mod tests {
 
     #[test]
     fn describe_names_limits_cap_and_noise() {
-        let p = PointSensorParams { min_range_m: 0.13, max_range_m: 4.0, fov_deg: 60.0, rate_hz: 2.0, max_observations: 5, range_sigma_m: 0.05, bearing_sigma_rad: 0.02, ..Default::default() };
+        let p = PointSensorParams {
+            min_range_m: 0.13,
+            max_range_m: 4.0,
+            fov_deg: 60.0,
+            rate_hz: 2.0,
+            max_observations: 5,
+            range_sigma_m: 0.05,
+            bearing_sigma_rad: 0.02,
+            ..Default::default()
+        };
         let s = p.describe();
         assert!(s.contains("from 0.13 to 4 m in a 60° field of view at 2 Hz, hidden by walls, at most 5 per reading (the nearest); range noise constant, σ = 0.05 m, σb = 0.02 rad"), "{s}");
-        let s = PointSensorParams { occlusion: false, range_noise: RangeNoise::Quadratic, ..p }.describe();
-        assert!(s.contains("at 2 Hz, at most 5") && s.contains("range noise quadratic in range (stereo), at 1 m: σ = 0.05 m"), "{s}");
+        let s = PointSensorParams { occlusion: false, range_noise: RangeNoise::Quadratic, ..p }
+            .describe();
+        assert!(
+            s.contains("at 2 Hz, at most 5")
+                && s.contains("range noise quadratic in range (stereo), at 1 m: σ = 0.05 m"),
+            "{s}"
+        );
     }
 }

@@ -2,9 +2,9 @@
 //! turn-then-drive heading controller. Deterministic — truth is identical for every replicate;
 //! only the sensor and odometry noise differ.
 
-use super::map::TrajectorySpec;
 use super::WorldError;
-use crate::geom::{unicycle_increment, wrap_angle, Point2, Pose2, Segment};
+use super::map::TrajectorySpec;
+use crate::geom::{Point2, Pose2, Segment, unicycle_increment, wrap_angle};
 
 /// Proportional gain from heading error [rad] to turn rate [rad/s].
 const HEADING_GAIN_PER_S: f64 = 1.5;
@@ -32,12 +32,20 @@ pub fn inset(spec: &TrajectorySpec, walls: &[Segment], inset_m: f64) -> Trajecto
     if inset_m == 0.0 || walls.is_empty() {
         return spec.clone();
     }
-    let (xs, ys): (Vec<f64>, Vec<f64>) = walls.iter().flat_map(|w| [(w.a.x, w.a.y), (w.b.x, w.b.y)]).unzip();
-    let mid = |v: &[f64]| (v.iter().copied().fold(f64::INFINITY, f64::min) + v.iter().copied().fold(f64::NEG_INFINITY, f64::max)) / 2.0;
+    let (xs, ys): (Vec<f64>, Vec<f64>) =
+        walls.iter().flat_map(|w| [(w.a.x, w.a.y), (w.b.x, w.b.y)]).unzip();
+    let mid = |v: &[f64]| {
+        (v.iter().copied().fold(f64::INFINITY, f64::min)
+            + v.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+            / 2.0
+    };
     let (cx, cy) = (mid(&xs), mid(&ys));
     // never past the centre: a coordinate nearer to it than the inset stops on it
     let towards = |v: f64, c: f64| v + inset_m.min((c - v).abs()) * (c - v).signum();
-    TrajectorySpec { waypoints: spec.waypoints.iter().map(|w| [towards(w[0], cx), towards(w[1], cy)]).collect(), ..spec.clone() }
+    TrajectorySpec {
+        waypoints: spec.waypoints.iter().map(|w| [towards(w[0], cx), towards(w[1], cy)]).collect(),
+        ..spec.clone()
+    }
 }
 
 /// Drives from `start` through `spec.waypoints`, `spec.laps` times.
@@ -51,7 +59,8 @@ pub fn drive(start: Pose2, spec: &TrajectorySpec, dt_s: f64) -> Result<TruthRun,
         .map(|w| w[0].distance(w[1]))
         .sum();
     let legs = waypoints.len() * spec.laps as usize;
-    let budget_s = TIMEOUT_FACTOR * (lap_length * spec.laps as f64 / spec.max_speed_mps) + TURN_ALLOWANCE_S * legs as f64;
+    let budget_s = TIMEOUT_FACTOR * (lap_length * spec.laps as f64 / spec.max_speed_mps)
+        + TURN_ALLOWANCE_S * legs as f64;
     let expected_steps = lap_length * spec.laps as f64 / spec.max_speed_mps / dt_s;
     if !(expected_steps <= MAX_STEPS as f64) {
         return Err(WorldError::TooLong { steps: expected_steps, max: MAX_STEPS });
@@ -65,7 +74,11 @@ pub fn drive(start: Pose2, spec: &TrajectorySpec, dt_s: f64) -> Result<TruthRun,
         let target = waypoints[leg % waypoints.len()];
         while pose.position().distance(target) > spec.waypoint_tolerance_m {
             if controls.len() >= max_steps {
-                return Err(WorldError::TrajectoryStuck { waypoint: leg % waypoints.len(), lap: leg / waypoints.len() + 1, steps: max_steps });
+                return Err(WorldError::TrajectoryStuck {
+                    waypoint: leg % waypoints.len(),
+                    lap: leg / waypoints.len() + 1,
+                    steps: max_steps,
+                });
             }
             let (v, omega) = control(pose, target, spec.max_speed_mps, omega_max, dt_s);
             pose = pose.compose(unicycle_increment(v, omega, dt_s));
@@ -108,13 +121,20 @@ mod tests {
     fn an_inset_moves_each_waypoint_towards_the_walls_centre_in_x_and_y() {
         let p = Point2::new;
         // room [-1, 5] × [-1, 7]: centre (2, 3)
-        let walls = [Segment::new(p(-1.0, -1.0), p(5.0, -1.0)), Segment::new(p(5.0, -1.0), p(5.0, 7.0)), Segment::new(p(-1.0, 7.0), p(-1.0, -1.0))];
+        let walls = [
+            Segment::new(p(-1.0, -1.0), p(5.0, -1.0)),
+            Segment::new(p(5.0, -1.0), p(5.0, 7.0)),
+            Segment::new(p(-1.0, 7.0), p(-1.0, -1.0)),
+        ];
         let mut spec = square();
         spec.waypoints.push([2.0, 3.0]);
         spec.waypoints.push([2.2, 3.3]);
         let moved = inset(&spec, &walls, 0.5);
         // the last waypoint, within 0.5 m of the centre, stops on it instead of crossing it
-        assert_eq!(moved.waypoints, vec![[3.5, 0.5], [3.5, 3.5], [0.5, 3.5], [0.5, 0.5], [2.0, 3.0], [2.0, 3.0]]);
+        assert_eq!(
+            moved.waypoints,
+            vec![[3.5, 0.5], [3.5, 3.5], [0.5, 3.5], [0.5, 0.5], [2.0, 3.0], [2.0, 3.0]]
+        );
         assert_eq!(inset(&spec, &walls, 0.0), spec);
     }
 
@@ -130,12 +150,15 @@ mod tests {
         let end = run.poses.last().unwrap();
         assert!(end.position().distance(Point2::new(0.0, 0.0)) <= spec.waypoint_tolerance_m);
         // two laps of a 4 m square: about 32 m, a little less for the rounded corners
-        let length: f64 = run.poses.windows(2).map(|p| p[0].position().distance(p[1].position())).sum();
+        let length: f64 =
+            run.poses.windows(2).map(|p| p[0].position().distance(p[1].position())).sum();
         assert!((28.0..33.0).contains(&length), "{length}");
         // every waypoint was passed within tolerance
         for w in &spec.waypoints {
             let p = Point2::new(w[0], w[1]);
-            assert!(run.poses.iter().any(|q| q.position().distance(p) <= spec.waypoint_tolerance_m));
+            assert!(
+                run.poses.iter().any(|q| q.position().distance(p) <= spec.waypoint_tolerance_m)
+            );
         }
     }
 
@@ -152,6 +175,9 @@ mod tests {
         let mut spec = square();
         spec.max_turn_rate_dps = 1e-4;
         spec.waypoints = vec![[-5.0, 0.0]];
-        assert!(matches!(drive(Pose2::IDENTITY, &spec, 0.1), Err(WorldError::TrajectoryStuck { .. })));
+        assert!(matches!(
+            drive(Pose2::IDENTITY, &spec, 0.1),
+            Err(WorldError::TrajectoryStuck { .. })
+        ));
     }
 }

@@ -23,7 +23,8 @@ fn rejected(text: &str) -> String {
     let spec = work.path().join("bad.toml");
     std::fs::write(&spec, text).unwrap();
     let (results, cache) = (work.path().join("results"), work.path().join("cache"));
-    let out = slamlab(&["run", s(&spec), "--quiet", "--results", s(&results), "--cache", s(&cache)]);
+    let out =
+        slamlab(&["run", s(&spec), "--quiet", "--results", s(&results), "--cache", s(&cache)]);
     assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(!results.exists() && !cache.exists(), "something was written");
     let stderr = String::from_utf8(out.stderr).unwrap();
@@ -43,26 +44,43 @@ fn the_good_spec_is_accepted() {
 #[test]
 fn unknown_key() {
     let err = rejected(&GOOD.replace("var_x_m2 = 0.001", "var_x_m2 = 0.001\nvar_z_m2 = 0.001"));
-    assert!(err.contains("bad.toml:11:1: key `base.odometry.var_z_m2`: unknown field `var_z_m2`"), "{err}");
+    assert!(
+        err.contains("bad.toml:11:1: key `base.odometry.var_z_m2`: unknown field `var_z_m2`"),
+        "{err}"
+    );
 }
 
 #[test]
 fn negative_variance() {
     let err = rejected(&GOOD.replace("var_theta_rad2 = 0.0001", "var_theta_rad2 = -0.0001"));
-    assert!(err.contains("bad.toml:12:1: key `base.odometry.var_theta_rad2`: must be ≥ 0, got -0.0001"), "{err}");
+    assert!(
+        err.contains("bad.toml:12:1: key `base.odometry.var_theta_rad2`: must be ≥ 0, got -0.0001"),
+        "{err}"
+    );
 }
 
 #[test]
 fn negative_variance_in_a_sweep_points_at_the_value() {
-    let err = rejected(&format!("{GOOD}\n[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.var_x_m2\" = [0.001, -1.0] }}\n"));
-    assert!(err.contains("bad.toml:16:42: key `sweeps[0].values.\"odometry.var_x_m2\"[1]`"), "{err}");
+    let err = rejected(&format!(
+        "{GOOD}\n[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.var_x_m2\" = [0.001, -1.0] }}\n"
+    ));
+    assert!(
+        err.contains("bad.toml:16:42: key `sweeps[0].values.\"odometry.var_x_m2\"[1]`"),
+        "{err}"
+    );
 }
 
 #[test]
 fn missing_map() {
     let err = rejected(&GOOD.replace("[\"recinto_basico\"]", "[\"recinto_basico\", \"atlantis\"]"));
-    assert!(err.contains("bad.toml:5:") && err.contains("key `maps[1]`: no map `atlantis`"), "{err}");
-    assert!(err.contains("available in data/maps: bigloop, bigloop2, complex, corridor_1m"), "{err}");
+    assert!(
+        err.contains("bad.toml:5:") && err.contains("key `maps[1]`: no map `atlantis`"),
+        "{err}"
+    );
+    assert!(
+        err.contains("available in data/maps: bigloop, bigloop2, complex, corridor_1m"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -80,8 +98,13 @@ fn toml_syntax_error() {
 #[test]
 fn a_published_landmark_table_must_name_a_sweep_point() {
     // it used to be skipped silently by the report
-    let err = rejected(&format!("{GOOD}\n[[report.landmark_reference]]\nlabel = \"T\"\nat = {{ \"odometry.var_x_m2\" = 9.0 }}\nlandmarks = []\n"));
-    assert!(err.contains("report.landmark_reference[0].at") && err.contains("no sweep point"), "{err}");
+    let err = rejected(&format!(
+        "{GOOD}\n[[report.landmark_reference]]\nlabel = \"T\"\nat = {{ \"odometry.var_x_m2\" = 9.0 }}\nlandmarks = []\n"
+    ));
+    assert!(
+        err.contains("report.landmark_reference[0].at") && err.contains("no sweep point"),
+        "{err}"
+    );
 }
 
 /// A plan too large to expand is refused before anything is expanded, with the number and how to
@@ -89,10 +112,17 @@ fn a_published_landmark_table_must_name_a_sweep_point() {
 #[test]
 fn plans_beyond_the_run_limit_are_refused_before_expansion() {
     let err = rejected(&GOOD.replace("replicates = 1", "replicates = 1000000000"));
-    assert!(err.contains("bad.toml:4:1: key `replicates`") && err.contains("expands to 1000000000 runs") && err.contains("--max-runs"), "{err}");
+    assert!(
+        err.contains("bad.toml:4:1: key `replicates`")
+            && err.contains("expands to 1000000000 runs")
+            && err.contains("--max-runs"),
+        "{err}"
+    );
     let values: Vec<String> = (0..1000).map(|i| format!("{}", 0.001 * (i + 1) as f64)).collect();
     let list = values.join(", ");
-    let grid = format!("{GOOD}\n[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.var_x_m2\" = [{list}], \"odometry.var_y_m2\" = [{list}], \"odometry.var_theta_rad2\" = [{list}] }}\n");
+    let grid = format!(
+        "{GOOD}\n[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.var_x_m2\" = [{list}], \"odometry.var_y_m2\" = [{list}], \"odometry.var_theta_rad2\" = [{list}] }}\n"
+    );
     let started = std::time::Instant::now();
     let err = rejected(&grid);
     assert!(err.contains("key `sweeps`") && err.contains("expands to 1000000000 runs"), "{err}");
@@ -100,13 +130,27 @@ fn plans_beyond_the_run_limit_are_refused_before_expansion() {
     // the limit is a flag: a smaller one refuses the smoke study (8 runs)
     let out = slamlab(&["validate", "experiments/smoke.toml", "--max-runs", "4"]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.code() == Some(2) && err.contains("expands to 8 runs") && err.contains("limit of 4"), "{err}");
+    assert!(
+        out.status.code() == Some(2)
+            && err.contains("expands to 8 runs")
+            && err.contains("limit of 4"),
+        "{err}"
+    );
 }
 
 #[test]
 fn absurd_thread_counts_are_refused() {
     let work = tempfile::tempdir().unwrap();
-    let out = slamlab(&["run", "experiments/smoke.toml", "-j", "100000", "--results", s(&work.path().join("r")), "--cache", s(&work.path().join("c"))]);
+    let out = slamlab(&[
+        "run",
+        "experiments/smoke.toml",
+        "-j",
+        "100000",
+        "--results",
+        s(&work.path().join("r")),
+        "--cache",
+        s(&work.path().join("c")),
+    ]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("--threads 100000 is more than 1024"), "{err}");
     assert!(!work.path().join("r").exists() && !work.path().join("c").exists());
@@ -120,9 +164,22 @@ fn an_unwritable_results_folder_is_refused_before_any_run() {
     let file = work.path().join("not-a-dir");
     std::fs::write(&file, "x").unwrap();
     let results = file.join("results");
-    let out = slamlab(&["run", "experiments/smoke.toml", "--results", s(&results), "--cache", s(&work.path().join("c"))]);
+    let out = slamlab(&[
+        "run",
+        "experiments/smoke.toml",
+        "--results",
+        s(&results),
+        "--cache",
+        s(&work.path().join("c")),
+    ]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("cannot write results") && err.contains("not-a-dir") && err.contains("nothing was run"), "{err}");
+    assert!(
+        !out.status.success()
+            && err.contains("cannot write results")
+            && err.contains("not-a-dir")
+            && err.contains("nothing was run"),
+        "{err}"
+    );
     assert!(!work.path().join("c").exists(), "nothing was computed or cached");
 }
 
@@ -137,13 +194,21 @@ fn the_pdf_check_catches_a_table_wider_than_the_text() {
     let work = tempfile::tempdir().unwrap();
     let doc = |columns: usize| {
         let cells = vec!["1234567890"; columns].join(" & ");
-        format!("\\documentclass[10pt,a4paper]{{article}}\n\\usepackage[margin=2cm]{{geometry}}\n\\begin{{document}}\n\\begin{{tabular}}{{{}}}\n{cells} \\\\\n\\end{{tabular}}\n\\end{{document}}\n", "r".repeat(columns))
+        format!(
+            "\\documentclass[10pt,a4paper]{{article}}\n\\usepackage[margin=2cm]{{geometry}}\n\\begin{{document}}\n\\begin{{tabular}}{{{}}}\n{cells} \\\\\n\\end{{tabular}}\n\\end{{document}}\n",
+            "r".repeat(columns)
+        )
     };
     for (columns, fits) in [(4, true), (14, false)] {
         let reports = work.path().join(format!("reports-{columns}"));
         std::fs::create_dir_all(reports.join("wide")).unwrap();
         std::fs::write(reports.join("wide/wide.tex"), doc(columns)).unwrap();
-        let out = std::process::Command::new("bash").arg(repo().join("tests/tools/pdf.sh")).arg(&reports).arg(work.path().join(format!("pdf-{columns}"))).output().unwrap();
+        let out = std::process::Command::new("bash")
+            .arg(repo().join("tests/tools/pdf.sh"))
+            .arg(&reports)
+            .arg(work.path().join(format!("pdf-{columns}")))
+            .output()
+            .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.success(), fits, "{columns} columns: {err}");
         if !fits {
@@ -161,9 +226,16 @@ fn plan_names_the_parameters_that_changed() {
     std::fs::write(&path, &spec).unwrap();
     let (results, cache) = (work.path().join("r"), work.path().join("c"));
     crate::util::ok(&["run", "-q", s(&path), "--results", s(&results), "--cache", s(&cache)]);
-    std::fs::write(&path, spec.replace("[base.odometry]", "[base.sim]\ndt_s = 0.2\n\n[base.odometry]")).unwrap();
+    std::fs::write(
+        &path,
+        spec.replace("[base.odometry]", "[base.sim]\ndt_s = 0.2\n\n[base.odometry]"),
+    )
+    .unwrap();
     let out = crate::util::ok(&["plan", s(&path), "--results", s(&results), "--cache", s(&cache)]);
     let text = String::from_utf8_lossy(&out.stdout);
-    let line = text.lines().find(|l| l.starts_with("parameters changed")).unwrap_or_else(|| panic!("{text}"));
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("parameters changed"))
+        .unwrap_or_else(|| panic!("{text}"));
     assert!(line.contains("(sim.dt_s: 0.1 → 0.2)"), "{line}");
 }

@@ -6,12 +6,12 @@
 use crate::util::repo;
 use slamlab::geom::Pose2;
 use slamlab::metrics::{self, METRICS_VERSION};
-use slamlab::slam::{odometry, AlgorithmKind};
+use slamlab::slam::{AlgorithmKind, odometry};
 use slamlab::world::laser::LaserParams;
 use slamlab::world::map::Map;
 use slamlab::world::odometry::{OdometryNoise, Spread};
-use slamlab::world::point_sensor::{PointSensorParams, POINT_SENSOR_CODE_VERSION};
-use slamlab::world::{generate, RangeNoise, SimParams, WorldSpec, WORLD_CODE_VERSION};
+use slamlab::world::point_sensor::{POINT_SENSOR_CODE_VERSION, PointSensorParams};
+use slamlab::world::{RangeNoise, SimParams, WORLD_CODE_VERSION, WorldSpec, generate};
 
 /// The code versions the fingerprint below was taken with.
 const VERSIONS: &str = "world-2+points-3+metrics-3+odometry-1";
@@ -20,7 +20,8 @@ const FINGERPRINT: &str = "7f233df581a60ca4e1754b8e195e2cc214b5e94725fda455b005b
 fn fingerprint() -> String {
     let text = std::fs::read_to_string(repo().join("data/maps/bigloop2.toml")).unwrap();
     let mut map = Map::from_toml(&text).unwrap();
-    map.point_landmarks = vec![slamlab::geom::Point2::new(4.0, 1.0), slamlab::geom::Point2::new(12.0, 7.0)];
+    map.point_landmarks =
+        vec![slamlab::geom::Point2::new(4.0, 1.0), slamlab::geom::Point2::new(12.0, 7.0)];
     let mut h = blake3::Hasher::new();
     // Every odometry noise model and reading, and both sensors with both range-noise models.
     let models = [
@@ -28,15 +29,35 @@ fn fingerprint() -> String {
         OdometryNoise::Proportional { k: 0.1, k_is: Spread::Std },
         OdometryNoise::Proportional { k: 0.1, k_is: Spread::Variance },
         OdometryNoise::Pose { var_x_m2: 1e-4, var_y_m2: 2e-4, var_theta_rad2: 1e-5 },
-        OdometryNoise::Systematic { k: 0.05, heading_bias_deg_per_m: 0.6, turn_slip_m_per_rad: 0.06 },
+        OdometryNoise::Systematic {
+            k: 0.05,
+            heading_bias_deg_per_m: 0.6,
+            turn_slip_m_per_rad: 0.06,
+        },
     ];
     for (i, noise) in models.iter().enumerate() {
         let sim = SimParams::default();
-        let range_noise = [RangeNoise::Constant, RangeNoise::Proportional, RangeNoise::Quadratic][i % 3];
+        let range_noise =
+            [RangeNoise::Constant, RangeNoise::Proportional, RangeNoise::Quadratic][i % 3];
         let laser = LaserParams { range_noise, ..LaserParams::default() };
         // occlusion by the walls, a minimum range and a per-reading limit
-        let sensor = PointSensorParams { range_noise, min_range_m: 0.5, max_observations: 1, ..PointSensorParams::default() };
-        let world = generate(&WorldSpec { map: &map, sim: &sim, odometry: noise, laser: Some(&laser), landmark_sensor: Some(&sensor) }, 42).unwrap();
+        let sensor = PointSensorParams {
+            range_noise,
+            min_range_m: 0.5,
+            max_observations: 1,
+            ..PointSensorParams::default()
+        };
+        let world = generate(
+            &WorldSpec {
+                map: &map,
+                sim: &sim,
+                odometry: noise,
+                laser: Some(&laser),
+                landmark_sensor: Some(&sensor),
+            },
+            42,
+        )
+        .unwrap();
         hash_run(&mut h, &world);
     }
     h.finalize().to_hex().to_string()
@@ -71,10 +92,14 @@ fn hash_run(h: &mut blake3::Hasher, world: &slamlab::world::World) {
 
 #[test]
 fn outputs_change_only_with_a_code_version_bump() {
-    let versions = format!("{WORLD_CODE_VERSION}+{POINT_SENSOR_CODE_VERSION}+{METRICS_VERSION}+{}", AlgorithmKind::Odometry.code_version());
+    let versions = format!(
+        "{WORLD_CODE_VERSION}+{POINT_SENSOR_CODE_VERSION}+{METRICS_VERSION}+{}",
+        AlgorithmKind::Odometry.code_version()
+    );
     let now = fingerprint();
     assert_eq!(
-        versions, VERSIONS,
+        versions,
+        VERSIONS,
         "code versions changed: set VERSIONS = \"{versions}\" and FINGERPRINT = \"{now}\" in {}",
         file!()
     );

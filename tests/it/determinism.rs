@@ -13,10 +13,14 @@ fn one_and_two_threads_give_identical_results_and_reports() {
     let runs_a = store::read_runs(&a.path().join("results/smoke")).unwrap();
     let runs_b = store::read_runs(&b.path().join("results/smoke")).unwrap();
     assert_eq!(runs_a, runs_b);
-    let traces = |d: &std::path::Path| store::read_traces(&d.join("results/smoke"), &|_| true).unwrap();
+    let traces =
+        |d: &std::path::Path| store::read_traces(&d.join("results/smoke"), &|_| true).unwrap();
     assert_eq!(traces(a.path()), traces(b.path()));
     let (ra, rb) = (tree(&a.path().join("reports")), tree(&b.path().join("reports")));
-    assert_eq!(ra.iter().map(|(n, _)| n).collect::<Vec<_>>(), rb.iter().map(|(n, _)| n).collect::<Vec<_>>());
+    assert_eq!(
+        ra.iter().map(|(n, _)| n).collect::<Vec<_>>(),
+        rb.iter().map(|(n, _)| n).collect::<Vec<_>>()
+    );
     for ((name, x), (_, y)) in ra.iter().zip(&rb) {
         assert!(x == y, "{name} differs between 1 and 2 threads");
     }
@@ -27,16 +31,31 @@ fn one_and_two_threads_give_identical_results_and_reports() {
 /// processes running these 21 TNEWTON runs of `ep-simultaneous` gave three different results.
 #[test]
 fn tnewton_gives_the_same_results_in_every_process() {
-    let spec = std::fs::read_to_string(crate::util::repo().join("experiments/ep-simultaneous.toml")).unwrap();
+    let spec =
+        std::fs::read_to_string(crate::util::repo().join("experiments/ep-simultaneous.toml"))
+            .unwrap();
     let spec = spec[..spec.find("[[claims]]").unwrap_or(spec.len())].replace("algorithms = [\"psm\", \"epsm\", \"direct_l\", \"crs2\", \"isres\", \"mlsl_lds\", \"cobyla\", \"bobyqa\", \"sbplx\", \"slsqp\", \"lbfgs\", \"tnewton\", \"var2\"]", "algorithms = [\"tnewton\"]");
-    assert!(spec.contains("algorithms = [\"tnewton\"]"), "the spec's algorithm list changed: update this test");
+    assert!(
+        spec.contains("algorithms = [\"tnewton\"]"),
+        "the spec's algorithm list changed: update this test"
+    );
     let work = tempfile::tempdir().unwrap();
     std::fs::write(work.path().join("ep-simultaneous.toml"), spec).unwrap();
     let results: Vec<Vec<store::RunRow>> = (0..4)
         .map(|k| {
             let (r, c) = (work.path().join(format!("r{k}")), work.path().join(format!("c{k}")));
             let spec = work.path().join("ep-simultaneous.toml");
-            crate::util::ok(&["run", "-q", "-j", "2", spec.to_str().unwrap(), "--results", r.to_str().unwrap(), "--cache", c.to_str().unwrap()]);
+            crate::util::ok(&[
+                "run",
+                "-q",
+                "-j",
+                "2",
+                spec.to_str().unwrap(),
+                "--results",
+                r.to_str().unwrap(),
+                "--cache",
+                c.to_str().unwrap(),
+            ]);
             store::read_runs(&r.join("ep-simultaneous")).unwrap()
         })
         .collect();

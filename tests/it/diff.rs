@@ -57,17 +57,29 @@ fn run(work: &std::path::Path, particles: &str) -> std::path::PathBuf {
 
 #[test]
 fn same_code_is_identical_and_a_particle_cut_regresses() {
-    let (a, b, c) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let (a, b, c) =
+        (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     let base = run(a.path(), "50");
     let same = run(b.path(), "50");
     let cut = run(c.path(), "1");
 
     let text = String::from_utf8(ok(&["diff", s(&base), s(&same)]).stdout).unwrap();
-    assert!(!text.contains("parameters differ") && !text.contains("regressed") && !text.contains("improved"), "{text}");
-    assert!(text.contains("comparisons: ") && text.contains(" identical;") && text.contains("0 tests"), "{text}");
+    assert!(
+        !text.contains("parameters differ")
+            && !text.contains("regressed")
+            && !text.contains("improved"),
+        "{text}"
+    );
+    assert!(
+        text.contains("comparisons: ") && text.contains(" identical;") && text.contains("0 tests"),
+        "{text}"
+    );
 
     let text = String::from_utf8(ok(&["diff", s(&base), s(&cut)]).stdout).unwrap();
-    assert!(text.starts_with("diff-fastslam: parameters differ\n  base.fastslam.particles: 50 → 1"), "{text}");
+    assert!(
+        text.starts_with("diff-fastslam: parameters differ\n  base.fastslam.particles: 50 → 1"),
+        "{text}"
+    );
     let line = text.lines().find(|l| l.contains("ate_rmse_m")).expect("an ATE row");
     assert!(line.contains("regressed"), "{line}");
     // the study's own min-effect for the map error
@@ -80,9 +92,23 @@ fn same_code_is_identical_and_a_particle_cut_regresses() {
     let report = c.path().join("diff-report");
     ok(&["diff", s(&base), s(&cut), "--report", s(&report)]);
     let html = std::fs::read_to_string(report.join("index.html")).unwrap();
-    assert!(html.contains("base.fastslam.particles: 50 → 1") && html.contains("(BASE)") && html.contains("(NEW)") && html.contains("<svg"), "diff report lacks its parts");
-    assert!(report.join("diff.tex").is_file() && report.join("figures/diff-fastslam--g0--ate-rmse-m.tex").is_file());
+    assert!(
+        html.contains("base.fastslam.particles: 50 → 1")
+            && html.contains("(BASE)")
+            && html.contains("(NEW)")
+            && html.contains("<svg"),
+        "diff report lacks its parts"
+    );
+    assert!(
+        report.join("diff.tex").is_file()
+            && report.join("figures/diff-fastslam--g0--ate-rmse-m.tex").is_file()
+    );
 
     let md = String::from_utf8(ok(&["diff", s(&base), s(&cut), "--md"]).stdout).unwrap();
-    assert!(md.starts_with("## slamlab diff") && md.contains("| diff-fastslam |") && md.contains("regressed"), "{md}");
+    assert!(
+        md.starts_with("## slamlab diff")
+            && md.contains("| diff-fastslam |")
+            && md.contains("regressed"),
+        "{md}"
+    );
 }

@@ -18,8 +18,17 @@ fn read_tum(path: &std::path::Path) -> Vec<[f64; 8]> {
 #[test]
 fn exported_trajectories_reproduce_the_stored_ate() {
     let work = tempfile::tempdir().unwrap();
-    let (results, cache, out) = (work.path().join("results"), work.path().join("cache"), work.path().join("tum"));
-    ok(&["run", "experiments/smoke.toml", "--quiet", "--results", s(&results), "--cache", s(&cache)]);
+    let (results, cache, out) =
+        (work.path().join("results"), work.path().join("cache"), work.path().join("tum"));
+    ok(&[
+        "run",
+        "experiments/smoke.toml",
+        "--quiet",
+        "--results",
+        s(&results),
+        "--cache",
+        s(&cache),
+    ]);
     ok(&["export-tum", s(&results.join("smoke")), s(&out)]);
     let runs = store::read_runs(&results.join("smoke")).unwrap();
     assert_eq!(std::fs::read_dir(&out).unwrap().count(), 2 * runs.len());
@@ -29,8 +38,18 @@ fn exported_trajectories_reproduce_the_stored_ate() {
         assert_eq!(gt.len(), est.len());
         assert!(gt.iter().zip(&est).all(|(a, b)| a[0] == b[0]), "timestamps pair up");
         // unit quaternions about z
-        assert!(gt.iter().all(|p| (p[6] * p[6] + p[7] * p[7] - 1.0).abs() < 1e-9 && p[4] == 0.0 && p[5] == 0.0));
-        let rmse = (gt.iter().zip(&est).map(|(a, b)| (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sum::<f64>() / gt.len() as f64).sqrt();
+        assert!(
+            gt.iter().all(|p| (p[6] * p[6] + p[7] * p[7] - 1.0).abs() < 1e-9
+                && p[4] == 0.0
+                && p[5] == 0.0)
+        );
+        let rmse = (gt
+            .iter()
+            .zip(&est)
+            .map(|(a, b)| (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+            .sum::<f64>()
+            / gt.len() as f64)
+            .sqrt();
         let stored = r.metric("ate_rmse_m").unwrap();
         assert!((rmse - stored).abs() < 1e-6, "{}: {rmse} vs {stored}", r.run_id);
     }

@@ -8,7 +8,8 @@ use std::process::Command;
 
 #[test]
 fn published_items_name_existing_studies_and_claims() {
-    let text = std::fs::read_to_string(repo().join("data/reference/published-results.toml")).unwrap();
+    let text =
+        std::fs::read_to_string(repo().join("data/reference/published-results.toml")).unwrap();
     let items = parse_items(&text).unwrap_or_else(|e| panic!("published-results.toml: {e}"));
     assert_eq!(items.len(), 70, "the audit's inventory has 70 published result items");
     for seed in ["FT", "EP", "PF", "EV"] {
@@ -19,17 +20,38 @@ fn published_items_name_existing_studies_and_claims() {
         let path = repo().join(format!("experiments/{study}.toml"));
         let loaded = spec::load(&path).unwrap_or_else(|e| panic!("{}: study {study}: {e}", it.id));
         for c in &it.claims {
-            assert!(loaded.spec.claims.iter().any(|x| &x.id == c), "{}: claim {c} is not in {study}", it.id);
+            assert!(
+                loaded.spec.claims.iter().any(|x| &x.id == c),
+                "{}: claim {c} is not in {study}",
+                it.id
+            );
         }
         if let Some(sel) = &it.cells {
-            let reference = loaded.spec.report.reference.as_ref().unwrap_or_else(|| panic!("{}: {study} shows no published values", it.id));
-            assert!(reference.file.ends_with(&sel.file), "{}: {study} shows {}, the item selects {}", it.id, reference.file, sel.file);
+            let reference = loaded
+                .spec
+                .report
+                .reference
+                .as_ref()
+                .unwrap_or_else(|| panic!("{}: {study} shows no published values", it.id));
+            assert!(
+                reference.file.ends_with(&sel.file),
+                "{}: {study} shows {}, the item selects {}",
+                it.id,
+                reference.file,
+                sel.file
+            );
         }
     }
 }
 
 fn block_check(readme: &std::path::Path, block: &std::path::Path) -> std::process::Output {
-    Command::new("bash").arg(repo().join("tests/tools/readme_block.sh")).arg("check").arg(readme).arg(block).output().unwrap()
+    Command::new("bash")
+        .arg(repo().join("tests/tools/readme_block.sh"))
+        .arg("check")
+        .arg(readme)
+        .arg(block)
+        .output()
+        .unwrap()
 }
 
 #[test]
@@ -46,10 +68,21 @@ fn a_stale_readme_block_fails_the_check() {
     std::fs::write(&block, "| [FT] | 5 | 11 | 4 | 8 | 28 |\n").unwrap();
     std::fs::write(&readme, "# x\n<!-- fidelity:begin (generated) -->\n| [FT] | 6 | 10 | 4 | 8 | 28 |\n<!-- fidelity:end -->\n").unwrap();
     let out = block_check(&readme, &block);
-    assert_eq!(out.status.code(), Some(1), "a stale block must fail: {}", String::from_utf8_lossy(&out.stdout));
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "a stale block must fail: {}",
+        String::from_utf8_lossy(&out.stdout)
+    );
     assert!(String::from_utf8_lossy(&out.stderr).contains("README.md"));
     // and writing it makes it pass
-    let w = Command::new("bash").arg(repo().join("tests/tools/readme_block.sh")).arg("write").arg(&readme).arg(&block).output().unwrap();
+    let w = Command::new("bash")
+        .arg(repo().join("tests/tools/readme_block.sh"))
+        .arg("write")
+        .arg(&readme)
+        .arg(&block)
+        .output()
+        .unwrap();
     assert!(w.status.success());
     assert!(block_check(&readme, &block).status.success());
 }

@@ -3,7 +3,7 @@
 //! and the scripted trajectories must meet the thesis's description.
 
 use crate::util::repo;
-use slamlab::geom::{wrap_angle, Point2};
+use slamlab::geom::{Point2, wrap_angle};
 use slamlab::world::map::Map;
 use slamlab::world::trajectory;
 
@@ -19,26 +19,93 @@ const OUTER_CORNERS: [(f64, f64); 4] = [(-1.0, -1.0), (-1.0, 9.0), (19.0, -1.0),
 
 const FT: &[Reference] = &[
     Reference { name: "recinto_basico", lines: &OUTER_LINES, corners: &OUTER_CORNERS },
-    Reference { name: "lineamedia", lines: &[(1.0, -90.0), (9.0, 90.0), (1.0, 180.0), (19.0, 0.0), (4.0, 90.0)], corners: &OUTER_CORNERS },
+    Reference {
+        name: "lineamedia",
+        lines: &[(1.0, -90.0), (9.0, 90.0), (1.0, 180.0), (19.0, 0.0), (4.0, 90.0)],
+        corners: &OUTER_CORNERS,
+    },
     Reference {
         name: "bigloop",
-        lines: &[(1.0, -90.0), (9.0, 90.0), (1.0, 180.0), (19.0, 0.0), (2.0, 90.0), (6.0, 90.0), (2.0, 0.0), (16.0, 0.0)],
-        corners: &[(-1.0, -1.0), (19.0, -1.0), (19.0, 9.0), (-1.0, 9.0), (2.0, 2.0), (16.0, 2.0), (16.0, 6.0), (2.0, 6.0)],
+        lines: &[
+            (1.0, -90.0),
+            (9.0, 90.0),
+            (1.0, 180.0),
+            (19.0, 0.0),
+            (2.0, 90.0),
+            (6.0, 90.0),
+            (2.0, 0.0),
+            (16.0, 0.0),
+        ],
+        corners: &[
+            (-1.0, -1.0),
+            (19.0, -1.0),
+            (19.0, 9.0),
+            (-1.0, 9.0),
+            (2.0, 2.0),
+            (16.0, 2.0),
+            (16.0, 6.0),
+            (2.0, 6.0),
+        ],
     },
     Reference {
         name: "bigloop2",
-        lines: &[(1.0, -90.0), (9.0, 90.0), (1.0, 180.0), (19.0, 0.0), (2.0, 90.0), (6.0, 90.0), (2.0, 0.0), (16.0, 0.0), (10.0, 0.0), (8.0, 0.0)],
+        lines: &[
+            (1.0, -90.0),
+            (9.0, 90.0),
+            (1.0, 180.0),
+            (19.0, 0.0),
+            (2.0, 90.0),
+            (6.0, 90.0),
+            (2.0, 0.0),
+            (16.0, 0.0),
+            (10.0, 0.0),
+            (8.0, 0.0),
+        ],
         corners: &[
-            (-1.0, -1.0), (19.0, -1.0), (19.0, 9.0), (-1.0, 9.0), (2.0, 2.0), (16.0, 2.0), (16.0, 6.0), (2.0, 6.0), (8.0, 2.0), (8.0, 6.0), (10.0, 2.0), (10.0, 6.0),
+            (-1.0, -1.0),
+            (19.0, -1.0),
+            (19.0, 9.0),
+            (-1.0, 9.0),
+            (2.0, 2.0),
+            (16.0, 2.0),
+            (16.0, 6.0),
+            (2.0, 6.0),
+            (8.0, 2.0),
+            (8.0, 6.0),
+            (10.0, 2.0),
+            (10.0, 6.0),
         ],
     },
     Reference {
         name: "complex",
         lines: &[
-            (1.0, -90.0), (1.0, 180.0), (9.0, 90.0), (19.0, 0.0), (19.0, 90.0), (39.0, 0.0), (2.0, 0.0), (36.0, 0.0), (2.0, 90.0), (6.0, 90.0), (22.0, 0.0), (16.0, 90.0),
+            (1.0, -90.0),
+            (1.0, 180.0),
+            (9.0, 90.0),
+            (19.0, 0.0),
+            (19.0, 90.0),
+            (39.0, 0.0),
+            (2.0, 0.0),
+            (36.0, 0.0),
+            (2.0, 90.0),
+            (6.0, 90.0),
+            (22.0, 0.0),
+            (16.0, 90.0),
         ],
         corners: &[
-            (-1.0, -1.0), (-1.0, 9.0), (19.0, 9.0), (19.0, 19.0), (39.0, 19.0), (39.0, -1.0), (2.0, 2.0), (2.0, 6.0), (36.0, 2.0), (22.0, 9.0), (22.0, 16.0), (36.0, 6.0), (36.0, 16.0),
+            (-1.0, -1.0),
+            (-1.0, 9.0),
+            (19.0, 9.0),
+            (19.0, 19.0),
+            (39.0, 19.0),
+            (39.0, -1.0),
+            (2.0, 2.0),
+            (2.0, 6.0),
+            (36.0, 2.0),
+            (22.0, 9.0),
+            (22.0, 16.0),
+            (36.0, 6.0),
+            (36.0, 16.0),
             (36.0, 9.0),
         ],
     },
@@ -56,11 +123,22 @@ fn derived_landmarks_match_the_thesis_lists() {
         assert_eq!(m.lines.len(), r.lines.len(), "{}: line count", r.name);
         assert_eq!(m.corners.len(), r.corners.len(), "{}: corner count", r.name);
         for &(rho, theta_deg) in r.lines {
-            let found = m.lines.iter().any(|l| (l.rho - rho).abs() < 1e-9 && wrap_angle(l.theta - theta_deg.to_radians()).abs() < 1e-9);
-            assert!(found, "{}: line (ρ = {rho}, θ = {theta_deg}°) not derived; got {:?}", r.name, m.lines);
+            let found = m.lines.iter().any(|l| {
+                (l.rho - rho).abs() < 1e-9
+                    && wrap_angle(l.theta - theta_deg.to_radians()).abs() < 1e-9
+            });
+            assert!(
+                found,
+                "{}: line (ρ = {rho}, θ = {theta_deg}°) not derived; got {:?}",
+                r.name, m.lines
+            );
         }
         for &(x, y) in r.corners {
-            assert!(m.corners.iter().any(|c| c.distance(Point2::new(x, y)) < 1e-9), "{}: corner ({x}, {y}) not derived", r.name);
+            assert!(
+                m.corners.iter().any(|c| c.distance(Point2::new(x, y)) < 1e-9),
+                "{}: corner ({x}, {y}) not derived",
+                r.name
+            );
         }
     }
 }
@@ -80,11 +158,21 @@ fn trajectories_follow_the_thesis_description() {
         assert_eq!(path.laps, 2, "{}", r.name);
         assert_eq!((m.start.x, m.start.y, m.start.theta), (0.0, 0.0, 0.0), "{}", r.name);
         let run = trajectory::drive(m.start, path, 0.1).unwrap();
-        let length: f64 = run.poses.windows(2).map(|w| w[0].position().distance(w[1].position())).sum();
+        let length: f64 =
+            run.poses.windows(2).map(|w| w[0].position().distance(w[1].position())).sum();
         assert!(length > 200.0, "{}: {length} m", r.name);
         assert!(run.controls.iter().all(|&(v, _)| v <= 0.5 + 1e-12), "{}", r.name);
         // the path keeps clear of every wall (robot radius + margin)
-        let clearance = run.poses.iter().map(|p| m.walls.iter().map(|w| w.distance_to_point(p.position())).fold(f64::INFINITY, f64::min)).fold(f64::INFINITY, f64::min);
+        let clearance = run
+            .poses
+            .iter()
+            .map(|p| {
+                m.walls
+                    .iter()
+                    .map(|w| w.distance_to_point(p.position()))
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .fold(f64::INFINITY, f64::min);
         assert!(clearance > 0.5, "{}: comes within {clearance} m of a wall", r.name);
     }
 }

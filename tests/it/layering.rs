@@ -6,8 +6,28 @@ use crate::util::repo;
 use std::path::Path;
 
 const PURE: &[&str] = &["geom", "world", "features", "slam", "scanmatch", "metrics"];
-const FORBIDDEN_IN_PURE: &[&str] =
-    &["std::fs", "std::io", "std::net", "std::env", "std::thread", "std::process", "println!", "eprintln!", "print!(", "dbg!", "rayon", "polars", "plotters", "minijinja", "thread_rng", "rand::rng(", "from_entropy", "OsRng", "Instant::now", "SystemTime"];
+const FORBIDDEN_IN_PURE: &[&str] = &[
+    "std::fs",
+    "std::io",
+    "std::net",
+    "std::env",
+    "std::thread",
+    "std::process",
+    "println!",
+    "eprintln!",
+    "print!(",
+    "dbg!",
+    "rayon",
+    "polars",
+    "plotters",
+    "minijinja",
+    "thread_rng",
+    "rand::rng(",
+    "from_entropy",
+    "OsRng",
+    "Instant::now",
+    "SystemTime",
+];
 
 fn sources(dir: &Path) -> Vec<(String, String)> {
     let mut out = Vec::new();
@@ -39,13 +59,21 @@ fn pure_layers_stay_pure() {
         for (path, text) in sources(&src.join(layer)) {
             let code = code(&text);
             for bad in FORBIDDEN_IN_PURE.iter().chain(&["rand::random", "File::", "OpenOptions"]) {
-                assert!(!code.contains(bad), "{path} uses `{bad}`: pure layers do no IO, threading or global randomness");
+                assert!(
+                    !code.contains(bad),
+                    "{path} uses `{bad}`: pure layers do no IO, threading or global randomness"
+                );
             }
             // grouped imports: `use std::{fs, io::Write}`
             for group in code.split("std::{").skip(1) {
                 let items = group.split('}').next().unwrap_or("");
-                for item in items.split(',').map(|i| i.trim().split("::").next().unwrap_or("").trim()) {
-                    assert!(!FORBIDDEN_STD_MODULES.contains(&item), "{path} imports std::{item}: pure layers do no IO, threading or timing");
+                for item in
+                    items.split(',').map(|i| i.trim().split("::").next().unwrap_or("").trim())
+                {
+                    assert!(
+                        !FORBIDDEN_STD_MODULES.contains(&item),
+                        "{path} imports std::{item}: pure layers do no IO, threading or timing"
+                    );
                 }
             }
         }
@@ -55,14 +83,23 @@ fn pure_layers_stay_pure() {
 #[test]
 fn each_dependency_stays_in_its_layer() {
     let src = repo().join("src");
-    let rules = [("polars", "store"), ("plotters", "report"), ("minijinja", "report"), ("rayon", "run"), ("indicatif", "run")];
+    let rules = [
+        ("polars", "store"),
+        ("plotters", "report"),
+        ("minijinja", "report"),
+        ("rayon", "run"),
+        ("indicatif", "run"),
+    ];
     for (path, text) in sources(&src) {
         // The one use of rayon outside run/: the store asserts that its Parquet IO is not on a
         // rayon worker (polars inside a worker nests jobs until the stack overflows).
         let code = code(&text).replace("rayon::current_thread_index()", "");
         for (dep, home) in rules {
             let inside = Path::new(&path).starts_with(src.join(home));
-            assert!(inside || !code.contains(&format!("{dep}::")), "{path} uses {dep}, which belongs in src/{home}/ only");
+            assert!(
+                inside || !code.contains(&format!("{dep}::")),
+                "{path} uses {dep}, which belongs in src/{home}/ only"
+            );
         }
     }
 }
@@ -73,7 +110,10 @@ fn every_source_file_says_what_it_does() {
         if path.ends_with("main.rs") {
             continue;
         }
-        assert!(text.trim_start().starts_with("//!"), "{path} must start with a //! comment saying its role");
+        assert!(
+            text.trim_start().starts_with("//!"),
+            "{path} must start with a //! comment saying its role"
+        );
     }
 }
 
@@ -106,7 +146,10 @@ fn worlds_do_not_depend_on_the_filters() {
     let src = repo().join("src");
     for layer in ["world", "dataset"] {
         for (path, text) in sources(&src.join(layer)) {
-            assert!(!code(&text).contains("crate::slam"), "{path} uses crate::slam: the world must not depend on the filters");
+            assert!(
+                !code(&text).contains("crate::slam"),
+                "{path} uses crate::slam: the world must not depend on the filters"
+            );
         }
     }
 }

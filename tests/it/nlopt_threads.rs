@@ -49,7 +49,11 @@ fn seeded_searches_are_identical_on_concurrent_threads() {
                     for (a, &o) in STOCHASTIC.iter().enumerate() {
                         let s = (t + k + a) % SEEDS.len();
                         let r = run(scans, o, SEEDS[s]);
-                        assert_eq!(r, reference[a][s], "thread {t}, repeat {k}, {o:?}, seed {}", SEEDS[s]);
+                        assert_eq!(
+                            r, reference[a][s],
+                            "thread {t}, repeat {k}, {o:?}, seed {}",
+                            SEEDS[s]
+                        );
                     }
                 }
             });
@@ -66,7 +70,9 @@ fn every_optimizer_is_reproducible_on_a_fresh_thread() {
         simultaneous(&mut cost, GUESS, o, &params, 5)
     };
     let here: Vec<MatchResult> = Optimizer::ALL.iter().map(|&o| run(o)).collect();
-    let there: Vec<MatchResult> = std::thread::scope(|scope| scope.spawn(|| Optimizer::ALL.iter().map(|&o| run(o)).collect()).join().unwrap());
+    let there: Vec<MatchResult> = std::thread::scope(|scope| {
+        scope.spawn(|| Optimizer::ALL.iter().map(|&o| run(o)).collect()).join().unwrap()
+    });
     assert_eq!(here, there);
 }
 
@@ -92,7 +98,12 @@ fn every_optimizer_is_identical_on_concurrent_threads() {
                     for a in 0..Optimizer::ALL.len() {
                         // each thread runs a different optimiser at the same time
                         let i = (a + t * 3 + k) % Optimizer::ALL.len();
-                        assert_eq!(run(Optimizer::ALL[i]), alone[i], "thread {t}, round {k}, {:?}", Optimizer::ALL[i]);
+                        assert_eq!(
+                            run(Optimizer::ALL[i]),
+                            alone[i],
+                            "thread {t}, round {k}, {:?}",
+                            Optimizer::ALL[i]
+                        );
                     }
                 }
             });

@@ -8,12 +8,19 @@ use std::path::Path;
 
 fn check_html(path: &Path) -> usize {
     let text = std::fs::read_to_string(path).unwrap();
-    let doc = roxmltree::Document::parse_with_options(&text, roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() })
-        .unwrap_or_else(|e| panic!("{} is not well-formed: {e}", path.display()));
+    let doc = roxmltree::Document::parse_with_options(
+        &text,
+        roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() },
+    )
+    .unwrap_or_else(|e| panic!("{} is not well-formed: {e}", path.display()));
     // every local link resolves
     for a in doc.descendants().filter(|n| n.has_tag_name("a")) {
         let href = a.attribute("href").unwrap();
-        assert!(path.parent().unwrap().join(href).exists(), "{}: broken link {href}", path.display());
+        assert!(
+            path.parent().unwrap().join(href).exists(),
+            "{}: broken link {href}",
+            path.display()
+        );
     }
     doc.descendants().filter(|n| n.tag_name().name() == "svg").count()
 }
@@ -25,12 +32,16 @@ fn check_tex(path: &Path) {
     for part in text.split("\\begin{").skip(1) {
         stack.push(part.split('}').next().unwrap().to_string());
     }
-    let ends: Vec<String> = text.split("\\end{").skip(1).map(|p| p.split('}').next().unwrap().to_string()).collect();
+    let ends: Vec<String> =
+        text.split("\\end{").skip(1).map(|p| p.split('}').next().unwrap().to_string()).collect();
     stack.sort();
     let mut ends_sorted = ends.clone();
     ends_sorted.sort();
     assert_eq!(stack, ends_sorted, "{}: unbalanced environments", path.display());
-    let (open, close) = (text.matches('{').count() - text.matches("\\{").count(), text.matches('}').count() - text.matches("\\}").count());
+    let (open, close) = (
+        text.matches('{').count() - text.matches("\\{").count(),
+        text.matches('}').count() - text.matches("\\}").count(),
+    );
     assert_eq!(open, close, "{}: unbalanced braces", path.display());
     for input in text.split("\\input{").skip(1) {
         let file = input.split('}').next().unwrap();
@@ -91,7 +102,10 @@ fn smoke_study_end_to_end_then_fully_cached() {
     let before = tree(&reports);
     let results_before = tree(&results);
     run_and_report("experiments/smoke.toml", work.path(), "2");
-    assert!(tree(&results) == results_before, "the second run rewrote results although nothing changed");
+    assert!(
+        tree(&results) == results_before,
+        "the second run rewrote results although nothing changed"
+    );
     assert!(tree(&reports) == before, "reports changed although nothing did");
 
     // a study rebuilt from the cache alone (results deleted) has the same runs, all cached
@@ -109,19 +123,38 @@ fn plan_dry_run_explains_what_will_run() {
     let work = tempfile::tempdir().unwrap();
     let (results, cache) = (work.path().join("results"), work.path().join("cache"));
     let plan = |extra: &[&str]| {
-        let mut args = vec!["plan", "experiments/smoke.toml", "--dry-run", "--results", s(&results), "--cache", s(&cache)];
+        let mut args = vec![
+            "plan",
+            "experiments/smoke.toml",
+            "--dry-run",
+            "--results",
+            s(&results),
+            "--cache",
+            s(&cache),
+        ];
         args.extend(extra);
         String::from_utf8(ok(&args).stdout).unwrap()
     };
     assert!(plan(&[]).contains("to run: 8 (new 8,"));
-    ok(&["run", "experiments/smoke.toml", "--quiet", "--results", s(&results), "--cache", s(&cache)]);
+    ok(&[
+        "run",
+        "experiments/smoke.toml",
+        "--quiet",
+        "--results",
+        s(&results),
+        "--cache",
+        s(&cache),
+    ]);
     let out = plan(&[]);
     assert!(out.contains("to run: 0") && out.contains("cached: 8"), "{out}");
     assert!(plan(&["--force"]).contains("forced 8"));
     let spec = work.path().join("smoke.toml");
     let plan_of = |text: String| {
         std::fs::write(&spec, text).unwrap();
-        String::from_utf8(ok(&["plan", s(&spec), "--results", s(&results), "--cache", s(&cache)]).stdout).unwrap()
+        String::from_utf8(
+            ok(&["plan", s(&spec), "--results", s(&results), "--cache", s(&cache)]).stdout,
+        )
+        .unwrap()
     };
     let smoke = std::fs::read_to_string("experiments/smoke.toml").unwrap();
     // a new sweep value: new run ids for k = 0.2, the k = 0 runs unchanged
@@ -129,12 +162,21 @@ fn plan_dry_run_explains_what_will_run() {
     assert!(out.contains("new 4,") && out.contains("cached: 4"), "{out}");
     // the same run ids with other inputs (the seed changes every world): parameters changed
     let out = plan_of(smoke.replace("seed = 1", "seed = 2"));
-    assert!(out.contains("parameters changed 8,") && out.lines().filter(|l| l.starts_with("parameters changed ")).count() == 8, "{out}");
+    assert!(
+        out.contains("parameters changed 8,")
+            && out.lines().filter(|l| l.starts_with("parameters changed ")).count() == 8,
+        "{out}"
+    );
     // nothing changed but the cache was emptied
     std::fs::remove_dir_all(&cache).unwrap();
     assert!(plan(&[]).contains("cache entry missing 8,"));
     // no temporary folder is left next to the results
-    let leftovers: Vec<_> = std::fs::read_dir(&results).unwrap().flatten().map(|e| e.file_name().to_string_lossy().into_owned()).filter(|n| n.starts_with('.')).collect();
+    let leftovers: Vec<_> = std::fs::read_dir(&results)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
 
@@ -142,7 +184,15 @@ fn plan_dry_run_explains_what_will_run() {
 fn report_replaces_only_what_it_may() {
     let work = tempfile::tempdir().unwrap();
     let results = work.path().join("results");
-    ok(&["run", "experiments/smoke.toml", "--quiet", "--results", s(&results), "--cache", s(&work.path().join("cache"))]);
+    ok(&[
+        "run",
+        "experiments/smoke.toml",
+        "--quiet",
+        "--results",
+        s(&results),
+        "--cache",
+        s(&work.path().join("cache")),
+    ]);
     let refused = |args: &[&str], message: &str| {
         let r = crate::util::slamlab(args);
         assert!(!r.status.success(), "slamlab {} succeeded", args.join(" "));
@@ -161,12 +211,18 @@ fn report_replaces_only_what_it_may() {
     ok(&["report", "--results", s(&results), "--out", s(&out)]);
     let before = crate::util::tree(&out);
     // a results root with no study (a typo) is an error, and the reports stay as they were
-    refused(&["report", "--results", s(&work.path().join("resluts")), "--out", s(&out)], "no study results here");
+    refused(
+        &["report", "--results", s(&work.path().join("resluts")), "--out", s(&out)],
+        "no study results here",
+    );
     assert_eq!(crate::util::tree(&out), before);
     // a study report these results would drop is kept unless --prune
     std::fs::create_dir(out.join("ghost")).unwrap();
     std::fs::write(out.join("ghost/entry.json"), "{}").unwrap();
-    refused(&["report", "--results", s(&results), "--out", s(&out)], "would drop (no results and not kept)");
+    refused(
+        &["report", "--results", s(&results), "--out", s(&out)],
+        "would drop (no results and not kept)",
+    );
     assert!(out.join("ghost/entry.json").is_file() && out.join("smoke/index.html").is_file());
     ok(&["report", "--results", s(&results), "--out", s(&out), "--prune"]);
     assert!(!out.join("ghost").exists() && out.join("smoke/index.html").is_file());
@@ -186,21 +242,39 @@ fn a_failing_run_is_recorded_and_the_study_goes_on() {
     .unwrap();
     let spec = work.path().join("failing.toml");
     std::fs::write(&spec, "id = \"failing\"\ntitle = \"Failing\"\nseed = 3\nreplicates = 2\nmaps = [\"stuck\", \"recinto_basico\"]\nalgorithms = [\"odometry\"]\n").unwrap();
-    let (results, cache, reports) = (work.path().join("results"), work.path().join("cache"), work.path().join("reports"));
-    let out = ok(&["run", s(&spec), "--quiet", "--maps", s(&maps), "--results", s(&results), "--cache", s(&cache)]);
+    let (results, cache, reports) =
+        (work.path().join("results"), work.path().join("cache"), work.path().join("reports"));
+    let out = ok(&[
+        "run",
+        s(&spec),
+        "--quiet",
+        "--maps",
+        s(&maps),
+        "--results",
+        s(&results),
+        "--cache",
+        s(&cache),
+    ]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("2 failed"));
     let runs = store::read_runs(&results.join("failing")).unwrap();
     let stuck: Vec<_> = runs.iter().filter(|r| r.map == "stuck").collect();
     assert_eq!(stuck.len(), 2);
-    assert!(stuck.iter().all(|r| r.status == RunStatus::Failed && r.error.as_deref().unwrap().contains("did not reach waypoint")));
+    assert!(stuck.iter().all(|r| r.status == RunStatus::Failed
+        && r.error.as_deref().unwrap().contains("did not reach waypoint")));
     assert!(runs.iter().filter(|r| r.map == "recinto_basico").all(|r| r.status == RunStatus::Ok));
     ok(&["report", "--results", s(&results), "--out", s(&reports)]);
     let html = std::fs::read_to_string(reports.join("failing/index.html")).unwrap();
     assert!(html.contains("Failed runs") && html.contains("2/2"), "failures are shown as k/n");
     // the spec lies outside the repository: only its file name is recorded, no absolute path
-    assert_eq!(store::read_study(&results.join("failing")).unwrap().manifest.spec_path, "failing.toml");
+    assert_eq!(
+        store::read_study(&results.join("failing")).unwrap().manifest.spec_path,
+        "failing.toml"
+    );
     for (name, bytes) in tree(&reports) {
-        assert!(!String::from_utf8_lossy(&bytes).contains(s(work.path())), "{name} contains an absolute path");
+        assert!(
+            !String::from_utf8_lossy(&bytes).contains(s(work.path())),
+            "{name} contains an absolute path"
+        );
     }
 }
 
@@ -211,8 +285,19 @@ fn a_failing_run_is_recorded_and_the_study_goes_on() {
 #[test]
 fn a_flipped_byte_in_stored_results_is_refused_or_recomputed() {
     let work = tempfile::tempdir().unwrap();
-    let (results, cache, reports) = (work.path().join("results"), work.path().join("cache"), work.path().join("reports"));
-    let run = || ok(&["run", "experiments/smoke.toml", "--quiet", "--results", s(&results), "--cache", s(&cache)]);
+    let (results, cache, reports) =
+        (work.path().join("results"), work.path().join("cache"), work.path().join("reports"));
+    let run = || {
+        ok(&[
+            "run",
+            "experiments/smoke.toml",
+            "--quiet",
+            "--results",
+            s(&results),
+            "--cache",
+            s(&cache),
+        ])
+    };
     run();
     let runs = results.join("smoke/runs.parquet");
     let good = std::fs::read(&runs).unwrap();
@@ -224,22 +309,38 @@ fn a_flipped_byte_in_stored_results_is_refused_or_recomputed() {
     };
     // the study's results: refused by report and diff, naming the file
     flip(&runs);
-    for args in [vec!["report", "--results", s(&results), "--out", s(&reports)], vec!["diff", s(&results), s(&results)]] {
+    for args in [
+        vec!["report", "--results", s(&results), "--out", s(&reports)],
+        vec!["diff", s(&results), s(&results)],
+    ] {
         let r = crate::util::slamlab(&args);
         let err = String::from_utf8_lossy(&r.stderr);
-        assert!(!r.status.success() && err.contains("runs.parquet") && err.contains("does not match its checksum"), "{}: {err}", args[0]);
+        assert!(
+            !r.status.success()
+                && err.contains("runs.parquet")
+                && err.contains("does not match its checksum"),
+            "{}: {err}",
+            args[0]
+        );
     }
     assert!(!reports.exists(), "nothing written");
     // `run` finds the study not up to date and rewrites it from the cache
     run();
     assert_eq!(std::fs::read(&runs).unwrap(), good);
     // a cache entry: recomputed on its next read, counted, and the same results
-    let entry = walk_files(&cache).into_iter().find(|p| p.ends_with("trace.parquet")).expect("a cached trace");
+    let entry = walk_files(&cache)
+        .into_iter()
+        .find(|p| p.ends_with("trace.parquet"))
+        .expect("a cached trace");
     flip(&entry);
     std::fs::remove_dir_all(&results).unwrap();
-    let out = ok(&["run", "experiments/smoke.toml", "--results", s(&results), "--cache", s(&cache)]);
+    let out =
+        ok(&["run", "experiments/smoke.toml", "--results", s(&results), "--cache", s(&cache)]);
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("failed verification") && err.contains("1 cache entries failed verification"), "{err}");
+    assert!(
+        err.contains("failed verification") && err.contains("1 cache entries failed verification"),
+        "{err}"
+    );
     assert_eq!(std::fs::read(&runs).unwrap(), good, "recomputed to the same results");
     ok(&["report", "--results", s(&results), "--out", s(&reports)]);
 }

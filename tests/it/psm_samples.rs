@@ -3,13 +3,15 @@
 //! (line segmentation) find the same pose change for consecutive scans, starting from the
 //! odometry. Skipped with a message when `../shared/data/psm-sample-scans` is absent.
 
-use slamlab::dataset::psm_samples::{self, SampleScan, ANGLE_INCREMENT_RAD, ANGLE_MIN_RAD, MAX_RANGE_M};
-use slamlab::geom::{wrap_angle, Pose2};
-use slamlab::scanmatch::epsm::{epsm, EpsmParams};
+use slamlab::dataset::psm_samples::{
+    self, ANGLE_INCREMENT_RAD, ANGLE_MIN_RAD, MAX_RANGE_M, SampleScan,
+};
+use slamlab::geom::{Pose2, wrap_angle};
+use slamlab::scanmatch::epsm::{EpsmParams, epsm};
 use slamlab::scanmatch::objective::{Objective, ObjectiveParams};
-use slamlab::scanmatch::psm::{psm, PsmParams};
-use slamlab::scanmatch::search::{simultaneous, Optimizer, SearchParams};
-use slamlab::scanmatch::segment::{prepare, Segmentation, SegmentationParams};
+use slamlab::scanmatch::psm::{PsmParams, psm};
+use slamlab::scanmatch::search::{Optimizer, SearchParams, simultaneous};
+use slamlab::scanmatch::segment::{Segmentation, SegmentationParams, prepare};
 
 fn scans() -> Option<Vec<SampleScan>> {
     let folder = crate::util::repo().join("../shared/data/psm-sample-scans");
@@ -22,7 +24,9 @@ fn scans() -> Option<Vec<SampleScan>> {
 
 fn pose_change(s: &[SampleScan], k: usize, method: Segmentation, matcher: &str) -> Option<Pose2> {
     let seg = SegmentationParams { method, ..SegmentationParams::default() };
-    let prep = |scan: &SampleScan| prepare(&scan.ranges_m, ANGLE_MIN_RAD, ANGLE_INCREMENT_RAD, MAX_RANGE_M, &seg);
+    let prep = |scan: &SampleScan| {
+        prepare(&scan.ranges_m, ANGLE_MIN_RAD, ANGLE_INCREMENT_RAD, MAX_RANGE_M, &seg)
+    };
     let (r, c) = (prep(&s[k]), prep(&s[k + 1]));
     let guess = s[k + 1].odometry.relative_to(s[k].odometry);
     let params = ObjectiveParams::default();
@@ -36,7 +40,8 @@ fn pose_change(s: &[SampleScan], k: usize, method: Segmentation, matcher: &str) 
 }
 
 fn close(a: Pose2, b: Pose2, metres: f64, degrees: f64) -> bool {
-    a.position().distance(b.position()) < metres && wrap_angle(a.theta - b.theta).abs().to_degrees() < degrees
+    a.position().distance(b.position()) < metres
+        && wrap_angle(a.theta - b.theta).abs().to_degrees() < degrees
 }
 
 #[test]
@@ -46,7 +51,11 @@ fn matchers_agree_on_the_psm_sample_scans() {
     let (mut epsm_crs2, mut psm_epsm, mut failed) = (0, 0, 0);
     let (mut d_ec, mut d_pe) = (Vec::new(), Vec::new());
     for k in 0..pairs {
-        let (p, e, c) = (pose_change(&s, k, Segmentation::PsmHeuristics, "psm"), pose_change(&s, k, Segmentation::Lines, "epsm"), pose_change(&s, k, Segmentation::Lines, "crs2"));
+        let (p, e, c) = (
+            pose_change(&s, k, Segmentation::PsmHeuristics, "psm"),
+            pose_change(&s, k, Segmentation::Lines, "epsm"),
+            pose_change(&s, k, Segmentation::Lines, "crs2"),
+        );
         match (p, e, c) {
             (Some(p), Some(e), Some(c)) => {
                 epsm_crs2 += close(e, c, 0.05, 2.0) as usize;
@@ -62,10 +71,20 @@ fn matchers_agree_on_the_psm_sample_scans() {
         v[v.len() / 2]
     };
     let (m_ec, m_pe) = (median(&mut d_ec), median(&mut d_pe));
-    eprintln!("psm samples: {pairs} pairs; within 5 cm and 2°: E-PSM/CRS2 {epsm_crs2}, PSM/E-PSM {psm_epsm}; median position disagreement {:.1} / {:.1} mm; {failed} failed", m_ec * 1e3, m_pe * 1e3);
+    eprintln!(
+        "psm samples: {pairs} pairs; within 5 cm and 2°: E-PSM/CRS2 {epsm_crs2}, PSM/E-PSM {psm_epsm}; median position disagreement {:.1} / {:.1} mm; {failed} failed",
+        m_ec * 1e3,
+        m_pe * 1e3
+    );
     assert!(failed <= pairs / 20, "{failed} of {pairs} pairs had a failed match");
     // the two searches of the same objective agree closely in most pairs; PSM, with its own
     // preprocessing and error measure, less closely
-    assert!(epsm_crs2 * 10 >= pairs * 8 && m_ec < 0.01, "E-PSM and CRS2: {epsm_crs2} of {pairs} pairs agree, median {m_ec} m");
-    assert!(psm_epsm * 10 >= pairs * 8 && m_pe < 0.03, "PSM and E-PSM: {psm_epsm} of {pairs} pairs agree, median {m_pe} m");
+    assert!(
+        epsm_crs2 * 10 >= pairs * 8 && m_ec < 0.01,
+        "E-PSM and CRS2: {epsm_crs2} of {pairs} pairs agree, median {m_ec} m"
+    );
+    assert!(
+        psm_epsm * 10 >= pairs * 8 && m_pe < 0.03,
+        "PSM and E-PSM: {psm_epsm} of {pairs} pairs agree, median {m_pe} m"
+    );
 }

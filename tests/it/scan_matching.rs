@@ -65,7 +65,11 @@ fn scan_matching_study_end_to_end_and_thread_independent() {
     let dir = a.path().join("results/scan-smoke");
     let runs = store::read_runs(&dir).unwrap();
     assert_eq!(runs.len(), 4 * 8);
-    assert!(runs.iter().all(|r| r.status == store::RunStatus::Ok), "{:?}", runs.iter().find(|r| r.status != store::RunStatus::Ok));
+    assert!(
+        runs.iter().all(|r| r.status == store::RunStatus::Ok),
+        "{:?}",
+        runs.iter().find(|r| r.status != store::RunStatus::Ok)
+    );
     // named cells label the runs
     assert!(runs.iter().any(|r| r.run_id == "ep_rect_column--crs2--scan20_odo10--r00"));
     // six matches per scan-matching run, none for dead reckoning
@@ -74,9 +78,18 @@ fn scan_matching_study_end_to_end_and_thread_independent() {
     assert_eq!(count("ep_rect_column--epsm--none--r00"), 6);
     assert_eq!(count("ep_rect_column--odometry--none--r00"), 0);
     // noise-free cell: E-PSM and CRS2 recover every pose change to well under 1 mm / 0.05°
-    let metric = |alg: &str, cell: &str, m: &str| runs.iter().find(|r| r.algorithm == alg && r.point == cell).and_then(|r| r.metric(m)).unwrap();
+    let metric = |alg: &str, cell: &str, m: &str| {
+        runs.iter()
+            .find(|r| r.algorithm == alg && r.point == cell)
+            .and_then(|r| r.metric(m))
+            .unwrap()
+    };
     for alg in ["epsm", "crs2"] {
-        assert!(metric(alg, "none", "atheta_mean_deg") < 0.05, "{alg}: {}", metric(alg, "none", "atheta_mean_deg"));
+        assert!(
+            metric(alg, "none", "atheta_mean_deg") < 0.05,
+            "{alg}: {}",
+            metric(alg, "none", "atheta_mean_deg")
+        );
         assert!(metric(alg, "none", "ax_mean_mm") < 1.0 && metric(alg, "none", "ay_mean_mm") < 1.0);
         assert_eq!(metric(alg, "none", "matches"), 6.0);
     }
@@ -85,15 +98,29 @@ fn scan_matching_study_end_to_end_and_thread_independent() {
 
     // the report tabulates algorithms × cells beside [EP] Table 2
     let html = std::fs::read_to_string(a.path().join("reports/scan-smoke/index.html")).unwrap();
-    assert!(html.contains("per cell") && html.contains("[EP] Table 2"), "no per-cell table beside the published one");
+    assert!(
+        html.contains("per cell") && html.contains("[EP] Table 2"),
+        "no per-cell table beside the published one"
+    );
     assert!(html.contains("scan20_odo10"));
 
     let (ra, rb) = (tree(&a.path().join("reports")), tree(&b.path().join("reports")));
     // times are machine-dependent: a timing page beside the results, named by the report, never
     // in it; [EP]'s 2 ms for PSM beside ours, and the cost claim re-read on time
-    let timing = std::fs::read_to_string(dir.join("timings.html")).expect("a timing page beside the results");
-    assert!(timing.contains("Machine-dependent") && timing.contains("(2.00)") && timing.contains("(68.9)"), "{timing}");
-    assert!(timing.contains("Cost claims re-read on time") && timing.contains("cost-epsm-over-psm") && timing.contains("E-PSM at odo10 / PSM at odo10"), "{timing}");
+    let timing = std::fs::read_to_string(dir.join("timings.html"))
+        .expect("a timing page beside the results");
+    assert!(
+        timing.contains("Machine-dependent")
+            && timing.contains("(2.00)")
+            && timing.contains("(68.9)"),
+        "{timing}"
+    );
+    assert!(
+        timing.contains("Cost claims re-read on time")
+            && timing.contains("cost-epsm-over-psm")
+            && timing.contains("E-PSM at odo10 / PSM at odo10"),
+        "{timing}"
+    );
     assert!(!ra.iter().any(|(n, _)| n.contains("timings")));
     assert!(html.contains("timings.html"));
     assert_eq!(ra.len(), rb.len());

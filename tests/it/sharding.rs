@@ -6,16 +6,31 @@ use crate::util::{ok, s, slamlab, tree};
 use std::path::Path;
 
 /// …and a study with morris and sobol sweeps (design points are sweep points like any other).
-const SPECS: [&str; 3] = ["experiments/smoke.toml", "experiments/odometry-rate.toml", "tests/specs/gsa.toml"];
+const SPECS: [&str; 3] =
+    ["experiments/smoke.toml", "experiments/odometry-rate.toml", "tests/specs/gsa.toml"];
 
 /// Every file of the results except the machine-dependent timings (and their line in the
 /// checksums), and every report file.
 fn outputs(work: &Path) -> Vec<(String, Vec<u8>)> {
     let without_timings = |(name, bytes): (String, Vec<u8>)| {
-        let bytes = if name.ends_with("checksums.b3") { String::from_utf8(bytes).unwrap().lines().filter(|l| !l.contains("timings.")).collect::<Vec<_>>().join("\n").into_bytes() } else { bytes };
+        let bytes = if name.ends_with("checksums.b3") {
+            String::from_utf8(bytes)
+                .unwrap()
+                .lines()
+                .filter(|l| !l.contains("timings."))
+                .collect::<Vec<_>>()
+                .join("\n")
+                .into_bytes()
+        } else {
+            bytes
+        };
         (format!("results/{name}"), bytes)
     };
-    let mut files: Vec<(String, Vec<u8>)> = tree(&work.join("results")).into_iter().filter(|(name, _)| !name.contains("timings.")).map(without_timings).collect();
+    let mut files: Vec<(String, Vec<u8>)> = tree(&work.join("results"))
+        .into_iter()
+        .filter(|(name, _)| !name.contains("timings."))
+        .map(without_timings)
+        .collect();
     files.extend(tree(&work.join("reports")).into_iter().map(|(n, b)| (format!("reports/{n}"), b)));
     files
 }
@@ -23,18 +38,29 @@ fn outputs(work: &Path) -> Vec<(String, Vec<u8>)> {
 /// The cache's entries (`<cache>/<first two hex digits>/<hash>/`).
 fn entries(cache: &Path) -> Vec<std::path::PathBuf> {
     let visible = |e: &std::fs::DirEntry| !e.file_name().to_string_lossy().starts_with('.');
-    let mut out: Vec<_> = std::fs::read_dir(cache).unwrap().flatten().filter(visible).flat_map(|d| std::fs::read_dir(d.path()).unwrap().flatten().filter(visible).map(|e| e.path())).collect();
+    let mut out: Vec<_> = std::fs::read_dir(cache)
+        .unwrap()
+        .flatten()
+        .filter(visible)
+        .flat_map(|d| {
+            std::fs::read_dir(d.path()).unwrap().flatten().filter(visible).map(|e| e.path())
+        })
+        .collect();
     out.sort();
     out
 }
 
 fn finish(work: &Path) {
-    let (results, cache, reports) = (work.join("results"), work.join("cache"), work.join("reports"));
+    let (results, cache, reports) =
+        (work.join("results"), work.join("cache"), work.join("reports"));
     let mut args = vec!["run", "--quiet", "--results", s(&results), "--cache", s(&cache)];
     args.extend(SPECS);
     let out = ok(&args);
     let said = String::from_utf8_lossy(&out.stderr);
-    assert!(said.lines().filter(|l| l.contains(" runs (")).all(|l| l.contains("(0 computed")), "the shards left runs to compute:\n{said}");
+    assert!(
+        said.lines().filter(|l| l.contains(" runs (")).all(|l| l.contains("(0 computed")),
+        "the shards left runs to compute:\n{said}"
+    );
     ok(&["report", "--results", s(&results), "--out", s(&reports)]);
 }
 
@@ -55,19 +81,43 @@ fn shards_assemble_to_the_single_process_results_whatever_n() {
         let mut computed = 0;
         for i in 1..=n {
             let shard = format!("{i}/{n}");
-            let mut args = vec!["run", "--quiet", "--shard", &shard, "--cache", s(&cache), "--results", s(&results)];
+            let mut args = vec![
+                "run",
+                "--quiet",
+                "--shard",
+                &shard,
+                "--cache",
+                s(&cache),
+                "--results",
+                s(&results),
+            ];
             args.extend(SPECS);
             let out = ok(&args);
             let said = String::from_utf8_lossy(&out.stderr);
-            let line = said.lines().find(|l| l.starts_with(&format!("shard {shard}:"))).unwrap_or_else(|| panic!("no summary from shard {shard}:\n{said}"));
-            computed += line.split(" computed").next().and_then(|x| x.rsplit(' ').next()).and_then(|x| x.parse::<usize>().ok()).expect("a computed count");
+            let line = said
+                .lines()
+                .find(|l| l.starts_with(&format!("shard {shard}:")))
+                .unwrap_or_else(|| panic!("no summary from shard {shard}:\n{said}"));
+            computed += line
+                .split(" computed")
+                .next()
+                .and_then(|x| x.rsplit(' ').next())
+                .and_then(|x| x.parse::<usize>().ok())
+                .expect("a computed count");
             assert!(!work.path().join("results").exists(), "shard {shard} wrote study results");
         }
         let distinct = entries(&cache).len();
-        assert_eq!(computed, distinct, "N = {n}: the shards computed {computed} runs for {distinct} cache entries (a run computed twice, or none)");
+        assert_eq!(
+            computed, distinct,
+            "N = {n}: the shards computed {computed} runs for {distinct} cache entries (a run computed twice, or none)"
+        );
         finish(work.path());
         let got = outputs(work.path());
-        assert_eq!(got.iter().map(|(n, _)| n).collect::<Vec<_>>(), expected.iter().map(|(n, _)| n).collect::<Vec<_>>(), "N = {n}: other files");
+        assert_eq!(
+            got.iter().map(|(n, _)| n).collect::<Vec<_>>(),
+            expected.iter().map(|(n, _)| n).collect::<Vec<_>>(),
+            "N = {n}: other files"
+        );
         for ((name, a), (_, b)) in got.iter().zip(&expected) {
             assert!(a == b, "N = {n}: {name} differs from the single-process run");
         }
@@ -98,7 +148,18 @@ fn a_shard_resumes_where_a_killed_one_stopped() {
 #[test]
 fn plan_shows_each_runs_shard_and_the_cost_per_shard() {
     let work = tempfile::tempdir().unwrap();
-    let out = ok(&["plan", "--dry-run", "--shards", "3", SPECS[0], SPECS[1], "--cache", s(&work.path().join("cache")), "--results", s(&work.path().join("results"))]);
+    let out = ok(&[
+        "plan",
+        "--dry-run",
+        "--shards",
+        "3",
+        SPECS[0],
+        SPECS[1],
+        "--cache",
+        s(&work.path().join("cache")),
+        "--results",
+        s(&work.path().join("results")),
+    ]);
     let text = String::from_utf8_lossy(&out.stdout);
     let table: Vec<&str> = text.lines().skip_while(|l| !l.starts_with("shard ")).collect();
     assert!(table.len() >= 5, "{text}");
@@ -115,6 +176,11 @@ fn plan_shows_each_runs_shard_and_the_cost_per_shard() {
     let bad = slamlab(&["plan", "--shards", "0", SPECS[0]]);
     assert!(!bad.status.success());
     let bad = slamlab(&["run", "--shard", "4/3", SPECS[0]]);
-    assert_eq!(bad.status.code(), Some(2), "clap refuses a bad --shard: {}", String::from_utf8_lossy(&bad.stderr));
+    assert_eq!(
+        bad.status.code(),
+        Some(2),
+        "clap refuses a bad --shard: {}",
+        String::from_utf8_lossy(&bad.stderr)
+    );
     assert!(String::from_utf8_lossy(&bad.stderr).contains("I must be between 1 and N = 3"));
 }

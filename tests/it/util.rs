@@ -4,13 +4,22 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 pub fn slamlab(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_slamlab")).args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().expect("slamlab runs")
+    Command::new(env!("CARGO_BIN_EXE_slamlab"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("slamlab runs")
 }
 
 /// Runs slamlab and fails the test with its stderr if it does not succeed.
 pub fn ok(args: &[&str]) -> Output {
     let out = slamlab(args);
-    assert!(out.status.success(), "slamlab {} failed:\n{}", args.join(" "), String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "slamlab {} failed:\n{}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
     out
 }
 
@@ -30,7 +39,10 @@ pub fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
             if p.is_dir() {
                 walk(root, &p, out);
             } else {
-                out.push((p.strip_prefix(root).unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()));
+                out.push((
+                    p.strip_prefix(root).unwrap().to_string_lossy().into_owned(),
+                    std::fs::read(&p).unwrap(),
+                ));
             }
         }
     }
@@ -42,7 +54,18 @@ pub fn tree(dir: &Path) -> Vec<(String, Vec<u8>)> {
 
 /// Runs `spec` into `results`/`cache` and renders reports into `reports`.
 pub fn run_and_report(spec: &str, work: &Path, threads: &str) {
-    let (results, cache, reports) = (work.join("results"), work.join("cache"), work.join("reports"));
-    ok(&["run", spec, "--quiet", "--threads", threads, "--results", s(&results), "--cache", s(&cache)]);
+    let (results, cache, reports) =
+        (work.join("results"), work.join("cache"), work.join("reports"));
+    ok(&[
+        "run",
+        spec,
+        "--quiet",
+        "--threads",
+        threads,
+        "--results",
+        s(&results),
+        "--cache",
+        s(&cache),
+    ]);
     ok(&["report", "--results", s(&results), "--out", s(&reports)]);
 }

@@ -26,11 +26,11 @@
 //! one unseen landmark create two landmarks.
 
 use super::fastslam::models::Model;
-use super::observations::{Cursor, Observation, StepObservations};
 use super::motion::MotionModel;
+use super::observations::{Cursor, Observation, StepObservations};
 use super::{LandmarkMap, SlamError, Trace};
 use crate::config::{Checks, Violation};
-use crate::geom::{wrap_angle, Line, Point2, Pose2};
+use crate::geom::{Line, Point2, Pose2, wrap_angle};
 use crate::world::World;
 use nalgebra::{DMatrix, DVector, Dyn, Matrix2, Matrix2x3, Matrix3, OMatrix, U2, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -119,10 +119,18 @@ impl EkfParams {
             },
             self.gate_reject,
             self.gate_create,
-            if self.known_outlier_gate.is_finite() { format!(", known matches with NIS above {} ignored as outliers", self.known_outlier_gate) } else { String::new() },
+            if self.known_outlier_gate.is_finite() {
+                format!(
+                    ", known matches with NIS above {} ignored as outliers",
+                    self.known_outlier_gate
+                )
+            } else {
+                String::new()
+            },
             match self.covariance_update {
                 CovarianceUpdate::Joseph => "in Joseph form",
-                CovarianceUpdate::NoneOnReobservation => "skipped on re-observation ([EV]'s omission)",
+                CovarianceUpdate::NoneOnReobservation =>
+                    "skipped on re-observation ([EV]'s omission)",
             }
         )
     }
@@ -132,13 +140,17 @@ impl EkfParams {
         c.non_negative("gate_reject", self.gate_reject);
         c.non_negative("gate_create", self.gate_create);
         if self.gate_reject.is_finite() && self.gate_create.is_finite() {
-            c.require(self.gate_create >= self.gate_reject, "gate_create", || format!("must be ≥ gate_reject ({}), got {}", self.gate_reject, self.gate_create));
+            c.require(self.gate_create >= self.gate_reject, "gate_create", || {
+                format!("must be ≥ gate_reject ({}), got {}", self.gate_reject, self.gate_create)
+            });
         }
         c.non_negative("initial_pose_sigma_m", self.initial_pose_sigma_m);
         c.non_negative("initial_pose_sigma_rad", self.initial_pose_sigma_rad);
         c.positive("laser_var_rho_m2", self.laser_var_rho_m2);
         c.positive("laser_var_theta_rad2", self.laser_var_theta_rad2);
-        c.require(self.known_outlier_gate > 0.0, "known_outlier_gate", || format!("must be > 0 (inf = off), got {}", self.known_outlier_gate));
+        c.require(self.known_outlier_gate > 0.0, "known_outlier_gate", || {
+            format!("must be > 0 (inf = off), got {}", self.known_outlier_gate)
+        });
         c.finish()
     }
 }
@@ -303,7 +315,9 @@ impl<'a> Ekf<'a> {
     fn associate(&mut self, o: &Observation) -> Association {
         match self.params.association {
             EkfAssociation::Known => self.associate_known(o),
-            EkfAssociation::NearestNeighbour | EkfAssociation::MaximumLikelihood => self.associate_gated(o),
+            EkfAssociation::NearestNeighbour | EkfAssociation::MaximumLikelihood => {
+                self.associate_gated(o)
+            }
         }
     }
 
@@ -318,7 +332,9 @@ impl<'a> Ekf<'a> {
             Some(j) if self.params.known_outlier_gate.is_finite() => {
                 let pose = self.pose();
                 match self.innovation(o, j, &pose) {
-                    Some(inn) if inn.nis() <= self.params.known_outlier_gate => Association::Update(j),
+                    Some(inn) if inn.nis() <= self.params.known_outlier_gate => {
+                        Association::Update(j)
+                    }
                     Some(_) => Association::Ignored,
                     None => {
                         self.numerical_failures += 1;
@@ -373,7 +389,10 @@ impl<'a> Ekf<'a> {
         let prr = self.pose_cov();
         let prl = self.p.fixed_view::<POSE_DIM, LANDMARK_DIM>(0, i).into_owned();
         let pll = self.p.fixed_view::<LANDMARK_DIM, LANDMARK_DIM>(i, i).into_owned();
-        let hph = hp * prr * hp.transpose() + hp * prl * hl.transpose() + hl * prl.transpose() * hp.transpose() + hl * pll * hl.transpose();
+        let hph = hp * prr * hp.transpose()
+            + hp * prl * hl.transpose()
+            + hl * prl.transpose() * hp.transpose()
+            + hl * pll * hl.transpose();
         let s = symmetric2(&(hph + o.r)); // Eq. (2.15): S = H P Hᵀ + R
         let chol = s.cholesky()?;
         let nu = o.model.innovation(&o.z, &pred.z); // z − ẑ, angle wrapped
@@ -416,7 +435,8 @@ impl<'a> Ekf<'a> {
         let inv = o.model.inverse_full(&o.z, &self.pose());
         let n = self.x.len();
         let cross = inv.g_pose * self.p.rows(0, POSE_DIM); // Eqs. (2.18–2.24): P_m· = G_p P_r·
-        let pmm = inv.g_pose * self.pose_cov() * inv.g_pose.transpose() + inv.g_z * o.r * inv.g_z.transpose(); // P_mm = G_p P_rr G_pᵀ + G_z R G_zᵀ
+        let pmm = inv.g_pose * self.pose_cov() * inv.g_pose.transpose()
+            + inv.g_z * o.r * inv.g_z.transpose(); // P_mm = G_p P_rr G_pᵀ + G_z R G_zᵀ
         if !(inv.m.iter().chain(cross.iter()).chain(pmm.iter()).all(|v| v.is_finite())) {
             self.numerical_failures += 1;
             return;
@@ -474,7 +494,8 @@ impl Innovation {
 
     /// M Hᵀ for an n × n matrix M, from the pose columns and the landmark's two columns.
     fn p_ht(&self, m: &DMatrix<f64>) -> OMatrix<f64, Dyn, U2> {
-        m.columns(0, POSE_DIM) * self.h_pose.transpose() + m.columns(self.index, LANDMARK_DIM) * self.h_landmark.transpose()
+        m.columns(0, POSE_DIM) * self.h_pose.transpose()
+            + m.columns(self.index, LANDMARK_DIM) * self.h_landmark.transpose()
     }
 }
 
@@ -501,7 +522,13 @@ fn symmetrise(p: &mut DMatrix<f64>) {
 /// Runs EKF-SLAM over a world's odometry and the given observations (in step order; steps
 /// without one are absent). Point landmarks go to the map's `corners` when `points_as_corners`
 /// (laser features), else to `points`.
-pub fn run(world: &World, motion: &MotionModel, params: &EkfParams, observations: &[StepObservations], points_as_corners: bool) -> Result<Trace, SlamError> {
+pub fn run(
+    world: &World,
+    motion: &MotionModel,
+    params: &EkfParams,
+    observations: &[StepObservations],
+    points_as_corners: bool,
+) -> Result<Trace, SlamError> {
     let mut filter = Ekf::new(params, motion, world.truth[0]);
     let mut cursor = Cursor::new(observations, params.association == EkfAssociation::Known);
     let steps = world.odometry.len();

@@ -71,7 +71,14 @@ fn r_matrix(sigma_range_m: f64, sigma_bearing_rad: f64) -> Matrix2<f64> {
 }
 
 /// z = h(m, pose) + v, v ~ N(0, R) (R diagonal) when `rng` is given.
-fn measure(model: Model, m: &Vector2<f64>, pose: &Pose2, r: &Matrix2<f64>, id: usize, rng: Option<&mut ChaCha8Rng>) -> Observation {
+fn measure(
+    model: Model,
+    m: &Vector2<f64>,
+    pose: &Pose2,
+    r: &Matrix2<f64>,
+    id: usize,
+    rng: Option<&mut ChaCha8Rng>,
+) -> Observation {
     let mut z = model.predict(m, pose).z;
     if let Some(rng) = rng {
         let (a, b): (f64, f64) = (rng.sample(StandardNormal), rng.sample(StandardNormal));
@@ -82,7 +89,12 @@ fn measure(model: Model, m: &Vector2<f64>, pose: &Pose2, r: &Matrix2<f64>, id: u
 }
 
 /// Range-bearing readings of every point within `MAX_RANGE_M` at every step.
-fn point_readings(truth: &[Pose2], points: &[Point2], r: &Matrix2<f64>, mut rng: Option<&mut ChaCha8Rng>) -> Vec<StepObservations> {
+fn point_readings(
+    truth: &[Pose2],
+    points: &[Point2],
+    r: &Matrix2<f64>,
+    mut rng: Option<&mut ChaCha8Rng>,
+) -> Vec<StepObservations> {
     truth
         .iter()
         .enumerate()
@@ -92,7 +104,9 @@ fn point_readings(truth: &[Pose2], points: &[Point2], r: &Matrix2<f64>, mut rng:
                 .iter()
                 .enumerate()
                 .filter(|(_, p)| pose.position().distance(**p) < MAX_RANGE_M)
-                .map(|(id, p)| measure(Model::Point, &Vector2::new(p.x, p.y), pose, r, id, rng.as_deref_mut()))
+                .map(|(id, p)| {
+                    measure(Model::Point, &Vector2::new(p.x, p.y), pose, r, id, rng.as_deref_mut())
+                })
                 .collect(),
         })
         .collect()
@@ -114,22 +128,40 @@ fn noise_free_point_world_is_recovered_exactly() {
     let w = world(truth.clone(), odometry);
     let motion = MotionModel::Pose { sigma_x_m: 1e-3, sigma_y_m: 1e-3, sigma_theta_rad: 1e-3 };
     let readings = point_readings(&truth, &points, &r_matrix(1e-2, 1e-3), None);
-    for association in [EkfAssociation::Known, EkfAssociation::NearestNeighbour, EkfAssociation::MaximumLikelihood] {
+    for association in
+        [EkfAssociation::Known, EkfAssociation::NearestNeighbour, EkfAssociation::MaximumLikelihood]
+    {
         let trace = run(&w, &motion, &params(association), &readings, false).unwrap();
         assert_eq!(trace.estimate.len(), truth.len());
         assert_eq!(trace.pose_belief.len(), truth.len());
         assert!(trace.pose_belief.iter().all(Option::is_some) && trace.neff.is_empty());
         assert_eq!(trace.numerical_failures, 0, "{association:?}");
-        assert_eq!(trace.weighted_steps as usize, truth.len() - 1, "{association:?}: every step after the first re-observes");
+        assert_eq!(
+            trace.weighted_steps as usize,
+            truth.len() - 1,
+            "{association:?}: every step after the first re-observes"
+        );
         for (k, (e, t)) in trace.estimate.iter().zip(&truth).enumerate() {
             assert!(pose_error(e, t).norm() < 1e-6, "{association:?} step {k}: {e:?} vs {t:?}");
         }
         let map = trace.map.unwrap();
         assert!(map.corners.is_empty() && map.lines.is_empty());
-        assert_eq!(map.points.len(), points.len(), "{association:?}: one landmark per true point, no duplicates");
+        assert_eq!(
+            map.points.len(),
+            points.len(),
+            "{association:?}: one landmark per true point, no duplicates"
+        );
         for (i, p) in map.points.iter().enumerate() {
-            let (j, d) = points.iter().enumerate().map(|(j, t)| (j, t.distance(*p))).min_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
-            assert!(d < 1e-6, "{association:?}: landmark {p:?} is {d} m from the nearest true point");
+            let (j, d) = points
+                .iter()
+                .enumerate()
+                .map(|(j, t)| (j, t.distance(*p)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .unwrap();
+            assert!(
+                d < 1e-6,
+                "{association:?}: landmark {p:?} is {d} m from the nearest true point"
+            );
             let expected_id = (association == EkfAssociation::Known).then_some(j);
             assert_eq!(map.point_ids[i], expected_id);
         }
@@ -140,8 +172,16 @@ fn noise_free_point_world_is_recovered_exactly() {
 fn noise_free_lines_and_corners_are_recovered_exactly() {
     // a 10 m × 8 m room centred on the circle: the robot stays inside, so every ρ' > 0
     let (cx, cy, hx, hy) = (0.0, circle_radius(), 5.0, 4.0);
-    let lines = [Line::normalised(cx + hx, 0.0), Line::normalised(-(cx - hx), PI), Line::normalised(cy + hy, PI / 2.0), Line::normalised(-(cy - hy), -PI / 2.0)];
-    let corners: Vec<Point2> = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)].iter().map(|(sx, sy)| Point2::new(cx + sx * hx, cy + sy * hy)).collect();
+    let lines = [
+        Line::normalised(cx + hx, 0.0),
+        Line::normalised(-(cx - hx), PI),
+        Line::normalised(cy + hy, PI / 2.0),
+        Line::normalised(-(cy - hy), -PI / 2.0),
+    ];
+    let corners: Vec<Point2> = [(1.0, 1.0), (-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]
+        .iter()
+        .map(|(sx, sy)| Point2::new(cx + sx * hx, cy + sy * hy))
+        .collect();
     let odometry = vec![circle_increment(); LAP_STEPS];
     let truth = exact_truth(Pose2::new(0.0, 0.0, 0.0), &odometry);
     let w = world(truth.clone(), odometry);
@@ -150,13 +190,22 @@ fn noise_free_lines_and_corners_are_recovered_exactly() {
         .iter()
         .enumerate()
         .map(|(step, pose)| {
-            let l = lines.iter().map(|l| measure(Model::Line, &Vector2::new(l.rho, l.theta), pose, &r, 0, None));
-            let c = corners.iter().filter(|c| pose.position().distance(**c) < 2.0 * MAX_RANGE_M).map(|c| measure(Model::Point, &Vector2::new(c.x, c.y), pose, &r, 0, None));
-            StepObservations { step, observations: l.chain(c).map(|o| Observation { landmark: None, ..o }).collect() }
+            let l = lines
+                .iter()
+                .map(|l| measure(Model::Line, &Vector2::new(l.rho, l.theta), pose, &r, 0, None));
+            let c = corners
+                .iter()
+                .filter(|c| pose.position().distance(**c) < 2.0 * MAX_RANGE_M)
+                .map(|c| measure(Model::Point, &Vector2::new(c.x, c.y), pose, &r, 0, None));
+            StepObservations {
+                step,
+                observations: l.chain(c).map(|o| Observation { landmark: None, ..o }).collect(),
+            }
         })
         .collect();
     let motion = MotionModel::Pose { sigma_x_m: 1e-3, sigma_y_m: 1e-3, sigma_theta_rad: 1e-3 };
-    let trace = run(&w, &motion, &params(EkfAssociation::NearestNeighbour), &readings, true).unwrap();
+    let trace =
+        run(&w, &motion, &params(EkfAssociation::NearestNeighbour), &readings, true).unwrap();
     assert_eq!(trace.numerical_failures, 0);
     for (k, (e, t)) in trace.estimate.iter().zip(&truth).enumerate() {
         assert!(pose_error(e, t).norm() < 1e-6, "step {k}: {e:?} vs {t:?}");
@@ -169,7 +218,11 @@ fn noise_free_lines_and_corners_are_recovered_exactly() {
         assert!(map.lines.iter().any(|l| (l.rho - t.rho).abs() < 1e-6 && wrap_angle(l.theta - t.theta).abs() < 1e-6), "{t:?} not in {:?}", map.lines);
     }
     for t in &corners {
-        assert!(map.corners.iter().any(|c| c.distance(*t) < 1e-6), "{t:?} not in {:?}", map.corners);
+        assert!(
+            map.corners.iter().any(|c| c.distance(*t) < 1e-6),
+            "{t:?} not in {:?}",
+            map.corners
+        );
     }
 }
 
@@ -206,12 +259,17 @@ fn nees_runs(world_motion: &MotionModel, filter_motion: &MotionModel) -> Vec<Vec
             }
             let readings = point_readings(&truth, &points, &r, Some(&mut rng));
             let w = world(truth.clone(), vec![u; NEES_STEPS]);
-            let trace = run(&w, filter_motion, &params(EkfAssociation::Known), &readings, false).unwrap();
+            let trace =
+                run(&w, filter_motion, &params(EkfAssociation::Known), &readings, false).unwrap();
             assert_eq!(trace.numerical_failures, 0);
             (1..=NEES_STEPS)
                 .map(|k| {
                     let e = pose_error(&trace.estimate[k], &truth[k]);
-                    let p_inv = trace.pose_belief[k].unwrap().1.try_inverse().expect("P_rr > 0 after a prediction");
+                    let p_inv = trace.pose_belief[k]
+                        .unwrap()
+                        .1
+                        .try_inverse()
+                        .expect("P_rr > 0 after a prediction");
                     (e.transpose() * p_inv * e)[0]
                 })
                 .collect()
@@ -228,22 +286,36 @@ fn nees_bounds() -> (f64, f64) {
 /// (fraction of steps whose run-averaged NEES lies within the bounds, time-averaged NEES).
 fn nees_summary(nees: &[Vec<f64>]) -> (f64, f64) {
     let (lo, hi) = nees_bounds();
-    let mean_per_step: Vec<f64> = (0..NEES_STEPS).map(|k| nees.iter().map(|run| run[k]).sum::<f64>() / NEES_RUNS as f64).collect();
-    let inside = mean_per_step.iter().filter(|m| (lo..=hi).contains(*m)).count() as f64 / NEES_STEPS as f64;
+    let mean_per_step: Vec<f64> = (0..NEES_STEPS)
+        .map(|k| nees.iter().map(|run| run[k]).sum::<f64>() / NEES_RUNS as f64)
+        .collect();
+    let inside =
+        mean_per_step.iter().filter(|m| (lo..=hi).contains(*m)).count() as f64 / NEES_STEPS as f64;
     (inside, mean_per_step.iter().sum::<f64>() / NEES_STEPS as f64)
 }
 
 fn pose_noise(scale: f64) -> MotionModel {
-    MotionModel::Pose { sigma_x_m: scale * SIGMA_XY_M, sigma_y_m: scale * SIGMA_XY_M, sigma_theta_rad: scale * SIGMA_THETA_RAD }
+    MotionModel::Pose {
+        sigma_x_m: scale * SIGMA_XY_M,
+        sigma_y_m: scale * SIGMA_XY_M,
+        sigma_theta_rad: scale * SIGMA_THETA_RAD,
+    }
 }
 
 #[test]
 fn pose_nees_is_consistent_when_the_noise_is_modelled_exactly() {
     let (lo, hi) = nees_bounds();
     let (inside, average) = nees_summary(&nees_runs(&pose_noise(1.0), &pose_noise(1.0)));
-    assert!(inside >= 0.9, "only {:.0} % of steps have their mean NEES in [{lo:.2}, {hi:.2}]", 100.0 * inside);
+    assert!(
+        inside >= 0.9,
+        "only {:.0} % of steps have their mean NEES in [{lo:.2}, {hi:.2}]",
+        100.0 * inside
+    );
     // the time average of correlated per-step means: held to the same per-step bounds
-    assert!((lo..=hi).contains(&average), "time-averaged NEES {average:.2} outside [{lo:.2}, {hi:.2}]");
+    assert!(
+        (lo..=hi).contains(&average),
+        "time-averaged NEES {average:.2} outside [{lo:.2}, {hi:.2}]"
+    );
 }
 
 #[test]
@@ -272,10 +344,15 @@ fn covariance_stays_symmetric_psd_through_a_noisy_run() {
         let z = point_readings(&[truth], &points, &r, Some(&mut rng)).remove(0).observations;
         // prediction and correction checked apart (the update's symmetrisation would hide a
         // prediction that forgets P_mr)
-        for (phase, control, readings) in [("predict", (k > 0).then_some(&u), &[][..]), ("update", None, &z[..])] {
+        for (phase, control, readings) in
+            [("predict", (k > 0).then_some(&u), &[][..]), ("update", None, &z[..])]
+        {
             ekf.step(control, readings);
             let cov = ekf.covariance();
-            assert!((cov - cov.transpose()).abs().max() == 0.0, "step {k} {phase}: P not symmetric");
+            assert!(
+                (cov - cov.transpose()).abs().max() == 0.0,
+                "step {k} {phase}: P not symmetric"
+            );
             min_eigenvalue = min_eigenvalue.min(cov.clone().symmetric_eigenvalues().min());
             assert!(min_eigenvalue >= -1e-9, "step {k} {phase}: eigenvalue {min_eigenvalue}");
         }
@@ -292,8 +369,19 @@ fn sparse_prediction_and_update_equal_the_dense_textbook_equations() {
     let (p, motion) = (params(EkfAssociation::Known), pose_noise(1.0));
     let r = r_matrix(SIGMA_RANGE_M, SIGMA_BEARING_RAD);
     let (u, truth) = (circle_increment(), Pose2::new(0.5, -0.2, 0.4));
-    let marks: Vec<(Model, Vector2<f64>)> = vec![(Model::Point, Vector2::new(2.0, 1.0)), (Model::Line, Vector2::new(3.0, 0.2)), (Model::Point, Vector2::new(-1.0, 2.5)), (Model::Line, Vector2::new(4.0, 1.9))];
-    let read = |pose: &Pose2, rng: &mut ChaCha8Rng| -> Vec<Observation> { marks.iter().enumerate().map(|(id, (model, m))| measure(*model, m, pose, &r, id, Some(&mut *rng))).collect() };
+    let marks: Vec<(Model, Vector2<f64>)> = vec![
+        (Model::Point, Vector2::new(2.0, 1.0)),
+        (Model::Line, Vector2::new(3.0, 0.2)),
+        (Model::Point, Vector2::new(-1.0, 2.5)),
+        (Model::Line, Vector2::new(4.0, 1.9)),
+    ];
+    let read = |pose: &Pose2, rng: &mut ChaCha8Rng| -> Vec<Observation> {
+        marks
+            .iter()
+            .enumerate()
+            .map(|(id, (model, m))| measure(*model, m, pose, &r, id, Some(&mut *rng)))
+            .collect()
+    };
     let mut ekf = Ekf::new(&p, &motion, truth);
     let z0 = read(&truth, &mut rng);
     ekf.step(None, &z0);
@@ -337,7 +425,10 @@ fn sparse_prediction_and_update_equal_the_dense_textbook_equations() {
 /// with noise R; a second reading with the same R then has S = H P Hᵀ + R = 2R.
 fn one_landmark<'a>(p: &'a EkfParams, motion: &'a MotionModel, r: &Matrix2<f64>) -> Ekf<'a> {
     let mut ekf = Ekf::new(p, motion, Pose2::IDENTITY);
-    ekf.step(None, &[Observation { model: Model::Point, z: Vector2::new(5.0, 0.0), r: *r, landmark: None }]);
+    ekf.step(
+        None,
+        &[Observation { model: Model::Point, z: Vector2::new(5.0, 0.0), r: *r, landmark: None }],
+    );
     ekf
 }
 
@@ -351,13 +442,22 @@ fn an_observation_updates_is_ignored_or_creates_a_landmark_according_to_the_gate
         let (x0, p0) = (ekf.mean().clone(), ekf.covariance().clone());
         // range offset δ with δ² / (2σr²) = NIS
         let delta = (2.0 * r[(0, 0)] * nis).sqrt();
-        ekf.step(None, &[Observation { model: Model::Point, z: Vector2::new(5.0 + delta, 0.0), r, landmark: None }]);
-        let got = match (ekf.landmarks().len(), ekf.mean().rows(0, x0.len()) == x0.rows(0, x0.len())) {
-            (1, false) => "update",
-            (1, true) if *ekf.covariance() == p0 => "ignored",
-            (2, true) => "new",
-            _ => "something else",
-        };
+        ekf.step(
+            None,
+            &[Observation {
+                model: Model::Point,
+                z: Vector2::new(5.0 + delta, 0.0),
+                r,
+                landmark: None,
+            }],
+        );
+        let got =
+            match (ekf.landmarks().len(), ekf.mean().rows(0, x0.len()) == x0.rows(0, x0.len())) {
+                (1, false) => "update",
+                (1, true) if *ekf.covariance() == p0 => "ignored",
+                (2, true) => "new",
+                _ => "something else",
+            };
         assert_eq!(got, expected, "NIS {nis}");
         assert_eq!(ekf.weighted_steps, (expected == "update") as u64);
     }
@@ -370,11 +470,20 @@ fn maximum_likelihood_prefers_the_tighter_landmark_where_nearest_neighbour_does_
     let motion = pose_noise(1.0);
     let r = r_matrix(0.1, 0.01);
     let delta = (2.0 * r[(0, 0)] * 3.0).sqrt();
-    let reading = Observation { model: Model::Point, z: Vector2::new(5.0 + delta, 0.0), r, landmark: None };
-    for (association, expected) in [(EkfAssociation::NearestNeighbour, 0), (EkfAssociation::MaximumLikelihood, 1)] {
+    let reading =
+        Observation { model: Model::Point, z: Vector2::new(5.0 + delta, 0.0), r, landmark: None };
+    for (association, expected) in
+        [(EkfAssociation::NearestNeighbour, 0), (EkfAssociation::MaximumLikelihood, 1)]
+    {
         let p = params(association);
         let mut ekf = Ekf::new(&p, &motion, Pose2::IDENTITY);
-        ekf.step(None, &[Observation { r: r * 100.0, ..reading }, Observation { z: Vector2::new(5.0, 0.0), ..reading }]);
+        ekf.step(
+            None,
+            &[
+                Observation { r: r * 100.0, ..reading },
+                Observation { z: Vector2::new(5.0, 0.0), ..reading },
+            ],
+        );
         assert_eq!(ekf.landmarks().len(), 2);
         assert_eq!(ekf.associate(&reading), Association::Update(expected), "{association:?}");
     }
@@ -387,16 +496,29 @@ fn none_on_reobservation_leaves_p_to_prediction_and_augmentation() {
     let r = r_matrix(SIGMA_RANGE_M, SIGMA_BEARING_RAD);
     let points = ring_landmarks(12, 1.2);
     let u = circle_increment();
-    let start = point_readings(&[Pose2::IDENTITY], &points, &r, Some(&mut rng)).remove(0).observations;
-    let next = point_readings(&[Pose2::IDENTITY.compose(u)], &points, &r, Some(&mut rng)).remove(0).observations;
+    let start =
+        point_readings(&[Pose2::IDENTITY], &points, &r, Some(&mut rng)).remove(0).observations;
+    let next = point_readings(&[Pose2::IDENTITY.compose(u)], &points, &r, Some(&mut rng))
+        .remove(0)
+        .observations;
     assert!(start.len() >= 2);
-    for (update, p_changes) in [(CovarianceUpdate::NoneOnReobservation, false), (CovarianceUpdate::Joseph, true)] {
-        let p = EkfParams { association: EkfAssociation::Known, covariance_update: update, ..EkfParams::default() };
+    for (update, p_changes) in
+        [(CovarianceUpdate::NoneOnReobservation, false), (CovarianceUpdate::Joseph, true)]
+    {
+        let p = EkfParams {
+            association: EkfAssociation::Known,
+            covariance_update: update,
+            ..EkfParams::default()
+        };
         let mut ekf = Ekf::new(&p, &motion, Pose2::IDENTITY);
         ekf.step(None, &start);
         let mut predicted_only = ekf.clone();
         predicted_only.step(Some(&u), &[]);
-        let reobserved: Vec<Observation> = next.iter().filter(|o| start.iter().any(|s| s.landmark == o.landmark)).copied().collect();
+        let reobserved: Vec<Observation> = next
+            .iter()
+            .filter(|o| start.iter().any(|s| s.landmark == o.landmark))
+            .copied()
+            .collect();
         ekf.step(Some(&u), &reobserved);
         assert_eq!(ekf.weighted_steps, 1);
         assert!(ekf.mean() != predicted_only.mean(), "{update:?}: the mean must move");
@@ -409,7 +531,13 @@ fn a_line_with_negative_rho_is_flipped_with_its_covariance() {
     let (p, motion) = (EkfParams::default(), pose_noise(1.0));
     let mut ekf = Ekf::new(&p, &motion, Pose2::new(1.0, 2.0, 0.3));
     let r = r_matrix(0.05, 0.02);
-    ekf.step(None, &[Observation { model: Model::Point, z: Vector2::new(2.0, 0.5), r, landmark: None }, Observation { model: Model::Line, z: Vector2::new(3.0, 0.4), r, landmark: None }]);
+    ekf.step(
+        None,
+        &[
+            Observation { model: Model::Point, z: Vector2::new(2.0, 0.5), r, landmark: None },
+            Observation { model: Model::Line, z: Vector2::new(3.0, 0.4), r, landmark: None },
+        ],
+    );
     ekf.step(Some(&circle_increment()), &[]); // correlate everything through the pose
     let i = ekf.landmarks()[1].index;
     // push the line to the other side of the origin: (ρ, θ) = (−0.5, θ)
@@ -428,7 +556,15 @@ fn a_line_with_negative_rho_is_flipped_with_its_covariance() {
 fn known_association_without_identities_ignores_and_counts() {
     let (p, motion) = (params(EkfAssociation::Known), pose_noise(1.0));
     let mut ekf = Ekf::new(&p, &motion, Pose2::IDENTITY);
-    ekf.step(None, &[Observation { model: Model::Point, z: Vector2::new(2.0, 0.5), r: r_matrix(0.05, 0.02), landmark: None }]);
+    ekf.step(
+        None,
+        &[Observation {
+            model: Model::Point,
+            z: Vector2::new(2.0, 0.5),
+            r: r_matrix(0.05, 0.02),
+            landmark: None,
+        }],
+    );
     assert_eq!((ekf.landmarks().len(), ekf.numerical_failures), (0, 1));
 }
 
@@ -437,24 +573,55 @@ fn validation_rejects_negative_and_inverted_gates() {
     assert!(EkfParams::default().validate().is_empty());
     let keys = |p: EkfParams| p.validate().into_iter().map(|v| v.key).collect::<Vec<_>>();
     assert_eq!(keys(EkfParams { gate_reject: -1.0, ..EkfParams::default() }), ["gate_reject"]);
-    assert_eq!(keys(EkfParams { gate_create: -1.0, gate_reject: -2.0, ..EkfParams::default() }), ["gate_reject", "gate_create"]);
+    assert_eq!(
+        keys(EkfParams { gate_create: -1.0, gate_reject: -2.0, ..EkfParams::default() }),
+        ["gate_reject", "gate_create"]
+    );
     assert_eq!(keys(EkfParams { gate_create: 3.0, ..EkfParams::default() }), ["gate_create"]);
-    assert_eq!(keys(EkfParams { initial_pose_sigma_rad: -0.1, ..EkfParams::default() }), ["initial_pose_sigma_rad"]);
-    assert!(keys(EkfParams { gate_reject: f64::NAN, ..EkfParams::default() }).contains(&"gate_reject".to_string()));
+    assert_eq!(
+        keys(EkfParams { initial_pose_sigma_rad: -0.1, ..EkfParams::default() }),
+        ["initial_pose_sigma_rad"]
+    );
+    assert!(
+        keys(EkfParams { gate_reject: f64::NAN, ..EkfParams::default() })
+            .contains(&"gate_reject".to_string())
+    );
 }
 
 #[test]
 fn params_read_from_toml_and_reject_unknown_keys() {
     let p: EkfParams = toml::from_str("association = \"maximum_likelihood\"\ncovariance_update = \"none_on_reobservation\"\ngate_reject = 9.0").unwrap();
-    assert_eq!(p, EkfParams { association: EkfAssociation::MaximumLikelihood, covariance_update: CovarianceUpdate::NoneOnReobservation, gate_reject: 9.0, ..EkfParams::default() });
+    assert_eq!(
+        p,
+        EkfParams {
+            association: EkfAssociation::MaximumLikelihood,
+            covariance_update: CovarianceUpdate::NoneOnReobservation,
+            gate_reject: 9.0,
+            ..EkfParams::default()
+        }
+    );
     assert!(toml::from_str::<EkfParams>("gate = 4.0").is_err());
 }
 
 #[test]
 fn describe_names_the_association_gates_and_update() {
-    let s = EkfParams { gate_reject: 5.5, gate_create: 30.0, known_outlier_gate: 13.8, ..EkfParams::default() }.describe();
-    assert!(s.contains("nearest-neighbour association (NIS gates: update below 5.5, new landmark above 30)"), "{s}");
-    assert!(s.contains("NIS above 13.8 ignored as outliers") && s.contains("in Joseph form"), "{s}");
+    let s = EkfParams {
+        gate_reject: 5.5,
+        gate_create: 30.0,
+        known_outlier_gate: 13.8,
+        ..EkfParams::default()
+    }
+    .describe();
+    assert!(
+        s.contains(
+            "nearest-neighbour association (NIS gates: update below 5.5, new landmark above 30)"
+        ),
+        "{s}"
+    );
+    assert!(
+        s.contains("NIS above 13.8 ignored as outliers") && s.contains("in Joseph form"),
+        "{s}"
+    );
     assert!(!EkfParams::default().describe().contains("outliers"));
 }
 
@@ -470,11 +637,17 @@ fn the_pose_gain_shrinks_with_the_odometry_noise() {
     let readings = point_readings(&truth, &points, &r, None);
     let w = world(truth, vec![u; LAP_STEPS]);
     let mean_gain = |sigma: f64| {
-        let motion = MotionModel::Pose { sigma_x_m: sigma, sigma_y_m: sigma, sigma_theta_rad: sigma / 4.0 };
+        let motion =
+            MotionModel::Pose { sigma_x_m: sigma, sigma_y_m: sigma, sigma_theta_rad: sigma / 4.0 };
         let trace = run(&w, &motion, &params(EkfAssociation::Known), &readings, false).unwrap();
         let sightings: usize = readings.iter().map(|s| s.observations.len()).sum();
-        let landmarks: std::collections::BTreeSet<_> = readings.iter().flat_map(|s| s.observations.iter().map(|o| o.landmark)).collect();
-        assert_eq!(trace.kalman_gain.len(), sightings - landmarks.len(), "one gain per update (a first sighting adds the landmark instead)");
+        let landmarks: std::collections::BTreeSet<_> =
+            readings.iter().flat_map(|s| s.observations.iter().map(|o| o.landmark)).collect();
+        assert_eq!(
+            trace.kalman_gain.len(),
+            sightings - landmarks.len(),
+            "one gain per update (a first sighting adds the landmark instead)"
+        );
         trace.kalman_gain.iter().sum::<f64>() / trace.kalman_gain.len() as f64
     };
     let (small, large) = (mean_gain(0.002), mean_gain(0.02));

@@ -58,14 +58,25 @@ impl<T> Candidates<T> {
     pub fn decide(self, rule: Ambiguity) -> (Association, Option<T>) {
         match self.best {
             None => (Association::New, None),
-            Some(_) if self.count > 1 && matches!(rule, Ambiguity::MultipleCandidates | Ambiguity::Both) => (Association::Ignored, None),
-            Some((landmark, log_likelihood, payload)) => (Association::Known { landmark, log_likelihood }, Some(payload)),
+            Some(_)
+                if self.count > 1
+                    && matches!(rule, Ambiguity::MultipleCandidates | Ambiguity::Both) =>
+            {
+                (Association::Ignored, None)
+            }
+            Some((landmark, log_likelihood, payload)) => {
+                (Association::Known { landmark, log_likelihood }, Some(payload))
+            }
         }
     }
 }
 
 /// The ML decision for one feature from its log-likelihoods against every landmark of its type.
-pub fn decide(log_likelihoods: impl Iterator<Item = f64>, ln_p0: f64, rule: Ambiguity) -> Association {
+pub fn decide(
+    log_likelihoods: impl Iterator<Item = f64>,
+    ln_p0: f64,
+    rule: Ambiguity,
+) -> Association {
     let mut c = Candidates::new(ln_p0);
     for (j, ll) in log_likelihoods.enumerate() {
         c.offer(j, ll, ());
@@ -78,7 +89,10 @@ pub fn resolve_shared(decisions: &mut [Association], rule: Ambiguity) {
     if !matches!(rule, Ambiguity::SharedLandmark | Ambiguity::Both) {
         return;
     }
-    let chosen: Vec<Option<usize>> = decisions.iter().map(|d| if let Association::Known { landmark, .. } = d { Some(*landmark) } else { None }).collect();
+    let chosen: Vec<Option<usize>> = decisions
+        .iter()
+        .map(|d| if let Association::Known { landmark, .. } = d { Some(*landmark) } else { None })
+        .collect();
     for (i, d) in decisions.iter_mut().enumerate() {
         if let Some(l) = chosen[i]
             && chosen.iter().enumerate().any(|(k, c)| k != i && *c == Some(l))
@@ -96,7 +110,10 @@ mod tests {
 
     #[test]
     fn ml_picks_the_most_likely_above_p0() {
-        assert_eq!(decide([-9.0, -2.0, -7.0].into_iter(), P0, Ambiguity::None), Association::Known { landmark: 1, log_likelihood: -2.0 });
+        assert_eq!(
+            decide([-9.0, -2.0, -7.0].into_iter(), P0, Ambiguity::None),
+            Association::Known { landmark: 1, log_likelihood: -2.0 }
+        );
         assert_eq!(decide([-9.0, -8.0].into_iter(), P0, Ambiguity::None), Association::New);
         assert_eq!(decide(std::iter::empty(), P0, Ambiguity::Both), Association::New);
     }
@@ -104,13 +121,24 @@ mod tests {
     #[test]
     fn two_plausible_landmarks_make_a_feature_ambiguous() {
         let lls = [-1.0, -3.0, -20.0];
-        assert_eq!(decide(lls.into_iter(), P0, Ambiguity::MultipleCandidates), Association::Ignored);
-        assert!(matches!(decide(lls.into_iter(), P0, Ambiguity::SharedLandmark), Association::Known { landmark: 0, .. }));
+        assert_eq!(
+            decide(lls.into_iter(), P0, Ambiguity::MultipleCandidates),
+            Association::Ignored
+        );
+        assert!(matches!(
+            decide(lls.into_iter(), P0, Ambiguity::SharedLandmark),
+            Association::Known { landmark: 0, .. }
+        ));
     }
 
     #[test]
     fn two_features_on_one_landmark_are_both_ignored() {
-        let mut d = vec![Association::Known { landmark: 2, log_likelihood: -1.0 }, Association::New, Association::Known { landmark: 2, log_likelihood: -2.0 }, Association::Known { landmark: 0, log_likelihood: -1.0 }];
+        let mut d = vec![
+            Association::Known { landmark: 2, log_likelihood: -1.0 },
+            Association::New,
+            Association::Known { landmark: 2, log_likelihood: -2.0 },
+            Association::Known { landmark: 0, log_likelihood: -1.0 },
+        ];
         resolve_shared(&mut d, Ambiguity::Both);
         assert_eq!(d[0], Association::Ignored);
         assert_eq!(d[1], Association::New);

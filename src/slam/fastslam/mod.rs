@@ -20,10 +20,10 @@ use super::observations::{self, Cursor, Observation, Source, StepObservations};
 use super::{LandmarkMap, SlamError, Trace};
 use crate::config::{Checks, Violation};
 use crate::features::FeatureParams;
-use crate::geom::{wrap_angle, Line, Point2, Pose2};
-use crate::world::odometry::Spread;
+use crate::geom::{Line, Point2, Pose2, wrap_angle};
 use crate::world::World;
-use association::{resolve_shared, Ambiguity, Association, Candidates};
+use crate::world::odometry::Spread;
+use association::{Ambiguity, Association, Candidates, resolve_shared};
 use models::{Model, Prediction};
 use nalgebra::{Matrix2, Vector2};
 use particle::{Landmark, Particle};
@@ -120,10 +120,18 @@ impl Estimate {
     /// The report's words for the trajectory and map this estimate reports.
     pub fn describe(&self) -> &'static str {
         match self {
-            Estimate::BestPerStep => "the best particle is the one with the highest current weight (the trajectory is its pose at every step, which may jump between lineages).",
-            Estimate::PathOfBest => "the trajectory and map are those of the particle with the highest log-weight accumulated along its lineage ([PF] Eq. 20), its whole path kept through resampling.",
-            Estimate::PathOfFinalBest => "the map is the final best particle's (the highest current weight, taken after weighting and before resampling, [FT] §5) and the trajectory is that particle's own pose history, kept through resampling ([FT]: the best particle's pose history builds its grid map).",
-            Estimate::WeightedMean => "the trajectory is the particles' weighted mean pose at every step; the map is the final best particle's.",
+            Estimate::BestPerStep => {
+                "the best particle is the one with the highest current weight (the trajectory is its pose at every step, which may jump between lineages)."
+            }
+            Estimate::PathOfBest => {
+                "the trajectory and map are those of the particle with the highest log-weight accumulated along its lineage ([PF] Eq. 20), its whole path kept through resampling."
+            }
+            Estimate::PathOfFinalBest => {
+                "the map is the final best particle's (the highest current weight, taken after weighting and before resampling, [FT] §5) and the trajectory is that particle's own pose history, kept through resampling ([FT]: the best particle's pose history builds its grid map)."
+            }
+            Estimate::WeightedMean => {
+                "the trajectory is the particles' weighted mean pose at every step; the map is the final best particle's."
+            }
         }
     }
 }
@@ -180,7 +188,11 @@ impl FastSlamParams {
 
     /// The resampling threshold as the report states it: "∞ (always)" or the particle count.
     fn neff_text(&self) -> String {
-        if self.neff_threshold.is_infinite() { "∞ (always)".to_string() } else { self.neff_threshold.to_string() }
+        if self.neff_threshold.is_infinite() {
+            "∞ (always)".to_string()
+        } else {
+            self.neff_threshold.to_string()
+        }
     }
 
     /// The report's sentence on FastSLAM 1.0 on point-landmark worlds, and on FastSLAM 2.0 too
@@ -192,7 +204,8 @@ impl FastSlamParams {
             self.particles,
             match self.association {
                 DataAssociation::Known => "known".to_string(),
-                DataAssociation::MaximumLikelihood => format!("maximum-likelihood (P0 = {})", self.p0),
+                DataAssociation::MaximumLikelihood =>
+                    format!("maximum-likelihood (P0 = {})", self.p0),
             },
             self.neff_text(),
             self.estimate.describe(),
@@ -220,17 +233,26 @@ impl FastSlamParams {
                 Ambiguity::None => "kept (plain ML)",
                 Ambiguity::MultipleCandidates => "ignored when several landmarks beat P0",
                 Ambiguity::SharedLandmark => "ignored when two features choose one landmark",
-                Ambiguity::Both => "ignored when several landmarks beat P0 or two features choose one landmark",
+                Ambiguity::Both =>
+                    "ignored when several landmarks beat P0 or two features choose one landmark",
             }
         )
     }
 
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
-        c.require((1..=MAX_PARTICLES).contains(&self.particles), "particles", || format!("must be in [1, {MAX_PARTICLES}], got {}", self.particles));
+        c.require((1..=MAX_PARTICLES).contains(&self.particles), "particles", || {
+            format!("must be in [1, {MAX_PARTICLES}], got {}", self.particles)
+        });
         c.positive("p0", self.p0);
-        c.require(self.neff_threshold >= 0.0, "neff_threshold", || format!("must be ≥ 0 (inf = always resample), got {}", self.neff_threshold));
-        for (k, v) in [("motion_x", self.motion_x), ("motion_y", self.motion_y), ("motion_theta", self.motion_theta)] {
+        c.require(self.neff_threshold >= 0.0, "neff_threshold", || {
+            format!("must be ≥ 0 (inf = always resample), got {}", self.neff_threshold)
+        });
+        for (k, v) in [
+            ("motion_x", self.motion_x),
+            ("motion_y", self.motion_y),
+            ("motion_theta", self.motion_theta),
+        ] {
             c.non_negative(k, v);
         }
         c.positive("obs_var_rho_m2", self.obs_var_rho_m2);
@@ -248,8 +270,6 @@ struct Match {
     innovation: Vector2<f64>,
     log_likelihood: f64,
 }
-
-
 
 /// An upper bound on a line landmark's log-likelihood from the angle alone, without trigonometry:
 /// the θ row of H is (0, 1), so Q_θθ = Σ_θθ + R_θθ; the marginal Mahalanobis distance bounds
@@ -280,8 +300,15 @@ fn evaluate(m: &Observation, l: &Landmark, pose: &Pose2, r: &Matrix2<f64>) -> Op
     }
     let nu = m.model.innovation(&m.z, &prediction.z);
     // νᵀ Q⁻¹ ν with the closed-form 2 × 2 inverse
-    let d2 = (q[(1, 1)] * nu[0] * nu[0] - (q[(0, 1)] + q[(1, 0)]) * nu[0] * nu[1] + q[(0, 0)] * nu[1] * nu[1]) / det;
-    Some(Match { prediction, q, innovation: nu, log_likelihood: -0.5 * d2 - LN_2PI - 0.5 * det.ln() }) // Eq. (3.13)
+    let d2 = (q[(1, 1)] * nu[0] * nu[0] - (q[(0, 1)] + q[(1, 0)]) * nu[0] * nu[1]
+        + q[(0, 0)] * nu[1] * nu[1])
+        / det;
+    Some(Match {
+        prediction,
+        q,
+        innovation: nu,
+        log_likelihood: -0.5 * d2 - LN_2PI - 0.5 * det.ln(),
+    }) // Eq. (3.13)
 }
 
 /// EKF correction of one landmark (Joseph form, which keeps Σ symmetric positive semi-definite).
@@ -338,7 +365,12 @@ impl<'a> FastSlam1<'a> {
     }
 
     /// One step of [FT] Table 6.3. Returns N̂eff when the step weighted the particles.
-    pub fn step(&mut self, control: Option<&Pose2>, observations: &[Observation], rng: &mut ChaCha8Rng) -> Option<f64> {
+    pub fn step(
+        &mut self,
+        control: Option<&Pose2>,
+        observations: &[Observation],
+        rng: &mut ChaCha8Rng,
+    ) -> Option<f64> {
         if let Some(u) = control {
             self.predict(u, rng); // 1: sample every particle's pose
         }
@@ -368,7 +400,11 @@ impl<'a> FastSlam1<'a> {
         }
         let [sx, sy, st] = self.motion_sigma;
         for p in &mut self.particles {
-            let (zx, zy, zt): (f64, f64, f64) = (rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
+            let (zx, zy, zt): (f64, f64, f64) = (
+                rng.sample(StandardNormal),
+                rng.sample(StandardNormal),
+                rng.sample(StandardNormal),
+            );
             let q = p.pose.compose(*u);
             p.pose = Pose2::new(q.x + sx * zx, q.y + sy * zy, wrap_angle(q.theta + st * zt));
         }
@@ -388,10 +424,17 @@ impl<'a> FastSlam1<'a> {
                 let landmarks = p.map.of(m.model);
                 if known {
                     // Known association: the landmark created from this identity, else a new one.
-                    return match landmarks.iter().position(|l| l.id.is_some() && l.id == m.landmark) {
+                    return match landmarks.iter().position(|l| l.id.is_some() && l.id == m.landmark)
+                    {
                         None => (Association::New, None),
                         Some(j) => match evaluate(m, &landmarks[j], &pose, &m.r) {
-                            Some(mt) => (Association::Known { landmark: j, log_likelihood: mt.log_likelihood }, Some(mt)),
+                            Some(mt) => (
+                                Association::Known {
+                                    landmark: j,
+                                    log_likelihood: mt.log_likelihood,
+                                },
+                                Some(mt),
+                            ),
                             None => {
                                 failures += 1;
                                 (Association::Ignored, None)
@@ -435,7 +478,11 @@ impl<'a> FastSlam1<'a> {
                         // a landmark an earlier feature of this scan already corrected is evaluated
                         // afresh against its corrected state (a sequential EKF update and factor)
                         let again = z[..k].iter().zip(&decisions[..k]).any(|(m2, (d2, _))| m2.model == m.model && matches!(d2, Association::Known { landmark: l, .. } if l == landmark));
-                        let fresh = if again { evaluate(m, &map.of(m.model)[*landmark], &pose, &m.r) } else { Some(*mt) };
+                        let fresh = if again {
+                            evaluate(m, &map.of(m.model)[*landmark], &pose, &m.r)
+                        } else {
+                            Some(*mt)
+                        };
                         let Some(mt) = fresh else {
                             failures += 1;
                             continue;
@@ -449,7 +496,8 @@ impl<'a> FastSlam1<'a> {
                     (Association::New, _) => match initialise(m, &pose, &m.r) {
                         Some(l) => {
                             // identities are kept only when the filter uses them
-                            map.of_mut(m.model).push(Landmark { id: if known { l.id } else { None }, ..l });
+                            map.of_mut(m.model)
+                                .push(Landmark { id: if known { l.id } else { None }, ..l });
                             log_weight += ln_p0;
                         }
                         None => failures += 1,
@@ -502,20 +550,34 @@ impl<'a> FastSlam1<'a> {
     }
 }
 
-
 /// Runs FastSLAM 1.0 over a world's odometry and scans ([FT]: line and corner features, its own
 /// motion noise).
-pub fn run(world: &World, params: &FastSlamParams, feature_params: &FeatureParams, rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+pub fn run(
+    world: &World,
+    params: &FastSlamParams,
+    feature_params: &FeatureParams,
+    rng: &mut ChaCha8Rng,
+) -> Result<Trace, SlamError> {
     let line_r = Matrix2::new(params.obs_var_rho_m2, 0.0, 0.0, params.obs_var_theta_rad2);
-    let observations = observations::stream(world, Source::LaserFeatures { features: feature_params, line_r })?;
+    let observations =
+        observations::stream(world, Source::LaserFeatures { features: feature_params, line_r })?;
     run_on(world, params, None, &observations, true, rng)
 }
 
 /// Runs FastSLAM 1.0 on any observation stream. `motion`: the motion model of point-landmark
 /// worlds (`None`: [FT] Eq. 7.18 with `params.motion_*`); `points_as_corners`: point landmarks
 /// are laser corners (else the map's point landmarks).
-pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionModel>, observations: &[StepObservations], points_as_corners: bool, rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
-    if params.association == DataAssociation::Known && observations.iter().flat_map(|s| &s.observations).any(|o| o.landmark.is_none()) {
+pub fn run_on(
+    world: &World,
+    params: &FastSlamParams,
+    motion: Option<&MotionModel>,
+    observations: &[StepObservations],
+    points_as_corners: bool,
+    rng: &mut ChaCha8Rng,
+) -> Result<Trace, SlamError> {
+    if params.association == DataAssociation::Known
+        && observations.iter().flat_map(|s| &s.observations).any(|o| o.landmark.is_none())
+    {
         return Err(SlamError::NoIdentities);
     }
     let mut filter = FastSlam1::new(params, motion, world.truth[0]);
@@ -530,7 +592,8 @@ pub fn run_on(world: &World, params: &FastSlamParams, motion: Option<&MotionMode
         if filter.particles.iter().any(|p| p.map.len() > params.max_landmarks as usize) {
             return Err(SlamError::LandmarkCap { limit: params.max_landmarks, step: k });
         }
-        let belief = (motion.is_some() || params.estimate == Estimate::WeightedMean).then(|| filter.pose_belief());
+        let belief = (motion.is_some() || params.estimate == Estimate::WeightedMean)
+            .then(|| filter.pose_belief());
         estimator.record(&mut filter.particles, filter.best, belief.map(|b| b.0));
         if motion.is_some() {
             pose_belief.push(belief);
@@ -567,8 +630,12 @@ impl Estimator {
     pub fn record(&mut self, particles: &mut [Particle], best: usize, mean: Option<Pose2>) {
         match self.kind {
             Estimate::BestPerStep => self.poses.push(particles[best].pose),
-            Estimate::WeightedMean => self.poses.push(mean.expect("the weighted mean is computed for this estimate")),
-            Estimate::PathOfBest | Estimate::PathOfFinalBest => particles.iter_mut().for_each(|p| p.path.push(p.pose)),
+            Estimate::WeightedMean => {
+                self.poses.push(mean.expect("the weighted mean is computed for this estimate"))
+            }
+            Estimate::PathOfBest | Estimate::PathOfFinalBest => {
+                particles.iter_mut().for_each(|p| p.path.push(p.pose))
+            }
         }
     }
 
@@ -578,7 +645,9 @@ impl Estimator {
     pub fn finish(self, particles: &[Particle], best: usize) -> (Vec<Pose2>, usize) {
         match self.kind {
             Estimate::PathOfBest => {
-                let i = particle::argmax(&particles.iter().map(|p| p.lineage_log_weight).collect::<Vec<_>>());
+                let i = particle::argmax(
+                    &particles.iter().map(|p| p.lineage_log_weight).collect::<Vec<_>>(),
+                );
                 (particles[i].path.poses(), i)
             }
             Estimate::PathOfFinalBest => (particles[best].path.poses(), best),
@@ -594,7 +663,12 @@ pub fn landmark_map(m: &particle::Map, points_as_corners: bool) -> LandmarkMap {
     if points_as_corners {
         LandmarkMap { lines, corners: points, ..LandmarkMap::default() }
     } else {
-        LandmarkMap { lines, points, point_ids: m.corners.iter().map(|l| l.id).collect(), ..LandmarkMap::default() }
+        LandmarkMap {
+            lines,
+            points,
+            point_ids: m.corners.iter().map(|l| l.id).collect(),
+            ..LandmarkMap::default()
+        }
     }
 }
 
@@ -633,23 +707,56 @@ mod tests {
         let motion = MotionModel::Pose { sigma_x_m: 0.05, sigma_y_m: 0.05, sigma_theta_rad: 0.02 };
         let n = 30;
         let truth: Vec<Pose2> = (0..=n).map(|k| Pose2::new(0.1 * k as f64, 0.0, 0.0)).collect();
-        let world = World { dt_s: 0.1, truth: truth.clone(), odometry: vec![Pose2::new(0.1, 0.0, 0.0); n], laser: None, scans: Vec::new(), point_scans: Vec::new(), truth_lines: Vec::new(), truth_corners: Vec::new(), truth_points: Vec::new(), point_noise: None };
+        let world = World {
+            dt_s: 0.1,
+            truth: truth.clone(),
+            odometry: vec![Pose2::new(0.1, 0.0, 0.0); n],
+            laser: None,
+            scans: Vec::new(),
+            point_scans: Vec::new(),
+            truth_lines: Vec::new(),
+            truth_corners: Vec::new(),
+            truth_points: Vec::new(),
+            point_noise: None,
+        };
         let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
         let marks = [Vector2::new(2.0, 1.0), Vector2::new(3.0, -1.5)];
         let stream: Vec<StepObservations> = (1..=n)
-            .map(|k| StepObservations { step: k, observations: marks.iter().enumerate().map(|(i, m)| Observation { model: Model::Point, z: Model::Point.predict(m, &truth[k]).z, r, landmark: Some(i) }).collect() })
+            .map(|k| StepObservations {
+                step: k,
+                observations: marks
+                    .iter()
+                    .enumerate()
+                    .map(|(i, m)| Observation {
+                        model: Model::Point,
+                        z: Model::Point.predict(m, &truth[k]).z,
+                        r,
+                        landmark: Some(i),
+                    })
+                    .collect(),
+            })
             .collect();
         let run = |estimate: Estimate| {
-            let p = FastSlamParams { particles: 20, association: DataAssociation::Known, estimate, ..FastSlamParams::default() };
-            run_on(&world, &p, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(3)).unwrap()
+            let p = FastSlamParams {
+                particles: 20,
+                association: DataAssociation::Known,
+                estimate,
+                ..FastSlamParams::default()
+            };
+            run_on(&world, &p, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(3))
+                .unwrap()
         };
-        let (best, mean, path) = (run(Estimate::BestPerStep), run(Estimate::WeightedMean), run(Estimate::PathOfBest));
+        let (best, mean, path) =
+            (run(Estimate::BestPerStep), run(Estimate::WeightedMean), run(Estimate::PathOfBest));
         let final_best = run(Estimate::PathOfFinalBest);
         // [FT]'s estimate: the final best particle's map (as the per-step estimate reports) and its
         // own path, which ends at the per-step estimate's last pose
         assert_eq!(final_best.map, best.map);
         assert_eq!(final_best.estimate.last(), best.estimate.last());
-        assert_ne!(final_best.estimate, best.estimate, "its own path, not the per-step argmax sequence");
+        assert_ne!(
+            final_best.estimate, best.estimate,
+            "its own path, not the per-step argmax sequence"
+        );
         for t in [&best, &mean, &path, &final_best] {
             assert_eq!(t.estimate.len(), truth.len());
         }
@@ -658,7 +765,10 @@ mod tests {
         for (e, b) in mean.estimate.iter().zip(&mean.pose_belief).skip(1) {
             assert_eq!(*e, b.unwrap().0);
         }
-        assert_ne!(best.estimate, path.estimate, "the per-step best and the best lineage's path differ");
+        assert_ne!(
+            best.estimate, path.estimate,
+            "the per-step best and the best lineage's path differ"
+        );
         assert_eq!(path.estimate[0], truth[0]);
         // the lineage weight is inherited: a resampled copy keeps its ancestor's
         let mut a = Particle::new(Pose2::IDENTITY);
@@ -676,36 +786,100 @@ mod tests {
         let motion = MotionModel::Pose { sigma_x_m: 0.05, sigma_y_m: 0.05, sigma_theta_rad: 0.02 };
         let n = 10;
         let truth: Vec<Pose2> = (0..=n).map(|k| Pose2::new(0.1 * k as f64, 0.0, 0.0)).collect();
-        let world = World { dt_s: 0.1, truth: truth.clone(), odometry: vec![Pose2::new(0.1, 0.0, 0.0); n], laser: None, scans: Vec::new(), point_scans: Vec::new(), truth_lines: Vec::new(), truth_corners: Vec::new(), truth_points: Vec::new(), point_noise: None };
+        let world = World {
+            dt_s: 0.1,
+            truth: truth.clone(),
+            odometry: vec![Pose2::new(0.1, 0.0, 0.0); n],
+            laser: None,
+            scans: Vec::new(),
+            point_scans: Vec::new(),
+            truth_lines: Vec::new(),
+            truth_corners: Vec::new(),
+            truth_points: Vec::new(),
+            point_noise: None,
+        };
         let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
-        let stream: Vec<StepObservations> = (1..=n).map(|k| StepObservations { step: k, observations: vec![Observation { model: Model::Point, z: Model::Point.predict(&Vector2::new(2.0, 1.0), &truth[k]).z, r, landmark: None }] }).collect();
-        let p = FastSlamParams { particles: 5, p0: 1e9, max_landmarks: 3, ..FastSlamParams::default() };
-        let err = run_on(&world, &p, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(1)).unwrap_err();
-        assert_eq!(err, SlamError::LandmarkCap { limit: 3, step: 4 }, "the fourth new landmark crosses the cap of 3");
+        let stream: Vec<StepObservations> = (1..=n)
+            .map(|k| StepObservations {
+                step: k,
+                observations: vec![Observation {
+                    model: Model::Point,
+                    z: Model::Point.predict(&Vector2::new(2.0, 1.0), &truth[k]).z,
+                    r,
+                    landmark: None,
+                }],
+            })
+            .collect();
+        let p =
+            FastSlamParams { particles: 5, p0: 1e9, max_landmarks: 3, ..FastSlamParams::default() };
+        let err =
+            run_on(&world, &p, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(1))
+                .unwrap_err();
+        assert_eq!(
+            err,
+            SlamError::LandmarkCap { limit: 3, step: 4 },
+            "the fourth new landmark crosses the cap of 3"
+        );
         let fine = FastSlamParams { p0: 1e9, ..FastSlamParams::default() };
-        assert!(run_on(&world, &fine, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(1)).is_ok(), "10 landmarks stay under the default cap");
+        assert!(
+            run_on(&world, &fine, Some(&motion), &stream, false, &mut ChaCha8Rng::seed_from_u64(1))
+                .is_ok(),
+            "10 landmarks stay under the default cap"
+        );
     }
 
     /// A stream with two entries for one step: both are read (merged, as FastSLAM 2.0 and the
     /// EKF read them), and the steps after it still get theirs.
     #[test]
     fn duplicate_step_entries_are_merged_not_stalled() {
-        let p = FastSlamParams { particles: 3, association: DataAssociation::Known, ..FastSlamParams::default() };
+        let p = FastSlamParams {
+            particles: 3,
+            association: DataAssociation::Known,
+            ..FastSlamParams::default()
+        };
         let motion = MotionModel::Pose { sigma_x_m: 0.01, sigma_y_m: 0.01, sigma_theta_rad: 0.01 };
         let truth = vec![Pose2::IDENTITY, Pose2::new(0.1, 0.0, 0.0), Pose2::new(0.2, 0.0, 0.0)];
         let odometry = vec![Pose2::new(0.1, 0.0, 0.0); 2];
-        let world = World { dt_s: 0.1, truth: truth.clone(), odometry, laser: None, scans: Vec::new(), point_scans: Vec::new(), truth_lines: Vec::new(), truth_corners: Vec::new(), truth_points: Vec::new(), point_noise: None };
+        let world = World {
+            dt_s: 0.1,
+            truth: truth.clone(),
+            odometry,
+            laser: None,
+            scans: Vec::new(),
+            point_scans: Vec::new(),
+            truth_lines: Vec::new(),
+            truth_corners: Vec::new(),
+            truth_points: Vec::new(),
+            point_noise: None,
+        };
         let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
-        let seen = |k: usize, m: Vector2<f64>, id: usize| Observation { model: Model::Point, z: Model::Point.predict(&m, &truth[k]).z, r, landmark: Some(id) };
+        let seen = |k: usize, m: Vector2<f64>, id: usize| Observation {
+            model: Model::Point,
+            z: Model::Point.predict(&m, &truth[k]).z,
+            r,
+            landmark: Some(id),
+        };
         let stream = vec![
             StepObservations { step: 1, observations: vec![seen(1, Vector2::new(3.0, 1.0), 0)] },
             StepObservations { step: 1, observations: vec![seen(1, Vector2::new(2.0, -1.0), 1)] },
             StepObservations { step: 2, observations: vec![seen(2, Vector2::new(4.0, 2.0), 2)] },
         ];
-        let trace = run_on(&world, &p, Some(&motion), &stream, false, &mut <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1)).unwrap();
+        let trace = run_on(
+            &world,
+            &p,
+            Some(&motion),
+            &stream,
+            false,
+            &mut <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1),
+        )
+        .unwrap();
         let mut ids: Vec<Option<usize>> = trace.map.unwrap().point_ids;
         ids.sort();
-        assert_eq!(ids, vec![Some(0), Some(1), Some(2)], "every entry of the stream reaches the filter");
+        assert_eq!(
+            ids,
+            vec![Some(0), Some(1), Some(2)],
+            "every entry of the stream reaches the filter"
+        );
     }
 
     /// Two features matched to one landmark in one scan update it one after the other, each
@@ -714,11 +888,23 @@ mod tests {
     /// step arrives fused and makes one landmark.
     #[test]
     fn two_features_on_one_landmark_update_it_sequentially() {
-        let p = FastSlamParams { particles: 1, association: DataAssociation::Known, ..FastSlamParams::default() };
+        let p = FastSlamParams {
+            particles: 1,
+            association: DataAssociation::Known,
+            ..FastSlamParams::default()
+        };
         let pose = Pose2::new(0.1, -0.2, 0.05);
-        let l = Landmark { id: Some(0), ..Landmark::new(Vector2::new(4.0, 1.0), Matrix2::identity() * 0.25) };
+        let l = Landmark {
+            id: Some(0),
+            ..Landmark::new(Vector2::new(4.0, 1.0), Matrix2::identity() * 0.25)
+        };
         let r = Matrix2::new(0.04, 0.0, 0.0, 0.00122);
-        let o = Observation { model: Model::Point, z: Model::Point.predict(&Vector2::new(4.3, 1.2), &pose).z, r, landmark: Some(0) };
+        let o = Observation {
+            model: Model::Point,
+            z: Model::Point.predict(&Vector2::new(4.3, 1.2), &pose).z,
+            r,
+            landmark: Some(0),
+        };
         let mut f = FastSlam1::new(&p, None, pose);
         f.particles[0].map_mut().corners.push(l);
         f.weigh_and_update(0, &[o, o]);
@@ -729,8 +915,18 @@ mod tests {
             assert!(correct(&mut expected, Model::Point, &m, &r));
         }
         let got = f.particles[0].map.corners[0];
-        assert!((got.mean - expected.mean).norm() < 1e-12, "{} vs sequential {}", got.mean, expected.mean);
-        assert!((got.cov - expected.cov).abs().max() < 1e-12, "{} vs sequential {}", got.cov, expected.cov);
+        assert!(
+            (got.mean - expected.mean).norm() < 1e-12,
+            "{} vs sequential {}",
+            got.mean,
+            expected.mean
+        );
+        assert!(
+            (got.cov - expected.cov).abs().max() < 1e-12,
+            "{} vs sequential {}",
+            got.cov,
+            expected.cov
+        );
         assert!((f.particles[0].log_weight - log_weight).abs() < 1e-9);
 
         // a new identity seen twice in one step: the filter reads it fused (known association),
@@ -739,7 +935,10 @@ mod tests {
         let mut f = FastSlam1::new(&p, None, pose);
         f.weigh_and_update(0, Cursor::new(&stream, true).at(0));
         assert_eq!(f.particles[0].map.corners.len(), 1);
-        assert!((f.particles[0].log_weight - p.p0.ln()).abs() < 1e-12, "one new landmark, one P0 factor");
+        assert!(
+            (f.particles[0].log_weight - p.p0.ln()).abs() < 1e-12,
+            "one new landmark, one P0 factor"
+        );
     }
 
     /// NEES pairs the filter's belief, its weighted mean with its weighted spread (Bailey et al.
@@ -753,7 +952,11 @@ mod tests {
         let chol = nalgebra::Matrix3::new(0.2, 0.0, 0.0, 0.05, 0.1, 0.0, 0.01, -0.02, 0.05);
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let draw = |m: &Pose2, rng: &mut ChaCha8Rng| {
-            let n = nalgebra::Vector3::new(rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
+            let n = nalgebra::Vector3::new(
+                rng.sample(StandardNormal),
+                rng.sample(StandardNormal),
+                rng.sample(StandardNormal),
+            );
             let d = chol * n;
             Pose2::new(m.x + d[0], m.y + d[1], wrap_angle(m.theta + d[2]))
         };
@@ -776,18 +979,37 @@ mod tests {
         }
         let avg = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
         assert!((avg(&on_belief) - 3.0).abs() < 0.3, "NEES of the belief {}", avg(&on_belief));
-        assert!((avg(&on_particle) - 6.0).abs() < 0.7, "NEES of one particle against the spread {}", avg(&on_particle));
+        assert!(
+            (avg(&on_particle) - 6.0).abs() < 0.7,
+            "NEES of one particle against the spread {}",
+            avg(&on_particle)
+        );
     }
 
     #[test]
     fn describe_names_particles_p0_and_resampling() {
-        let p = FastSlamParams { particles: 37, p0: 0.02, neff_threshold: 12.5, ..FastSlamParams::default() };
+        let p = FastSlamParams {
+            particles: 37,
+            p0: 0.02,
+            neff_threshold: 12.5,
+            ..FastSlamParams::default()
+        };
         let points = p.describe_on_points(true);
         assert!(points.starts_with("FastSLAM 1.0 on point worlds and 2.0: 37 particles, maximum-likelihood (P0 = 0.02) association") && points.contains("N̂eff < 12.5"), "{points}");
-        let known = FastSlamParams { association: DataAssociation::Known, ..FastSlamParams::default() }.describe_on_points(false);
-        assert!(known.starts_with("FastSLAM 1.0 on point worlds: 100 particles, known association") && known.contains("∞ (always)"), "{known}");
+        let known =
+            FastSlamParams { association: DataAssociation::Known, ..FastSlamParams::default() }
+                .describe_on_points(false);
+        assert!(
+            known.starts_with("FastSLAM 1.0 on point worlds: 100 particles, known association")
+                && known.contains("∞ (always)"),
+            "{known}"
+        );
         let lasers = p.describe_on_lasers();
-        assert!(lasers.contains("37 particles, P0 = 0.02, resampling when N̂eff < 12.5") && lasers.contains("(0.007, 0.007, 0.008) per step read as standard deviations"), "{lasers}");
+        assert!(
+            lasers.contains("37 particles, P0 = 0.02, resampling when N̂eff < 12.5")
+                && lasers.contains("(0.007, 0.007, 0.008) per step read as standard deviations"),
+            "{lasers}"
+        );
     }
 
     #[test]
@@ -800,7 +1022,12 @@ mod tests {
         let mut l = initialise(&m, &pose, &r).unwrap();
         for k in 0..50 {
             let pose_k = Pose2::new(1.0 + 0.1 * k as f64, 0.5, 0.2);
-            let mk = Observation { model: Model::Line, z: models::line_predict(&truth, &pose_k).z, r, landmark: None };
+            let mk = Observation {
+                model: Model::Line,
+                z: models::line_predict(&truth, &pose_k).z,
+                r,
+                landmark: None,
+            };
             let before = l.cov.trace();
             let mt = evaluate(&mk, &l, &pose_k, &r).unwrap();
             assert!(correct(&mut l, Model::Line, &mt, &r));
@@ -819,10 +1046,24 @@ mod tests {
         let mut rng = <ChaCha8Rng as rand::SeedableRng>::seed_from_u64(11);
         for _ in 0..2000 {
             let u = |rng: &mut ChaCha8Rng, a: f64, b: f64| rng.random_range(a..b);
-            let pose = Pose2::new(u(&mut rng, -5.0, 5.0), u(&mut rng, -5.0, 5.0), u(&mut rng, -3.1, 3.1));
+            let pose =
+                Pose2::new(u(&mut rng, -5.0, 5.0), u(&mut rng, -5.0, 5.0), u(&mut rng, -3.1, 3.1));
             let a = u(&mut rng, 0.0, 0.05);
-            let l = Landmark::new(Vector2::new(u(&mut rng, 0.5, 20.0), u(&mut rng, -3.1, 3.1)), Matrix2::new(a, 0.3 * a.sqrt() * 0.01, 0.3 * a.sqrt() * 0.01, u(&mut rng, 0.0, 0.01)));
-            let m = Observation { model: Model::Line, z: Vector2::new(u(&mut rng, 0.0, 10.0), u(&mut rng, -3.1, 3.1)), r, landmark: None };
+            let l = Landmark::new(
+                Vector2::new(u(&mut rng, 0.5, 20.0), u(&mut rng, -3.1, 3.1)),
+                Matrix2::new(
+                    a,
+                    0.3 * a.sqrt() * 0.01,
+                    0.3 * a.sqrt() * 0.01,
+                    u(&mut rng, 0.0, 0.01),
+                ),
+            );
+            let m = Observation {
+                model: Model::Line,
+                z: Vector2::new(u(&mut rng, 0.0, 10.0), u(&mut rng, -3.1, 3.1)),
+                r,
+                landmark: None,
+            };
             let exact = evaluate(&m, &l, &pose, &r).unwrap().log_likelihood;
             assert!(line_bound(&m, &l, &pose, &r, ln_det_r) >= exact - 1e-9);
         }
@@ -832,16 +1073,24 @@ mod tests {
         let (mut violations_diag, mut checked) = (0, 0);
         for _ in 0..2000 {
             let u = |rng: &mut ChaCha8Rng, a: f64, b: f64| rng.random_range(a..b);
-            let pose = Pose2::new(u(&mut rng, -5.0, 5.0), u(&mut rng, -5.0, 5.0), u(&mut rng, -3.1, 3.1));
-            let l = Landmark::new(Vector2::new(u(&mut rng, 0.5, 20.0), u(&mut rng, -3.1, 3.1)), Matrix2::new(1e-4, 0.0, 0.0, 1e-5));
+            let pose =
+                Pose2::new(u(&mut rng, -5.0, 5.0), u(&mut rng, -5.0, 5.0), u(&mut rng, -3.1, 3.1));
+            let l = Landmark::new(
+                Vector2::new(u(&mut rng, 0.5, 20.0), u(&mut rng, -3.1, 3.1)),
+                Matrix2::new(1e-4, 0.0, 0.0, 1e-5),
+            );
             let truth = l.predict(Model::Line, &pose).z;
             let m = Observation { model: Model::Line, z: truth, r, landmark: None };
             let exact = evaluate(&m, &l, &pose, &r).unwrap().log_likelihood;
             assert!(line_bound(&m, &l, &pose, &r, ln_det(&r)) >= exact - 1e-9);
-            violations_diag += (line_bound(&m, &l, &pose, &r, (r[(0, 0)] * r[(1, 1)]).ln()) < exact - 1e-9) as usize;
+            violations_diag += (line_bound(&m, &l, &pose, &r, (r[(0, 0)] * r[(1, 1)]).ln())
+                < exact - 1e-9) as usize;
             checked += 1;
         }
-        assert!(violations_diag > 0, "the diagonal product must be shown to fail ({checked} cases)");
+        assert!(
+            violations_diag > 0,
+            "the diagonal product must be shown to fail ({checked} cases)"
+        );
     }
 
     #[test]
@@ -855,8 +1104,24 @@ mod tests {
         let mut total = 0.0;
         for i in 0..n {
             for j in 0..n {
-                let z = zc + Vector2::new((i as f64 - n as f64 / 2.0) * h * 4.0, (j as f64 - n as f64 / 2.0) * h * 2.0);
-                total += evaluate(&Observation { model: Model::Point, z, r, landmark: None }, &l, &pose, &r).unwrap().log_likelihood.exp() * h * 4.0 * h * 2.0;
+                let z = zc
+                    + Vector2::new(
+                        (i as f64 - n as f64 / 2.0) * h * 4.0,
+                        (j as f64 - n as f64 / 2.0) * h * 2.0,
+                    );
+                total += evaluate(
+                    &Observation { model: Model::Point, z, r, landmark: None },
+                    &l,
+                    &pose,
+                    &r,
+                )
+                .unwrap()
+                .log_likelihood
+                .exp()
+                    * h
+                    * 4.0
+                    * h
+                    * 2.0;
             }
         }
         assert!((total - 1.0).abs() < 0.01, "{total}");

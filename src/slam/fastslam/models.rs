@@ -8,7 +8,7 @@
 //! Measurements of lines use the normalised form ρ' ≥ 0 (the extractor's output), so a prediction
 //! with ρ' < 0 is flipped to (−ρ', θ' + π), and its Jacobian with it.
 
-use crate::geom::{wrap_angle, Line, Pose2};
+use crate::geom::{Line, Pose2, wrap_angle};
 use nalgebra::{Matrix2, Matrix2x3, Vector2};
 use std::f64::consts::PI;
 
@@ -90,7 +90,10 @@ pub fn line_predict_trig(m: &Vector2<f64>, (s, c): (f64, f64), pose: &Pose2) -> 
     if rho >= 0.0 {
         Prediction { z: Vector2::new(rho, theta), h: Matrix2::new(1.0, d, 0.0, 1.0) }
     } else {
-        Prediction { z: Vector2::new(-rho, wrap_angle(theta + PI)), h: Matrix2::new(-1.0, -d, 0.0, 1.0) }
+        Prediction {
+            z: Vector2::new(-rho, wrap_angle(theta + PI)),
+            h: Matrix2::new(-1.0, -d, 0.0, 1.0),
+        }
     }
 }
 
@@ -108,7 +111,10 @@ pub fn point_predict(m: &Vector2<f64>, pose: &Pose2) -> Prediction {
     let (dx, dy) = (m[0] - pose.x, m[1] - pose.y);
     let q = dx * dx + dy * dy;
     let r = q.sqrt();
-    Prediction { z: Vector2::new(r, wrap_angle(dy.atan2(dx) - pose.theta)), h: Matrix2::new(dx / r, dy / r, -dy / q, dx / q) } // Eq. (7.21), (7.22)
+    Prediction {
+        z: Vector2::new(r, wrap_angle(dy.atan2(dx) - pose.theta)),
+        h: Matrix2::new(dx / r, dy / r, -dy / q, dx / q),
+    } // Eq. (7.21), (7.22)
 }
 
 /// Corrected Eq. 7.23 (the printed m_y has `m_y0 sin θ` for `m_x0 sin θ`): the robot-frame point
@@ -227,34 +233,56 @@ mod tests {
         let wall = Vector2::new(8.0, 0.0);
         let z = Model::Line.predict(&wall, &Pose2::new(8.10, 0.5, PI / 2.0)).z;
         let zhat = Model::Line.predict(&wall, &Pose2::new(7.95, 0.5, PI / 2.0)).z;
-        assert!((z[1] - zhat[1]).abs() > 3.0, "the two normalised forms face opposite ways: {z} vs {zhat}");
+        assert!(
+            (z[1] - zhat[1]).abs() > 3.0,
+            "the two normalised forms face opposite ways: {z} vs {zhat}"
+        );
         let nu = Model::Line.innovation(&z, &zhat);
         assert!((nu[0] + 0.15).abs() < 1e-9 && nu[1].abs() < 1e-9, "innovation {nu}");
         // and the linearisation agrees: ẑ + H Δm predicts the moved line on the same side
         let moved = Vector2::new(8.05, 0.01);
         let p = Model::Line.predict(&wall, &Pose2::new(7.95, 0.5, PI / 2.0));
         let linear = p.z + p.h * (moved - wall);
-        let nu = Model::Line.innovation(&Model::Line.predict(&moved, &Pose2::new(7.95, 0.5, PI / 2.0)).z, &linear);
+        let nu = Model::Line
+            .innovation(&Model::Line.predict(&moved, &Pose2::new(7.95, 0.5, PI / 2.0)).z, &linear);
         assert!(nu.norm() < 1e-3, "{nu}");
         // far from ρ' = 0 nothing changes
         let (a, b) = (Vector2::new(3.0, 0.2), Vector2::new(2.9, 0.25));
-        assert_eq!(Model::Line.innovation(&a, &b), Vector2::new(a[0] - b[0], wrap_angle(a[1] - b[1])));
+        assert_eq!(
+            Model::Line.innovation(&a, &b),
+            Vector2::new(a[0] - b[0], wrap_angle(a[1] - b[1]))
+        );
     }
 
     // Off every test line (on a line ρ' = 0 and the normalised form flips); the last two lie
     // beyond some lines, so the flipped branch (ρ' < 0) is exercised too.
-    const POSES: [Pose2; 5] = [Pose2::new(0.0, 0.0, 0.0), Pose2::new(2.0, -0.5, 0.7), Pose2::new(-3.0, 4.0, -2.5), Pose2::new(10.0, 5.0, 3.0), Pose2::new(20.5, 12.0, 1.0)];
+    const POSES: [Pose2; 5] = [
+        Pose2::new(0.0, 0.0, 0.0),
+        Pose2::new(2.0, -0.5, 0.7),
+        Pose2::new(-3.0, 4.0, -2.5),
+        Pose2::new(10.0, 5.0, 3.0),
+        Pose2::new(20.5, 12.0, 1.0),
+    ];
 
     #[test]
     fn line_jacobian_matches_finite_differences() {
         let mut flipped = 0;
         for pose in POSES {
             // lines on both sides of the robot (so that both ρ' signs occur)
-            for m in [Vector2::new(19.0, 0.0), Vector2::new(1.0, -PI / 2.0), Vector2::new(9.0, PI / 2.0), Vector2::new(4.0, 2.2), Vector2::new(0.5, -2.8)] {
+            for m in [
+                Vector2::new(19.0, 0.0),
+                Vector2::new(1.0, -PI / 2.0),
+                Vector2::new(9.0, PI / 2.0),
+                Vector2::new(4.0, 2.2),
+                Vector2::new(0.5, -2.8),
+            ] {
                 let analytic = line_predict(&m, &pose).h;
                 flipped += (analytic[(0, 0)] < 0.0) as usize;
                 let numeric = numeric_jacobian(Model::Line, &m, &pose);
-                assert!((analytic - numeric).abs().max() < 1e-6, "pose {pose:?} m {m:?}\n{analytic}\n{numeric}");
+                assert!(
+                    (analytic - numeric).abs().max() < 1e-6,
+                    "pose {pose:?} m {m:?}\n{analytic}\n{numeric}"
+                );
             }
         }
         assert!(flipped >= 2, "the ρ' < 0 branch must be tested");
@@ -266,7 +294,10 @@ mod tests {
             for m in [Vector2::new(19.0, 9.0), Vector2::new(-1.0, -1.0), Vector2::new(2.5, 3.5)] {
                 let analytic = point_predict(&m, &pose).h;
                 let numeric = numeric_jacobian(Model::Point, &m, &pose);
-                assert!((analytic - numeric).abs().max() < 1e-6, "pose {pose:?} m {m:?}\n{analytic}\n{numeric}");
+                assert!(
+                    (analytic - numeric).abs().max() < 1e-6,
+                    "pose {pose:?} m {m:?}\n{analytic}\n{numeric}"
+                );
             }
         }
     }
@@ -274,10 +305,18 @@ mod tests {
     #[test]
     fn inverse_models_invert_the_forward_models() {
         for pose in POSES {
-            for (model, m) in [(Model::Line, Vector2::new(19.0, 0.0)), (Model::Line, Vector2::new(4.0, 2.2)), (Model::Point, Vector2::new(2.5, 3.5))] {
+            for (model, m) in [
+                (Model::Line, Vector2::new(19.0, 0.0)),
+                (Model::Line, Vector2::new(4.0, 2.2)),
+                (Model::Point, Vector2::new(2.5, 3.5)),
+            ] {
                 let z = model.predict(&m, &pose).z;
                 let back = model.inverse(&z, &pose);
-                assert!((back[0] - m[0]).abs() < 1e-9 && wrap_angle(back[1] - m[1]).abs() < 1e-9 || model == Model::Point && (back - m).norm() < 1e-9, "{model:?} {pose:?}: {m:?} → {z:?} → {back:?}");
+                assert!(
+                    (back[0] - m[0]).abs() < 1e-9 && wrap_angle(back[1] - m[1]).abs() < 1e-9
+                        || model == Model::Point && (back - m).norm() < 1e-9,
+                    "{model:?} {pose:?}: {m:?} → {z:?} → {back:?}"
+                );
             }
         }
     }
@@ -302,7 +341,13 @@ mod tests {
     fn pose_and_inverse_jacobians_match_finite_differences() {
         let eps = 1e-6;
         for pose in POSES {
-            for (model, m) in [(Model::Line, Vector2::new(19.0, 0.0)), (Model::Line, Vector2::new(4.0, 2.2)), (Model::Line, Vector2::new(0.5, -2.8)), (Model::Point, Vector2::new(2.5, 3.5)), (Model::Point, Vector2::new(-1.0, -1.0))] {
+            for (model, m) in [
+                (Model::Line, Vector2::new(19.0, 0.0)),
+                (Model::Line, Vector2::new(4.0, 2.2)),
+                (Model::Line, Vector2::new(0.5, -2.8)),
+                (Model::Point, Vector2::new(2.5, 3.5)),
+                (Model::Point, Vector2::new(-1.0, -1.0)),
+            ] {
                 let full = model.predict_full(&m, &pose);
                 assert_eq!(full.h_landmark, model.predict(&m, &pose).h);
                 for k in 0..3 {
@@ -312,13 +357,23 @@ mod tests {
                         model.predict(&m, &Pose2::new(p[0], p[1], p[2])).z
                     };
                     let (a, b) = (shift(eps), shift(-eps));
-                    let num = Vector2::new((a[0] - b[0]) / (2.0 * eps), wrap_angle(a[1] - b[1]) / (2.0 * eps));
-                    assert!((full.h_pose.column(k) - num).abs().max() < 1e-6, "{model:?} {pose:?} {m:?} column {k}: {} vs {num}", full.h_pose);
+                    let num = Vector2::new(
+                        (a[0] - b[0]) / (2.0 * eps),
+                        wrap_angle(a[1] - b[1]) / (2.0 * eps),
+                    );
+                    assert!(
+                        (full.h_pose.column(k) - num).abs().max() < 1e-6,
+                        "{model:?} {pose:?} {m:?} column {k}: {} vs {num}",
+                        full.h_pose
+                    );
                 }
                 // inverse: m = g⁻¹(pose, z) and its Jacobians
                 let z = full.z;
                 let inv = model.inverse_full(&z, &pose);
-                assert!((inv.m[0] - m[0]).abs() < 1e-9 && wrap_angle(inv.m[1] - m[1]).abs() < 1e-9 || (inv.m - m).norm() < 1e-9);
+                assert!(
+                    (inv.m[0] - m[0]).abs() < 1e-9 && wrap_angle(inv.m[1] - m[1]).abs() < 1e-9
+                        || (inv.m - m).norm() < 1e-9
+                );
                 let diff = |a: Vector2<f64>, b: Vector2<f64>| match model {
                     Model::Line => Vector2::new(a[0] - b[0], wrap_angle(a[1] - b[1])),
                     Model::Point => a - b,
@@ -330,7 +385,11 @@ mod tests {
                         model.inverse(&z, &Pose2::new(p[0], p[1], p[2]))
                     };
                     let num = diff(shift(eps), shift(-eps)) / (2.0 * eps);
-                    assert!((inv.g_pose.column(k) - num).abs().max() < 1e-6, "{model:?} g_pose column {k}: {} vs {num}", inv.g_pose);
+                    assert!(
+                        (inv.g_pose.column(k) - num).abs().max() < 1e-6,
+                        "{model:?} g_pose column {k}: {} vs {num}",
+                        inv.g_pose
+                    );
                 }
                 for k in 0..2 {
                     let shift = |e: f64| {
@@ -339,7 +398,11 @@ mod tests {
                         model.inverse(&zz, &pose)
                     };
                     let num = diff(shift(eps), shift(-eps)) / (2.0 * eps);
-                    assert!((inv.g_z.column(k) - num).abs().max() < 1e-6, "{model:?} g_z column {k}: {} vs {num}", inv.g_z);
+                    assert!(
+                        (inv.g_z.column(k) - num).abs().max() < 1e-6,
+                        "{model:?} g_z column {k}: {} vs {num}",
+                        inv.g_z
+                    );
                 }
             }
         }

@@ -82,7 +82,13 @@ pub struct Particle {
 
 impl Particle {
     pub fn new(pose: Pose2) -> Self {
-        Self { pose, log_weight: 0.0, lineage_log_weight: 0.0, map: Arc::new(Map::default()), path: Path::default() }
+        Self {
+            pose,
+            log_weight: 0.0,
+            lineage_log_weight: 0.0,
+            map: Arc::new(Map::default()),
+            path: Path::default(),
+        }
     }
 
     /// The map for writing: copied first if another particle shares it.
@@ -156,9 +162,16 @@ pub fn normalised_weights(particles: &mut [Particle]) -> Option<Vec<f64>> {
 
 /// The particles drawn from `ancestors` with their weights reset (maps shared, not copied), and
 /// where the particle `best` went: systematic resampling keeps ≥ 1 copy of any w ≥ 1/M.
-pub fn resampled(particles: &[Particle], ancestors: &[usize], best: usize) -> (Vec<Particle>, usize) {
+pub fn resampled(
+    particles: &[Particle],
+    ancestors: &[usize],
+    best: usize,
+) -> (Vec<Particle>, usize) {
     let best = ancestors.iter().position(|&a| a == best).unwrap_or(0);
-    (ancestors.iter().map(|&a| Particle { log_weight: 0.0, ..particles[a].clone() }).collect(), best)
+    (
+        ancestors.iter().map(|&a| Particle { log_weight: 0.0, ..particles[a].clone() }).collect(),
+        best,
+    )
 }
 
 /// Index of the largest weight (the first on ties).
@@ -181,7 +194,10 @@ mod tests {
         a.path.push(Pose2::new(2.0, 0.0, 0.0));
         b.path.push(Pose2::new(2.0, 1.0, 0.0));
         assert_eq!(a.path.poses().iter().map(|p| p.y).collect::<Vec<_>>(), vec![0.0, 0.0, 0.0]);
-        assert_eq!(b.path.poses().iter().map(|p| (p.x, p.y)).collect::<Vec<_>>(), vec![(0.0, 0.0), (1.0, 0.0), (2.0, 1.0)]);
+        assert_eq!(
+            b.path.poses().iter().map(|p| (p.x, p.y)).collect::<Vec<_>>(),
+            vec![(0.0, 0.0), (1.0, 0.0), (2.0, 1.0)]
+        );
         let mut long = Path::default();
         for k in 0..100_000 {
             long.push(Pose2::new(k as f64, 0.0, 0.0));

@@ -46,7 +46,10 @@ mod tests {
             // each particle gets ⌊M w⌋ or ⌈M w⌉ copies (systematic coverage); zero weight: none
             for (i, &wi) in w.iter().enumerate() {
                 let n = a.iter().filter(|&&x| x == i).count() as f64;
-                assert!(n >= (5.0 * wi - 1e-9).floor() && n <= (5.0 * wi + 1e-9).ceil(), "particle {i}: {n} copies of weight {wi}");
+                assert!(
+                    n >= (5.0 * wi - 1e-9).floor() && n <= (5.0 * wi + 1e-9).ceil(),
+                    "particle {i}: {n} copies of weight {wi}"
+                );
             }
         }
     }

@@ -59,14 +59,16 @@
 //! (FastSLAM 1.0: association and weights N(z; ẑ(x), Z) at the sampled pose), to show what the
 //! proposal buys.
 
-use super::fastslam::association::{resolve_shared, Association, Candidates};
+use super::fastslam::association::{Association, Candidates, resolve_shared};
 use super::fastslam::models::{FullPrediction, Model};
 use super::fastslam::particle::{self, Landmark, Map, Particle};
-use super::fastslam::{landmark_map, pose_belief, resample, DataAssociation, Estimator, FastSlamParams};
+use super::fastslam::{
+    DataAssociation, Estimator, FastSlamParams, landmark_map, pose_belief, resample,
+};
 use super::motion::MotionModel;
 use super::observations::{Cursor, Observation, StepObservations};
 use super::{SlamError, Trace};
-use crate::geom::{wrap_angle, Pose2};
+use crate::geom::{Pose2, wrap_angle};
 use crate::world::World;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use rand::Rng;
@@ -121,7 +123,9 @@ fn log_gaussian(nu: &Vector2<f64>, s: &Matrix2<f64>) -> Option<f64> {
     if !(det > 0.0 && s[(0, 0)] > 0.0 && det.is_finite()) {
         return None;
     }
-    let d2 = (s[(1, 1)] * nu[0] * nu[0] - (s[(0, 1)] + s[(1, 0)]) * nu[0] * nu[1] + s[(0, 0)] * nu[1] * nu[1]) / det;
+    let d2 = (s[(1, 1)] * nu[0] * nu[0] - (s[(0, 1)] + s[(1, 0)]) * nu[0] * nu[1]
+        + s[(0, 0)] * nu[1] * nu[1])
+        / det;
     let ll = -0.5 * d2 - LN_2PI - 0.5 * det.ln();
     ll.is_finite().then_some(ll)
 }
@@ -144,7 +148,13 @@ fn evaluate(o: &Observation, l: &Landmark, pose: &Pose2, pose_cov: &Matrix3<f64>
 /// The marginal Mahalanobis distance bounds the joint one from below, and det S ≥ det R since
 /// S − R ⪰ 0. A landmark whose bound is at most ln P0 can never be chosen nor count as a
 /// plausible candidate: skipping it changes no decision. +∞ (no skipping) when R is singular.
-fn log_likelihood_bound(o: &Observation, l: &Landmark, pose: &Pose2, pose_cov: &Matrix3<f64>, ln_det_r: f64) -> f64 {
+fn log_likelihood_bound(
+    o: &Observation,
+    l: &Landmark,
+    pose: &Pose2,
+    pose_cov: &Matrix3<f64>,
+    ln_det_r: f64,
+) -> f64 {
     if !ln_det_r.is_finite() {
         return f64::INFINITY;
     }
@@ -156,7 +166,8 @@ fn log_likelihood_bound(o: &Observation, l: &Landmark, pose: &Pose2, pose_cov: &
                 return f64::INFINITY; // left to `evaluate`, which counts it
             }
             let u = Vector2::new(dx / r, dy / r);
-            let s = (u.transpose() * (pose_cov.fixed_view::<2, 2>(0, 0) + l.cov) * u)[0] + o.r[(0, 0)]; // S_rr
+            let s =
+                (u.transpose() * (pose_cov.fixed_view::<2, 2>(0, 0) + l.cov) * u)[0] + o.r[(0, 0)]; // S_rr
             (o.z[0] - r, s)
         }
         Model::Line => {
@@ -245,7 +256,8 @@ fn initialise(o: &Observation, pose: &Pose2, id: Option<usize>) -> Option<Landma
     let h_inv = o.model.predict(&mean, pose).h.try_inverse()?;
     let cov = h_inv * o.r * h_inv.transpose();
     let cov = 0.5 * (cov + cov.transpose());
-    (mean.iter().all(|v| v.is_finite()) && cov.iter().all(|v| v.is_finite())).then(|| Landmark { id, ..Landmark::new(mean, cov) })
+    (mean.iter().all(|v| v.is_finite()) && cov.iter().all(|v| v.is_finite()))
+        .then(|| Landmark { id, ..Landmark::new(mean, cov) })
 }
 
 /// Each observation's association against one particle's map.
@@ -268,7 +280,12 @@ struct FastSlam2<'a> {
 }
 
 impl<'a> FastSlam2<'a> {
-    fn new(params: &'a FastSlamParams, motion: &'a MotionModel, proposal: Proposal, start: Pose2) -> Self {
+    fn new(
+        params: &'a FastSlamParams,
+        motion: &'a MotionModel,
+        proposal: Proposal,
+        start: Pose2,
+    ) -> Self {
         // `FastSlamParams::validate` rejects 0 particles; one keeps the filter defined anyway.
         let m = (params.particles as usize).max(1);
         Self {
@@ -286,7 +303,12 @@ impl<'a> FastSlam2<'a> {
     }
 
     /// One step. Returns N̂eff when the step weighted the particles.
-    fn step(&mut self, control: Option<&Pose2>, z: &[Observation], rng: &mut ChaCha8Rng) -> Option<f64> {
+    fn step(
+        &mut self,
+        control: Option<&Pose2>,
+        z: &[Observation],
+        rng: &mut ChaCha8Rng,
+    ) -> Option<f64> {
         for i in 0..self.particles.len() {
             self.advance(i, control, z, rng); // predict, associate, propose, sample, update, weight
         }
@@ -294,7 +316,13 @@ impl<'a> FastSlam2<'a> {
     }
 
     /// Moves particle `i` and, with observations, associates, updates its map and weights it.
-    fn advance(&mut self, i: usize, control: Option<&Pose2>, z: &[Observation], rng: &mut ChaCha8Rng) {
+    fn advance(
+        &mut self,
+        i: usize,
+        control: Option<&Pose2>,
+        z: &[Observation],
+        rng: &mut ChaCha8Rng,
+    ) {
         let previous = self.particles[i].pose;
         let Some(u) = control else {
             // the start: the pose is known exactly, nothing to sample
@@ -313,7 +341,8 @@ impl<'a> FastSlam2<'a> {
                 let predicted = self.motion.predict(&previous, u); // Eq. (1)
                 let q = self.motion.covariance(&previous, u); // Eq. (1)
                 let mut decisions = self.associate(i, &predicted, &q, z);
-                let pose = self.sample_proposal(i, (&previous, u), (predicted, q), z, &mut decisions, rng);
+                let pose =
+                    self.sample_proposal(i, (&previous, u), (predicted, q), z, &mut decisions, rng);
                 self.update(i, pose, z, &decisions);
                 pose
             }
@@ -329,7 +358,13 @@ impl<'a> FastSlam2<'a> {
 
     /// Associates every observation against particle `i`'s map (as it was before this step),
     /// seen from `pose` with covariance `pose_cov`.
-    fn associate(&mut self, i: usize, pose: &Pose2, pose_cov: &Matrix3<f64>, z: &[Observation]) -> Decisions {
+    fn associate(
+        &mut self,
+        i: usize,
+        pose: &Pose2,
+        pose_cov: &Matrix3<f64>,
+        z: &[Observation],
+    ) -> Decisions {
         let (ln_p0, rule) = (self.ln_p0, self.params.ambiguity);
         let known = self.params.association == DataAssociation::Known;
         let map = &self.particles[i].map;
@@ -341,10 +376,13 @@ impl<'a> FastSlam2<'a> {
                 if known {
                     // the landmark created from this identity, else a new one (`run` checked
                     // that every observation has an identity)
-                    return match landmarks.iter().position(|l| l.id.is_some() && l.id == o.landmark) {
+                    return match landmarks.iter().position(|l| l.id.is_some() && l.id == o.landmark)
+                    {
                         None => Association::New,
                         Some(j) => match evaluate(o, &landmarks[j], pose, pose_cov) {
-                            Some(m) => Association::Known { landmark: j, log_likelihood: m.log_likelihood },
+                            Some(m) => {
+                                Association::Known { landmark: j, log_likelihood: m.log_likelihood }
+                            }
                             None => {
                                 failures += 1;
                                 Association::Ignored
@@ -388,7 +426,15 @@ impl<'a> FastSlam2<'a> {
     /// together they are the joint predictive density of the matched observations, whose shared
     /// pose error the product of their marginals would count once per observation. A failed
     /// refinement keeps the association's value.
-    fn sample_proposal(&mut self, i: usize, (previous, u): (&Pose2, &Pose2), (predicted, q): (Pose2, Matrix3<f64>), z: &[Observation], decisions: &mut Decisions, rng: &mut ChaCha8Rng) -> Pose2 {
+    fn sample_proposal(
+        &mut self,
+        i: usize,
+        (previous, u): (&Pose2, &Pose2),
+        (predicted, q): (Pose2, Matrix3<f64>),
+        z: &[Observation],
+        decisions: &mut Decisions,
+        rng: &mut ChaCha8Rng,
+    ) -> Pose2 {
         let map = &self.particles[i].map;
         let (mut mu, mut sigma) = (predicted, q);
         let mut refined = 0;
@@ -410,7 +456,11 @@ impl<'a> FastSlam2<'a> {
             self.numerical_failures += 1;
             return self.motion.sample(previous, u, rng);
         };
-        let n: Vector3<f64> = Vector3::new(rng.sample(StandardNormal), rng.sample(StandardNormal), rng.sample(StandardNormal));
+        let n: Vector3<f64> = Vector3::new(
+            rng.sample(StandardNormal),
+            rng.sample(StandardNormal),
+            rng.sample(StandardNormal),
+        );
         let d = l * n; // Eq. (6)
         Pose2::new(mu.x + d[0], mu.y + d[1], wrap_angle(mu.theta + d[2]))
     }
@@ -490,16 +540,32 @@ impl<'a> FastSlam2<'a> {
     }
 }
 
-
 /// Runs FastSLAM 2.0 over a world's odometry and an observation stream (in step order).
 /// `points_as_corners`: point landmarks are laser corners (else the map's point landmarks, with
 /// their identities under known association).
-pub fn run(world: &World, params: &FastSlamParams, motion: &MotionModel, observations: &[StepObservations], points_as_corners: bool, rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
+pub fn run(
+    world: &World,
+    params: &FastSlamParams,
+    motion: &MotionModel,
+    observations: &[StepObservations],
+    points_as_corners: bool,
+    rng: &mut ChaCha8Rng,
+) -> Result<Trace, SlamError> {
     run_with(world, params, motion, observations, points_as_corners, Proposal::Observations, rng)
 }
 
-fn run_with(world: &World, params: &FastSlamParams, motion: &MotionModel, observations: &[StepObservations], points_as_corners: bool, proposal: Proposal, rng: &mut ChaCha8Rng) -> Result<Trace, SlamError> {
-    if params.association == DataAssociation::Known && observations.iter().flat_map(|s| &s.observations).any(|o| o.landmark.is_none()) {
+fn run_with(
+    world: &World,
+    params: &FastSlamParams,
+    motion: &MotionModel,
+    observations: &[StepObservations],
+    points_as_corners: bool,
+    proposal: Proposal,
+    rng: &mut ChaCha8Rng,
+) -> Result<Trace, SlamError> {
+    if params.association == DataAssociation::Known
+        && observations.iter().flat_map(|s| &s.observations).any(|o| o.landmark.is_none())
+    {
         return Err(SlamError::NoIdentities);
     }
     let Some(&start) = world.truth.first() else { return Ok(Trace::default()) };
