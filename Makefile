@@ -17,22 +17,26 @@ build:
 ## Run every study in experiments/ (cached, parallel, deterministic) and render reports/; the
 ## README's fidelity block is then refreshed from reports/fidelity/summary.md.
 report: build
+	tests/tools/python_deps.sh
 	$(BIN) run $(SPECS)
 	$(BIN) report --specs experiments
 	tests/tools/readme_block.sh write README.md reports/fidelity/summary.md
 
 ## Only (re)run the studies, without rendering.
 run: build
+	tests/tools/python_deps.sh
 	$(BIN) run $(SPECS)
 
 validate: build
 	$(BIN) validate $(SPECS)
 
-## Formatting (rustfmt.toml), unit and integration tests (and the benchmarks must compile). The dependency features of the
-## test build equal the release build's (checked first), so after `make report` no dependency is
+## Formatting (rustfmt.toml), unit and integration tests (and the benchmarks must compile); the
+## external-algorithm tests need python3 with numpy (installed when missing). The dependency
+## features of the test build equal the release build's (checked first), so after `make report` no dependency is
 ## compiled again.
 test:
 	tests/tools/build_tools.sh
+	tests/tools/python_deps.sh
 	$(CARGO) fmt --check
 	tests/tools/features_unified.sh
 	$(CARGO) test --release --locked

@@ -1,4 +1,4 @@
-//! Command line: `slamlab run|report|validate|plan|diff|export-tum`. Flags change how things run
+//! Command line: `slamlab run|report|validate|plan|diff|algorithms|export-tum`. Flags change how things run
 //! (threads, cache, directories), never what is computed: the spec is the complete record.
 //! Exit status: 0 success, 2 invalid input (spec or map), 1 any other failure.
 
@@ -103,6 +103,16 @@ enum Command {
         #[arg(long)]
         prune: bool,
     },
+    /// List the algorithms a study can name: the built-ins and the external programs declared in
+    /// the --algorithms folders (docs/external-algorithms.md).
+    Algorithms {
+        /// A Markdown table (the README's) instead of one line each.
+        #[arg(long)]
+        markdown: bool,
+        /// Directory of external algorithms' descriptors (<name>.toml); repeatable.
+        #[arg(long, default_value = "data/algorithms")]
+        algorithms: Vec<PathBuf>,
+    },
     /// Check specs (and the maps they name) without running anything.
     Validate {
         #[arg(required = true)]
@@ -110,6 +120,9 @@ enum Command {
         specs: Vec<PathBuf>,
         #[arg(long, default_value = "data/maps")]
         maps: PathBuf,
+        /// Directory of external algorithms' descriptors (<name>.toml); repeatable.
+        #[arg(long, default_value = "data/algorithms")]
+        algorithms: Vec<PathBuf>,
         /// Refuse a spec that expands to more runs than this.
         #[arg(long, default_value_t = plan::DEFAULT_MAX_RUNS)]
         max_runs: u64,
@@ -172,6 +185,9 @@ enum Command {
         /// Directory of map files (<name>.toml).
         #[arg(long, default_value = "data/maps")]
         maps: PathBuf,
+        /// Directory of external algorithms' descriptors (<name>.toml); repeatable.
+        #[arg(long, default_value = "data/algorithms")]
+        algorithms: Vec<PathBuf>,
     },
     /// Write <run-id>.gt.tum and <run-id>.est.tum for every run of a study (or of every study
     /// under a results root), for evaluation with evo.
@@ -191,6 +207,10 @@ struct Dirs {
     /// Directory of map files (<name>.toml).
     #[arg(long, default_value = "data/maps")]
     maps: PathBuf,
+    /// Directory of external algorithms' descriptors (<name>.toml; docs/external-algorithms.md);
+    /// repeatable.
+    #[arg(long, default_value = "data/algorithms")]
+    algorithms: Vec<PathBuf>,
     /// Results directory.
     #[arg(long, default_value = "data/results")]
     results: PathBuf,
@@ -286,9 +306,20 @@ fn dispatch(command: Command) -> Result<()> {
             }
             Ok(())
         }
-        Command::Validate { specs, maps, max_runs } => {
+        Command::Algorithms { markdown, algorithms } => {
+            let catalogue = spec::algorithms::catalogue(&algorithms).map_err(InvalidInput)?;
+            if markdown {
+                print!("{}", crate::algo::markdown_table(&catalogue));
+            } else {
+                for a in catalogue.all() {
+                    println!("{:<18} {}", a.name(), a.title());
+                }
+            }
+            Ok(())
+        }
+        Command::Validate { specs, maps, algorithms, max_runs } => {
             let mut absent = Vec::new();
-            for plan in load_plans(&specs, &maps, max_runs)? {
+            for plan in load_plans(&specs, &maps, &algorithms, max_runs)? {
                 match plan.maps.iter().find_map(|m| m.missing_data.as_ref()) {
                     // a valid spec whose real data is not on this machine: `run` would skip it
                     Some(why) => {
@@ -326,18 +357,24 @@ fn dispatch(command: Command) -> Result<()> {
         Command::ExportTum { results_dir, out_dir, runs } => {
             cmd_export_tum(&results_dir, &out_dir, &runs)
         }
-        Command::ExportScans { spec, run_id, out_dir, maps } => {
-            cmd_export_scans(&spec, &run_id, &out_dir, &maps)
+        Command::ExportScans { spec, run_id, out_dir, maps, algorithms } => {
+            cmd_export_scans(&spec, &run_id, &out_dir, &maps, &algorithms)
         }
     }
 }
 
 /// Loads and plans every spec; all errors of all files are reported together.
-fn load_plans(specs: &[PathBuf], maps: &Path, max_runs: u64) -> Result<Vec<ExperimentPlan>> {
+fn load_plans(
+    specs: &[PathBuf],
+    maps: &Path,
+    algorithms: &[PathBuf],
+    max_runs: u64,
+) -> Result<Vec<ExperimentPlan>> {
+    let catalogue = spec::algorithms::catalogue(algorithms).map_err(InvalidInput)?;
     let mut plans = Vec::new();
     let mut errors = Vec::new();
     for path in specs {
-        match spec::load(path)
+        match spec::load(path, &catalogue)
             .map_err(InputErrors::from)
             .and_then(|s| plan::build_limited(s, maps, max_runs))
         {
@@ -390,7 +427,7 @@ fn cmd_run(
     force: bool,
     quiet: bool,
 ) -> Result<()> {
-    let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
+    let plans = load_plans(specs, &dirs.maps, &dirs.algorithms, dirs.max_runs)?;
     let opts = options(dirs, threads, force, quiet)?;
     let provenance = Provenance::collect(Path::new("."));
     if provenance.git_dirty && !quiet {
@@ -471,7 +508,7 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
             bail!("--shards must be between 1 and {}", crate::plan::shard::MAX_SHARDS);
         }
     }
-    let plans = load_plans(spec_paths, &dirs.maps, dirs.max_runs)?;
+    let plans = load_plans(spec_paths, &dirs.maps, &dirs.algorithms, dirs.max_runs)?;
     let opts = options(dirs, Some(1), force, true)?;
     let owner = shards.map(|n| run::shards(&plans, n));
     for plan in &plans {
@@ -572,7 +609,7 @@ fn cmd_run_shard(
     quiet: bool,
     shard: crate::plan::shard::Shard,
 ) -> Result<()> {
-    let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
+    let plans = load_plans(specs, &dirs.maps, &dirs.algorithms, dirs.max_runs)?;
     let opts = options(dirs, threads, force, quiet)?;
     for plan in plans.iter().filter(|p| run::skipped(p)) {
         let why = plan.maps.iter().find_map(|m| m.missing_data.as_ref()).map_or("", String::as_str);
@@ -603,7 +640,7 @@ fn cmd_slurm(
     submit: bool,
 ) -> Result<()> {
     crate::report::slurm::validate(resources).map_err(anyhow::Error::msg)?;
-    let plans = load_plans(specs, &dirs.maps, dirs.max_runs)?;
+    let plans = load_plans(specs, &dirs.maps, &dirs.algorithms, dirs.max_runs)?;
     let opts = options(dirs, Some(1), false, true)?;
     let owner = run::shards(&plans, resources.tasks);
     let cache = store::Cache::new(&opts.cache_dir);
@@ -707,9 +744,19 @@ fn cmd_slurm(
     Ok(())
 }
 
-fn cmd_export_scans(spec_path: &Path, run_id: &str, out_dir: &Path, maps: &Path) -> Result<()> {
-    let plans =
-        load_plans(std::slice::from_ref(&spec_path.to_path_buf()), maps, plan::DEFAULT_MAX_RUNS)?;
+fn cmd_export_scans(
+    spec_path: &Path,
+    run_id: &str,
+    out_dir: &Path,
+    maps: &Path,
+    algorithms: &[PathBuf],
+) -> Result<()> {
+    let plans = load_plans(
+        std::slice::from_ref(&spec_path.to_path_buf()),
+        maps,
+        algorithms,
+        plan::DEFAULT_MAX_RUNS,
+    )?;
     let plan = &plans[0];
     let Some(run) = plan.runs.iter().find(|r| r.run_id == run_id) else {
         bail!(
@@ -719,19 +766,19 @@ fn cmd_export_scans(spec_path: &Path, run_id: &str, out_dir: &Path, maps: &Path)
             spec_path.display()
         );
     };
-    if !run.algorithm.is_scan_matcher() {
+    let params = &plan.points[run.point].params;
+    let Some(matcher) = plan.algorithm(run).matcher(params) else {
         bail!(
-            "run `{run_id}` is {}, not a scan matcher: it has no scan pairs",
-            run.algorithm.name()
+            "run `{run_id}` is {}, not a built-in scan matcher: it has no scan pairs",
+            run.algorithm
         );
-    }
+    };
     let world = run::world_of(plan, run).map_err(|e| anyhow::anyhow!("run `{run_id}`: {e}"))?;
     let geometry = world.laser.context("the run's world has no laser")?;
-    let params = &plan.points[run.point].params;
     let mut clock = || 0.0;
     let tracked = crate::scanmatch::track::track(
         &world,
-        run::scan_matcher(run.algorithm, params),
+        matcher,
         &params.scan_matching,
         run.filter_seed,
         &mut clock,
@@ -739,7 +786,7 @@ fn cmd_export_scans(spec_path: &Path, run_id: &str, out_dir: &Path, maps: &Path)
     .map_err(|e| anyhow::anyhow!("run `{run_id}`: {e}"))?;
     std::fs::create_dir_all(out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
     let files = [
-        ("scans.txt", store::scans::scans_text(&geometry, &world.scans)),
+        ("scans.txt", crate::world::laser::scans_text(&geometry, &world.scans)),
         ("pairs.txt", store::scans::pairs_text(&tracked.trace.matches)),
         ("matches.txt", store::scans::matches_text(&tracked.trace.matches)),
     ];

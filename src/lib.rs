@@ -7,6 +7,7 @@
 //! `geom`, `world`, `features`, `slam`, `scanmatch` and `metrics` are pure: no IO, no
 //! printing, no threads, no global RNG.
 
+pub mod algo;
 pub mod cli;
 pub mod config;
 pub mod dataset;
@@ -15,6 +16,7 @@ pub mod features;
 pub mod geom;
 pub mod judge;
 pub mod metrics;
+pub mod params;
 pub mod plan;
 pub mod report;
 pub mod run;
@@ -24,4 +26,5 @@ pub mod source;
 pub mod spec;
 pub mod stats;
 pub mod store;
+pub mod trace;
 pub mod world;

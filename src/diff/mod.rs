@@ -13,7 +13,7 @@
 
 use crate::judge::change::{self, Verdict};
 use crate::metrics::metric_def;
-use crate::spec::params::flatten;
+use crate::params::flatten;
 use crate::stats::{compare, hypothesis as stats};
 use crate::store::{self, RunRow, RunStatus, StudyData};
 use std::collections::BTreeMap;
@@ -187,7 +187,7 @@ fn spec_changes(a: &StudyData, b: &StudyData) -> Vec<String> {
     }
     let (sa, sb) = (&a.resolved.spec, &b.resolved.spec);
     let names = |s: &crate::spec::ExperimentSpec| {
-        s.algorithms.iter().map(|x| x.name()).collect::<Vec<_>>().join(", ")
+        s.algorithms.iter().map(|x| x.as_str()).collect::<Vec<_>>().join(", ")
     };
     if sa.algorithms != sb.algorithms {
         out.push(format!("algorithms: [{}] → [{}]", names(sa), names(sb)));

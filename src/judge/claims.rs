@@ -32,6 +32,7 @@
 //! Runs share their world seeds across sweep points (replicate k of every point saw the same
 //! world), so cell comparisons use paired differences over replicates.
 
+use crate::algo::{AlgorithmId, Catalogue};
 use crate::spec::{ClaimSpec, ClaimTest, FlatDirection, Require};
 use crate::stats::compare::{paired_differences as paired, stouffer, t_interval, t_one_sided_p};
 use crate::stats::hypothesis::{holm, mean};
@@ -269,7 +270,7 @@ fn on_map(
             .map(|p| data.replicate_values(map, alg, p, &claim.metric))
             .unwrap_or_default()
     };
-    let than_algorithm = claim.than_algorithm.map_or(algorithm, |a| a.name());
+    let than_algorithm = claim.than_algorithm.as_ref().map_or(algorithm, |a| a.as_str());
     let at = values(&cells.at, algorithm);
     let s_at = summarize(&at);
     if let Some(pre) = &claim.precondition {
@@ -579,13 +580,14 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
     } else {
         super::sensitivity::analyse(data, &index_metrics)
     };
+    let catalogue = data.resolved.catalogue();
     spec.claims
         .iter()
         .filter_map(|claim| {
             let cells = data.resolved.claims.iter().find(|c| c.id == claim.id)?;
             let maps: Vec<&String> = if claim.maps.is_empty() { spec.maps.iter().collect() } else { claim.maps.iter().collect() };
-            let algorithm = claim.algorithm.or(spec.algorithms.first().copied())?;
-            let outcomes: Vec<MapOutcome> = maps.iter().map(|m| if claim.index.is_some() { index_on_map(&analyses, claim, m, algorithm.name()) } else { on_map(data, claim, cells, m, algorithm.name()) }).collect();
+            let algorithm = claim.algorithm.as_ref().or(spec.algorithms.first())?.as_str();
+            let outcomes: Vec<MapOutcome> = maps.iter().map(|m| if claim.index.is_some() { index_on_map(&analyses, claim, m, algorithm) } else { on_map(data, claim, cells, m, algorithm) }).collect();
             let verdicts: Vec<Verdict> = outcomes.iter().map(|o| o.verdict).collect();
             let comparative = matches!(claim.test, ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess);
             let pooled = (claim.require == Require::Pooled && comparative).then(|| pooled(&outcomes));
@@ -630,7 +632,7 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
                 seed: claim.seed_tag().unwrap_or("").to_string(),
                 kind: claim.kind.as_str().to_string(),
                 text: claim.text.clone(),
-                test: test_text(claim, cells, spec.report.sensitivity_log.contains(&claim.metric)),
+                test: test_text(claim, cells, spec.report.sensitivity_log.contains(&claim.metric), &catalogue),
                 verdict,
                 summary,
                 evidence,
@@ -645,7 +647,7 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
 /// A cell as the claim wrote it: `a.b = 1, c.d = 2`, or "base".
 fn cell_text(t: &toml::Table) -> String {
     let mut leaves = Vec::new();
-    crate::spec::params::flatten("", &toml::Value::Table(t.clone()), &mut leaves);
+    crate::params::flatten("", &toml::Value::Table(t.clone()), &mut leaves);
     if leaves.is_empty() {
         return "base".into();
     }
@@ -829,7 +831,8 @@ fn index_test_text(c: &ClaimSpec, kind: crate::spec::IndexKind, log: bool) -> St
 }
 
 /// `log`: an index claim's metric is analysed as ln (`[report] sensitivity_log`).
-fn test_text(c: &ClaimSpec, cells: &ClaimCells, log: bool) -> String {
+fn test_text(c: &ClaimSpec, cells: &ClaimCells, log: bool, catalogue: &Catalogue) -> String {
+    let title = |a: &AlgorithmId| catalogue.algorithm(a).title().to_string();
     if let Some(kind) = c.index {
         return index_test_text(c, kind, log);
     }
@@ -846,7 +849,7 @@ fn test_text(c: &ClaimSpec, cells: &ClaimCells, log: bool) -> String {
     match c.test {
         ClaimTest::Fails => format!(
             "the runs{} at {at} fail{}: confirmed when every run fails, refuted when none does",
-            c.algorithm.map_or(String::new(), |a| format!(" of {}", a.title())),
+            c.algorithm.as_ref().map_or(String::new(), |a| format!(" of {}", title(a))),
             c.failure
                 .as_deref()
                 .map_or(String::new(), |t| format!(" with an error containing “{t}”"))
@@ -857,12 +860,12 @@ fn test_text(c: &ClaimSpec, cells: &ClaimCells, log: bool) -> String {
             format!("{metric} at {at}: 95 % CI of the mean within [{}, {}]", v(c.value), v(c.upper))
         }
         ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
-            let than = match c.than_algorithm {
-                Some(a) if c.than.is_empty() => format!("that of {}", a.title()),
-                Some(a) => format!("{} at {}", a.title(), cell_text(&c.than)),
+            let than = match &c.than_algorithm {
+                Some(a) if c.than.is_empty() => format!("that of {}", title(a)),
+                Some(a) => format!("{} at {}", title(a), cell_text(&c.than)),
                 None => format!("at {}", cell_text(&c.than)),
             };
-            let who = c.algorithm.map_or(String::new(), |a| format!(" of {}", a.title()));
+            let who = c.algorithm.as_ref().map_or(String::new(), |a| format!(" of {}", title(a)));
             let what = match c.test {
                 ClaimTest::Greater => "exceeds",
                 ClaimTest::Less => "is below",

@@ -167,7 +167,7 @@ pub fn point_in(
         return Some(p.label.clone());
     }
     let mut leaves = Vec::new();
-    crate::spec::params::flatten("", &toml::Value::Table(base.clone()), &mut leaves);
+    crate::params::flatten("", &toml::Value::Table(base.clone()), &mut leaves);
     if !leaves.iter().any(|(k, v)| *k == row.parameter && close(v)) {
         return None;
     }
@@ -183,7 +183,7 @@ pub fn point_in(
 pub fn our_values(data: &StudyData, row: &ReferenceRow, metric: &str) -> Option<Vec<f64>> {
     let point = point_of(data, row)?;
     let algorithm = if row.algorithm.is_empty() {
-        data.resolved.spec.algorithms.first()?.name().to_string()
+        data.resolved.spec.algorithms.first()?.to_string()
     } else {
         row.algorithm.clone()
     };

@@ -15,11 +15,11 @@
 //!   √(2σ²/R)·√(2/π)/Δ (the mean |difference| of two noisy outputs over the step). An index
 //!   whose interval does not clear the floor cannot be told apart from simulation noise.
 
-use crate::plan::design::DesignRecord;
 use crate::spec::SweepKind;
 use crate::stats::sensitivity::{
     Screening, VarianceShares, screen, sobol_indices, variance_shares,
 };
+use crate::store::DesignRecord;
 use crate::store::{RunStatus, StudyData};
 use std::collections::{BTreeMap, HashMap};
 
@@ -87,7 +87,7 @@ pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
         let Some(design) = &group.design else { continue };
         for map in &spec.maps {
             for algorithm in &spec.algorithms {
-                let alg = algorithm.name();
+                let alg = algorithm.as_str();
                 let of_cell = cells.get(&(map.as_str(), alg));
                 for metric in metrics {
                     let seed = crate::plan::derive_seed(

@@ -400,9 +400,8 @@ pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
 
 /// [EP] §5's per-match errors, aggregated as its tables (mean and max of absolute values), plus
 /// RMS errors, cost and failure counts. Failed matches count in the failure rate only.
-pub fn match_metrics(matches: &[crate::scanmatch::track::MatchRecord]) -> RunMetrics {
-    let ok: Vec<&crate::scanmatch::track::MatchRecord> =
-        matches.iter().filter(|m| m.succeeded()).collect();
+pub fn match_metrics(matches: &[crate::trace::MatchRecord]) -> RunMetrics {
+    let ok: Vec<&crate::trace::MatchRecord> = matches.iter().filter(|m| m.succeeded()).collect();
     let errors: Vec<(f64, f64, f64)> = ok.iter().map(|m| m.error()).collect();
     let mean = |v: &mut dyn Iterator<Item = f64>| {
         let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));

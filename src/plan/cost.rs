@@ -10,26 +10,9 @@
 //! the 2-core CI machine; README, "Running on a cluster"). An error of the fit moves no result.
 
 use super::{ExperimentPlan, RunSpec};
-use crate::slam::AlgorithmKind;
+use crate::algo::RunSize;
+pub use crate::algo::Work;
 use crate::world::WorldKind;
-
-/// Sizes of a run's work, in counts (not seconds).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Work {
-    /// Odometry steps (the other terms derive from them; no weight of its own).
-    pub steps: f64,
-    /// Beams of the scans whose features are extracted.
-    pub extraction: f64,
-    /// Filter updates on laser features: scans × particles × landmarks (FastSLAM), scans ×
-    /// landmarks² (EKF).
-    pub filter: f64,
-    /// The same on point-landmark readings (readings per step × particles × landmarks).
-    pub filter_points: f64,
-    /// Matches × beams × (iterations or evaluations) of a scan matcher.
-    pub matching: f64,
-    /// Steps of a real log (read, not simulated).
-    pub log_steps: f64,
-}
 
 /// Seconds per unit of each [`Work`] term: non-negative least squares (rows weighted by
 /// 1/√time) over the 8 174 runs computed by `make report` from scratch on the reference machine
@@ -58,6 +41,7 @@ impl Work {
             + s::FILTER_POINTS * self.filter_points
             + s::MATCHING * self.matching
             + s::LOG_STEP * self.log_steps
+            + self.external_s
     }
 }
 
@@ -68,7 +52,8 @@ const LOG_STEPS: f64 = 50_000.0;
 pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
     let params = &plan.points[run.point].params;
     let map = &plan.maps[run.map].map;
-    let sensors = run.algorithm.sensors(map.world_kind());
+    let algorithm = plan.algorithm(run);
+    let sensors = algorithm.sensors(map.world_kind());
     let mut w = Work::default();
     let Some(route) = &map.trajectory else {
         w.log_steps = LOG_STEPS;
@@ -97,77 +82,8 @@ pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
     } else {
         w.steps * params.landmark_sensor.rate_hz * params.sim.dt_s
     };
-    match run.algorithm {
-        AlgorithmKind::Odometry => {}
-        AlgorithmKind::OdometryMap
-        | AlgorithmKind::Fastslam1
-        | AlgorithmKind::Fastslam2
-        | AlgorithmKind::EkfSlam => {
-            if kind == WorldKind::Laser {
-                w.extraction = scans * beams;
-            }
-            let particles = match run.algorithm {
-                AlgorithmKind::OdometryMap => 1.0,
-                AlgorithmKind::EkfSlam => landmarks.max(1.0),
-                _ => f64::from(params.fastslam.particles),
-            };
-            // FastSLAM 2.0 samples its proposal once per particle per observation: about twice 1.0
-            let proposal = if run.algorithm == AlgorithmKind::Fastslam2 { 2.0 } else { 1.0 };
-            let filter = updates * particles * landmarks.max(1.0) * proposal;
-            if kind == WorldKind::Laser {
-                w.filter = filter;
-            } else {
-                w.filter_points = filter;
-            }
-        }
-        a => {
-            let sm = &params.scan_matching;
-            let trigger_m = if sm.trigger_distance_m > 0.0 { sm.trigger_distance_m } else { 0.5 };
-            let mut matches = (path_m / trigger_m).min(scans);
-            if sm.max_matches > 0 {
-                matches = matches.min(f64::from(sm.max_matches));
-            }
-            // evaluations of the objective per match (each over all beams): the means measured in
-            // the [EP] studies (matches.parquet), bounded by the budget where one applies
-            let maxeval = f64::from(params.pose_search.maxeval.max(1));
-            let evaluations = match a {
-                AlgorithmKind::Psm | AlgorithmKind::PsmOriginal => 12.0,
-                AlgorithmKind::Epsm => 670.0,
-                AlgorithmKind::BruteForce => {
-                    let side = 2.0
-                        * (params.brute_force.half_window_m / params.brute_force.step_m.max(1e-6))
-                            .round()
-                        + 1.0;
-                    // E-PSM's orientation search at a cell: ≈ 121 evaluations
-                    match params.brute_force.mode {
-                        crate::scanmatch::brute::BruteForceMode::Nested => side * side * 121.0,
-                        crate::scanmatch::brute::BruteForceMode::Descent => {
-                            side * side
-                                + f64::from(params.brute_force.max_moves).min(20.0) * 8.0 * 121.0
-                        }
-                    }
-                }
-                AlgorithmKind::PoseSearch(o) => {
-                    use crate::scanmatch::search::Optimizer as O;
-                    match o {
-                        O::DirectL | O::Isres => maxeval,
-                        O::MlslLds => 4.0 * maxeval,
-                        O::Crs2 => maxeval.min(960.0),
-                        O::Bobyqa => 32.0,
-                        O::Cobyla => 46.0,
-                        O::Slsqp => 75.0,
-                        O::Lbfgs | O::Var2 => 90.0,
-                        O::Tnewton => 127.0,
-                        O::Sbplx => 154.0,
-                    }
-                }
-                _ => 12.0,
-            };
-            w.extraction = matches * beams;
-            w.matching = matches * beams * evaluations;
-        }
-    }
-    w
+    let size = RunSize { kind, steps: w.steps, path_m, scans, beams, updates, landmarks };
+    Work { steps: w.steps, ..algorithm.work(params, &size) }
 }
 
 /// Expected seconds of `run` on one core of the reference machine.
@@ -181,7 +97,7 @@ mod tests {
 
     fn plan(spec: &str) -> ExperimentPlan {
         crate::plan::build(
-            crate::spec::load(std::path::Path::new(spec)).expect("spec loads"),
+            crate::spec::load(std::path::Path::new(spec), &Default::default()).expect("spec loads"),
             std::path::Path::new("data/maps"),
         )
         .expect("spec plans")
@@ -195,7 +111,7 @@ mod tests {
             .find(|r| {
                 plan.maps[r.map].name == map
                     && plan.points[r.point].label.contains(point)
-                    && r.algorithm.name() == algorithm
+                    && r.algorithm.as_str() == algorithm
                     && r.replicate == 0
             })
             .expect("such a run");

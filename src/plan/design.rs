@@ -10,28 +10,6 @@
 
 use crate::spec::{DesignSpec, RangedParam, SweepKind};
 use crate::stats::sensitivity::{Morris, Saltelli};
-use serde::{Deserialize, Serialize};
-
-/// What a design group of `resolved.toml` records: the ranged parameters, the sweep point of
-/// every design row, and (Morris) the paths' moves and realised coordinates.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DesignRecord {
-    /// Sobol: base samples N (rows: A₁…A_N, B₁…B_N, then A with column i from B for each i).
-    /// Morris: trajectories r (rows: the d + 1 points of each trajectory in turn).
-    pub size: usize,
-    /// Point label of each design row (two rows that round to the same parameters share one).
-    pub rows: Vec<String>,
-    /// Morris: the parameter each step of each trajectory moves.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub moved: Vec<Vec<usize>>,
-    /// Morris: each row's realised coordinates in [0, 1] (after rounding).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub unit: Vec<Vec<f64>>,
-    /// Morris: the design's step Δ on the unit scale.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub delta: Option<f64>,
-}
 
 /// A design's rows before they are realised.
 #[derive(Debug, Clone, PartialEq)]

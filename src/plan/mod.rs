@@ -5,8 +5,8 @@
 //! Seeds come from (study seed, map, replicate) only — never from the swept value or the
 //! algorithm — so every point and algorithm of a study sees the same worlds (paired comparisons).
 
+use crate::algo::{Algorithm, AlgorithmId};
 use crate::metrics::METRICS_VERSION;
-use crate::slam::AlgorithmKind;
 use crate::spec::{InputErrors, LoadedSpec, Params, SpecError, SweepKind};
 use crate::store::{ClaimCells, reference as reference_file};
 use crate::world::WORLD_CODE_VERSION;
@@ -43,7 +43,7 @@ pub struct SweepGroup {
     /// The group's points are named cells (a zip sweep with `labels`).
     pub named: bool,
     /// A morris / sobol group: the sweep point of each design row.
-    pub design: Option<design::DesignRecord>,
+    pub design: Option<crate::store::DesignRecord>,
 }
 
 /// One parameter set of the study.
@@ -64,7 +64,7 @@ pub struct RunSpec {
     pub run_id: String,
     pub map: usize,
     pub point: usize,
-    pub algorithm: AlgorithmKind,
+    pub algorithm: AlgorithmId,
     pub replicate: u32,
     pub world_seed: u64,
     pub filter_seed: u64,
@@ -94,6 +94,11 @@ pub struct ExperimentPlan {
 impl ExperimentPlan {
     pub fn id(&self) -> &str {
         &self.spec.spec.id
+    }
+
+    /// The algorithm of `run`.
+    pub fn algorithm(&self, run: &RunSpec) -> &dyn Algorithm {
+        self.spec.catalogue.algorithm(&run.algorithm)
     }
 }
 
@@ -171,7 +176,7 @@ pub fn build_limited(
     // The sensors the study simulates, from its algorithms and its maps' world kinds: a sensor rate
     // must fit the clock only where that sensor is simulated.
     let kinds: Vec<crate::world::WorldKind> = maps.iter().map(|m| m.map.world_kind()).collect();
-    let sensors = crate::slam::Sensors::union(&spec.spec.algorithms, &kinds);
+    let sensors = spec.catalogue.sensors(&spec.spec.algorithms, &kinds);
     let base_errors: Vec<_> = spec
         .spec
         .base
@@ -324,7 +329,7 @@ pub fn available_maps(dir: &Path) -> Vec<String> {
 /// Sweep blocks → groups and deduplicated points (in first-appearance order).
 fn expand(
     spec: &LoadedSpec,
-    sensors: crate::slam::Sensors,
+    sensors: crate::world::Sensors,
 ) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecError> {
     // Each candidate: assignments with, for error placement, the key of each value.
     type Candidate = Vec<(String, toml::Value, String)>;
@@ -370,7 +375,7 @@ fn expand(
                 kind: block.kind,
                 params: d.params.iter().map(|p| p.path.clone()).collect(),
                 named: false,
-                design: Some(design::DesignRecord {
+                design: Some(crate::store::DesignRecord {
                     size: unit.size,
                     rows: Vec::new(),
                     moved: unit.moved,
@@ -506,7 +511,7 @@ fn expand(
 fn resolve(
     spec: &LoadedSpec,
     assignments: &[(String, toml::Value, String)],
-    sensors: crate::slam::Sensors,
+    sensors: crate::world::Sensors,
 ) -> Result<Params, Vec<crate::source::SourceError>> {
     if assignments.is_empty() {
         return Ok(spec.spec.base.clone());
@@ -589,11 +594,11 @@ fn find_point(
     key: &str,
 ) -> Result<usize, crate::source::SourceError> {
     let mut leaves = Vec::new();
-    crate::spec::params::flatten("", &toml::Value::Table(table.clone()), &mut leaves);
+    crate::params::flatten("", &toml::Value::Table(table.clone()), &mut leaves);
     let assignments: Vec<(String, toml::Value, String)> =
         leaves.into_iter().map(|(p, v)| (p.clone(), v, crate::source::join_key(key, &p))).collect();
     // only to find the point: the points themselves were checked with the study's sensors
-    let params = resolve(spec, &assignments, crate::slam::Sensors::default())
+    let params = resolve(spec, &assignments, crate::world::Sensors::default())
         .map_err(|mut e| e.remove(0))?;
     points.iter().position(|p| p.params == params).ok_or_else(|| {
         spec.error_at(key, "no sweep point of this study has these parameters (the others at base)")
@@ -631,7 +636,7 @@ fn claim_cells(spec: &LoadedSpec, points: &[SweepPoint]) -> Result<Vec<ClaimCell
         };
         // Comparing algorithms without a `than` cell: the same cell.
         let than = if c.than.is_empty() {
-            c.than_algorithm.and(at.clone())
+            c.than_algorithm.as_ref().and(at.clone())
         } else {
             cell(&c.than, "than")
         };
@@ -743,7 +748,8 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
     let width = (s.replicates.saturating_sub(1)).to_string().len().max(2);
     let mut runs = Vec::new();
     for (mi, map) in maps.iter().enumerate() {
-        for &algorithm in &s.algorithms {
+        for id in &s.algorithms {
+            let algorithm = spec.catalogue.algorithm(id);
             // The world's parts this run reads: the point sensor's and the dataset loaders'
             // versions enter only the hashes of the runs that use them.
             let mut code_version = format!(
@@ -764,7 +770,8 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
                 ));
             }
             for (pi, point) in points.iter().enumerate() {
-                let sections = point.params.sections_read_by(algorithm, map.map.world_kind());
+                let sections =
+                    point.params.sections(&algorithm.sections_read(map.map.world_kind()));
                 for replicate in 0..s.replicates {
                     let world_seed = derive_seed(
                         s.seed,
@@ -793,7 +800,7 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
                         ),
                         map: mi,
                         point: pi,
-                        algorithm,
+                        algorithm: id.clone(),
                         replicate,
                         world_seed,
                         filter_seed,
@@ -819,7 +826,8 @@ mod tests {
             "name = \"box\"\ntitle = \"Box\"\nstart = { x_m = 0.0, y_m = 0.0, theta_deg = 0.0 }\n[[walls]]\npoints = [[-1, -1], [5, -1], [5, 5], [-1, 5], [-1, -1]]\n[trajectory]\nmax_speed_mps = 0.5\nlaps = 1\nwaypoints = [[4, 0], [0, 0]]\n",
         )
         .unwrap();
-        let spec = crate::spec::parse(Path::new("s.toml"), text).map_err(InputErrors::from)?;
+        let spec = crate::spec::parse(Path::new("s.toml"), text, &Default::default())
+            .map_err(InputErrors::from)?;
         build(spec, dir.path())
     }
 
@@ -878,7 +886,7 @@ mod tests {
         };
         let plan = |m: &str| {
             build(
-                crate::spec::parse(Path::new("s.toml"), &text(m))
+                crate::spec::parse(Path::new("s.toml"), &text(m), &Default::default())
                     .map_err(InputErrors::from)
                     .unwrap(),
                 dir.path(),
@@ -894,11 +902,20 @@ mod tests {
             .replace("dt_s = 0.3", "dt_s = 0.25")
             .replace("rate_hz = 1.0", "rate_hz = 2.0");
         assert!(
-            build(crate::spec::parse(Path::new("s.toml"), &fits).unwrap(), dir.path()).is_ok(),
+            build(
+                crate::spec::parse(Path::new("s.toml"), &fits, &Default::default()).unwrap(),
+                dir.path()
+            )
+            .is_ok(),
             "the laser's 5 Hz at Δt = 0.25 s is not checked on a point map"
         );
         let e = build(
-            crate::spec::parse(Path::new("s.toml"), &fits.replace("\"dots\"", "\"box\"")).unwrap(),
+            crate::spec::parse(
+                Path::new("s.toml"),
+                &fits.replace("\"dots\"", "\"box\""),
+                &Default::default(),
+            )
+            .unwrap(),
             dir.path(),
         )
         .unwrap_err();
@@ -1053,7 +1070,7 @@ mod tests {
     fn sobol_designs_are_counted_before_expansion() {
         let text = HEAD.replace("[\"odometry\"]", "[\"fastslam1\"]")
             + "[[sweeps]]\nkind = \"sobol\"\nsamples = 8\nranges = { \"fastslam.p0\" = [0.001, 1.0], \"fastslam.motion_x\" = [0.001, 0.1] }\n";
-        let spec = crate::spec::parse(Path::new("s.toml"), &text).unwrap();
+        let spec = crate::spec::parse(Path::new("s.toml"), &text, &Default::default()).unwrap();
         assert_eq!(planned_runs(&spec), 8 * 4 * 3);
         let plan = plan_of(&text).unwrap();
         assert_eq!(plan.groups[0].design.as_ref().unwrap().rows.len(), 32);

@@ -6,11 +6,11 @@
 use super::figure::{
     self, ContourFigure, LineFigure, LineSeries, PathSeries, ScanMapFigure, SeriesPoint, XAxis,
 };
-use super::view::FigureView;
+use super::model::FigureView;
+use crate::algo::Catalogue;
 use crate::scanmatch::diagnose::{
     Diagnostics, MatchDiagnostic, OrientationSlices, diosi_parabola, vertex,
 };
-use crate::slam::AlgorithmKind;
 use crate::spec::ExperimentSpec;
 use crate::stats::sig;
 use crate::world::map::Map;
@@ -31,20 +31,29 @@ pub struct DiagnosticViews {
     pub figures: Vec<FigureView>,
 }
 
+/// The report's name of a re-run matcher (built-in: slamlab re-runs only its own matchers).
 fn title(name: &str) -> String {
-    AlgorithmKind::from_name(name).map_or(name.to_string(), |a| a.title().to_string())
+    Catalogue::builtin().get(name).map_or(name.to_string(), |a| a.title().to_string())
 }
 
 /// Colour of an algorithm: its position in the spec (as in every other figure of the report).
 fn color(spec: &ExperimentSpec, name: &str) -> usize {
-    spec.algorithms.iter().position(|a| a.name() == name).unwrap_or(0)
+    spec.algorithms.iter().position(|a| a.as_str() == name).unwrap_or(0)
 }
 
 fn deg(rad: f64) -> f64 {
     rad.to_degrees()
 }
 
-pub fn build(d: &Diagnostics, spec: &ExperimentSpec, map: Option<&Map>) -> DiagnosticViews {
+pub fn build(
+    d: &Diagnostics,
+    spec: &ExperimentSpec,
+    catalogue: &Catalogue,
+    map: Option<&Map>,
+) -> DiagnosticViews {
+    // every algorithm of the cell has a map, external programs too
+    let title =
+        |name: &str| catalogue.get(name).map_or(name.to_string(), |a| a.title().to_string());
     let map_title = map.map_or(d.map.clone(), |m| m.title.clone());
     let mut intro = vec![format!(
         "The run shown: {map_title} ({}), replicate {} at {} (the trajectory figure's run). Each diagnosed match is re-run with observers that cannot change its result; {}",

@@ -4,7 +4,7 @@
 
 use super::ReportError;
 use super::figure::{self, LineFigure, LineSeries, SeriesPoint, XAxis};
-use super::view::{FigureView, TableView};
+use super::model::{FigureView, TableView};
 use crate::diff::Diff;
 use crate::judge::change::Verdict;
 use crate::stats::{self, sig};
@@ -85,7 +85,7 @@ fn study_figures(id: &str, a: &StudyData, b: &StudyData, changed: &[&str]) -> Ve
                             .iter()
                             .zip(&xs)
                             .map(|(p, &x)| {
-                                let s = cell(data, map, algorithm.name(), &p.label, metric);
+                                let s = cell(data, map, algorithm.as_str(), &p.label, metric);
                                 SeriesPoint {
                                     x,
                                     mean: s.mean,
@@ -97,7 +97,7 @@ fn study_figures(id: &str, a: &StudyData, b: &StudyData, changed: &[&str]) -> Ve
                         pts.sort_by(|p, q| p.x.total_cmp(&q.x));
                         let color = series.len() / 2;
                         series.push(LineSeries {
-                            label: format!("{map} / {} ({side})", algorithm.name()),
+                            label: format!("{map} / {algorithm} ({side})"),
                             color,
                             points: pts,
                             dashed,

@@ -2,7 +2,7 @@
 //! (from `judge::scoreboard` and `judge::claims`) → tables for `reports/fidelity/` (HTML, LaTeX,
 //! Markdown) and the Markdown block the README quotes. Formats only; every rule is in `judge/`.
 
-use super::view::TableView;
+use super::model::TableView;
 use crate::judge::claims::{ClaimResult, Verdict};
 use crate::judge::scoreboard::{Class, ItemResult};
 use serde::Serialize;

@@ -191,10 +191,10 @@ fn column_width(spec: &str, entries: impl Iterator<Item = usize>, font_pt: f64) 
 /// repeating the first `labels` columns. A part whose label columns alone leave no room wraps the
 /// widest label column (`p{…}`) instead. One part when the table fits.
 pub fn parts(
-    table: &super::view::TableView,
+    table: &super::model::TableView,
     labels: usize,
     font_pt: f64,
-) -> Vec<super::view::TableView> {
+) -> Vec<super::model::TableView> {
     let specs = column_specs(&table.align);
     let n = table.columns.len();
     if specs.len() != n || n == 0 {
@@ -236,7 +236,7 @@ pub fn parts(
                     .max(0.12 * TEXT_WIDTH_PT);
                 part_specs[wi] = format!("p{{{:.2}\\linewidth}}", room / TEXT_WIDTH_PT);
             }
-            super::view::TableView {
+            super::model::TableView {
                 columns: keep.iter().map(|&k| table.columns[k].clone()).collect(),
                 rows: table
                     .rows
@@ -252,7 +252,7 @@ pub fn parts(
 #[cfg(test)]
 mod parts_tests {
     use super::*;
-    use crate::report::view::TableView;
+    use crate::report::model::TableView;
 
     fn table(columns: usize, width: usize) -> TableView {
         TableView {

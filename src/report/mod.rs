@@ -8,6 +8,7 @@ pub mod diff_page;
 pub mod fidelity;
 pub mod figure;
 pub mod latex;
+pub mod model;
 pub mod pgf;
 pub mod sensitivity;
 pub mod slurm;
@@ -119,7 +120,7 @@ fn latex_parts(
         "normalsize" => 10.0,
         other => return Err(bad(&format!("unknown size {other}"))),
     };
-    Ok(latex::parts(&view::TableView { columns, rows, align }, labels, font_pt)
+    Ok(latex::parts(&model::TableView { columns, rows, align }, labels, font_pt)
         .iter()
         .map(minijinja::Value::from_serialize)
         .collect())
@@ -225,17 +226,18 @@ pub fn render_all(
     }
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     let rendered: Vec<&str> = pages.iter().map(|p| p.view.id.as_str()).collect();
-    let mut kept: Vec<(String, view::IndexEntry)> = Vec::new();
+    let mut kept: Vec<(String, model::IndexEntry)> = Vec::new();
     let mut claims: Vec<ClaimResult> =
         pages.iter().flat_map(|p| p.view.claims.iter().cloned()).collect();
     for id in keep.iter().filter(|id| !rendered.contains(&id.as_str())) {
         let dir = reports_dir.join(id);
         let Ok(bytes) = std::fs::read(dir.join(ENTRY)) else { continue };
-        let entry =
-            serde_json::from_slice::<view::IndexEntry>(&bytes).map_err(|e| ReportError::Items {
+        let entry = serde_json::from_slice::<model::IndexEntry>(&bytes).map_err(|e| {
+            ReportError::Items {
                 path: dir.join(ENTRY),
                 message: format!("kept report's index line does not parse: {e}"),
-            })?;
+            }
+        })?;
         for (rel, bytes) in read_tree(&dir)? {
             if rel == CLAIMS {
                 // a kept report's claims enter the scoreboard: unreadable, they would silently
@@ -289,7 +291,7 @@ pub fn render_all(
             files.push((format!("{id}/figures/{}.tex", f.file), f.pgf.clone().into_bytes()));
         }
     }
-    let mut index: Vec<&view::IndexEntry> =
+    let mut index: Vec<&model::IndexEntry> =
         pages.iter().map(|p| &p.index).chain(kept.iter().map(|(_, e)| e)).collect();
     index.sort_by(|a, b| a.id.cmp(&b.id));
     // The fidelity scoreboard.
@@ -364,7 +366,8 @@ pub fn render_timings(results_dir: &Path) -> Result<Vec<String>, ReportError> {
             continue; // `render_all` has said what is wrong with it, or kept its report
         }
         let data = store::read_study(&dir)?;
-        if !data.resolved.spec.algorithms.iter().any(|a| a.is_scan_matcher()) {
+        let catalogue = data.resolved.catalogue();
+        if !data.resolved.spec.algorithms.iter().any(|a| catalogue.algorithm(a).is_scan_matcher()) {
             continue;
         }
         let matches = store::read_matches(&dir, &|_| true)?;

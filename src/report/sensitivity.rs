@@ -3,36 +3,20 @@
 //! numbers (ranking, what clears the noise floor, interactions, where the variance comes from).
 
 use super::figure::{self, IndexBarsFigure, MorrisFigure};
-use super::view::{FigureView, TableView};
+use super::model::{FigureView, SensitivityBlock, SensitivitySection, TableView};
 use crate::judge::sensitivity::{Analysis, FAILED, Indices, analyse};
 use crate::metrics::MetricDef;
 use crate::spec::{SweepKind, SweepSpec};
 use crate::stats::sig;
 use crate::store::StudyData;
-use serde::Serialize;
 
 /// ST − S1 above this is called an interaction in words (and only when ST clears the noise).
 pub const INTERACTION: f64 = 0.1;
 
-#[derive(Debug, Clone, Serialize)]
-pub struct SensitivityBlock {
-    pub title: String,
-    pub findings: Vec<String>,
-    pub table: TableView,
-    pub figure: Option<FigureView>,
-}
-
-#[derive(Debug, Clone, Serialize)]
-pub struct SensitivitySection {
-    pub title: String,
-    pub intro: Vec<String>,
-    pub blocks: Vec<SensitivityBlock>,
-}
-
 /// The sweep's line in the report's list of sweeps.
 pub fn sweep_line(s: &SweepSpec) -> String {
     let mut leaves = Vec::new();
-    crate::spec::params::flatten("", &toml::Value::Table(s.ranges.clone()), &mut leaves);
+    crate::params::flatten("", &toml::Value::Table(s.ranges.clone()), &mut leaves);
     let ranges: Vec<String> = leaves
         .iter()
         .map(|(k, v)| {
@@ -115,7 +99,7 @@ pub fn csv(data: &StudyData, analyses: &[Analysis]) -> String {
             for alg in &data.resolved.spec.algorithms {
                 let mine: Vec<&Analysis> = analyses
                     .iter()
-                    .filter(|a| a.group == gi && &a.map == map && a.algorithm == alg.name())
+                    .filter(|a| a.group == gi && &a.map == map && a.algorithm == alg.as_str())
                     .collect();
                 for (row, label) in design.rows.iter().enumerate() {
                     let role = match group.kind {
@@ -139,7 +123,7 @@ pub fn csv(data: &StudyData, analyses: &[Analysis]) -> String {
                     out.push_str(&format!(
                         "{gi},{},{map},{},{row},{label},{role},{}\n",
                         if group.kind == SweepKind::Sobol { "sobol" } else { "morris" },
-                        alg.name(),
+                        alg.as_str(),
                         values.join(",")
                     ));
                 }

@@ -91,6 +91,7 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
         return None;
     }
     let spec = &data.resolved.spec;
+    let catalogue = data.resolved.catalogue();
     // the published mean time per match [ms] (one reference row per number)
     let published = |map: &str, algorithm: &str, point: &str| {
         data.reference
@@ -107,7 +108,7 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
             let algorithms: Vec<String> = spec
                 .algorithms
                 .iter()
-                .map(|a| a.name().to_string())
+                .map(|a| a.to_string())
                 .filter(|a| {
                     points.iter().any(|p| cells.contains_key(&(map.clone(), a.clone(), p.clone())))
                 })
@@ -135,9 +136,10 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
         .collect();
     let mut checks = Vec::new();
     for claim in spec.claims.iter().filter(|c| c.metric == COST_METRIC) {
-        let (Some(a), Some(b)) =
-            (claim.algorithm.or(spec.algorithms.first().copied()), claim.than_algorithm)
-        else {
+        let (Some(a), Some(b)) = (
+            claim.algorithm.as_ref().or(spec.algorithms.first()).map(|a| catalogue.algorithm(a)),
+            claim.than_algorithm.as_ref().map(|a| catalogue.algorithm(a)),
+        ) else {
             continue;
         };
         let Some(cells_of) = data.resolved.claims.iter().find(|c| c.id == claim.id) else {

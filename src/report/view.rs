@@ -4,9 +4,13 @@
 use super::figure::{
     self, LineFigure, LineSeries, PathSeries, SeriesPoint, TrajectoryFigure, XAxis,
 };
+use super::model::{
+    FigureView, GroupView, IndexEntry, Kv, NamedTable, StudyPages, StudyView, TableView,
+};
+use crate::algo::{Choice, Topic};
 use crate::judge::agreement::{self, Published};
 use crate::metrics::{MetricDef, metric_def};
-use crate::spec::params::flatten;
+use crate::params::flatten;
 use crate::spec::{Bands, SweepKind};
 use crate::stats::{self, Summary, sig, sig_ascii};
 use crate::store::reference::ReferenceRow;
@@ -14,7 +18,6 @@ use crate::store::{
     LandmarkRow, MatchRows, ParamValue, RunLandmarks, RunRow, RunStatus, StudyData, TraceRows,
 };
 use crate::world::map::Map;
-use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// From this many maps, a figure with published series is drawn as one panel per map.
@@ -23,114 +26,15 @@ const SMALL_MULTIPLES_MAPS: usize = 3;
 const TABLE_DIGITS: usize = 3;
 const CSV_DIGITS: usize = 6;
 
-#[derive(Debug, Clone, Serialize)]
-pub struct Kv {
-    pub key: String,
-    pub value: String,
-}
-
 fn kv(key: &str, value: impl ToString) -> Kv {
     Kv { key: key.to_string(), value: value.to_string() }
-}
-
-#[derive(Debug, Clone, Serialize, Default, PartialEq)]
-pub struct TableView {
-    pub columns: Vec<String>,
-    pub rows: Vec<Vec<String>>,
-    /// LaTeX column spec, e.g. `llrr`.
-    pub align: String,
-}
-
-#[derive(Debug, Clone, Serialize)]
-pub struct NamedTable {
-    pub title: String,
-    pub caption: String,
-    pub table: TableView,
-}
-
-#[derive(Debug, Clone, Serialize)]
-pub struct FigureView {
-    /// File stem under `figures/` (`.svg` and `.tex`): letters, digits and `-` only.
-    pub file: String,
-    pub caption: String,
-    /// Inline SVG for the HTML page.
-    pub svg: String,
-    /// pgfplots code for the LaTeX document.
-    #[serde(skip)]
-    pub pgf: String,
-    /// One panel of small multiples (one per map): drawn half-width, side by side.
-    pub panel: bool,
-}
-
-#[derive(Debug, Clone, Serialize)]
-pub struct GroupView {
-    pub title: String,
-    /// How often the published values lie inside our confidence intervals, per metric.
-    pub agreement: Vec<String>,
-    /// Leading text columns of `table` (map, algorithm); the rest are right-aligned numbers.
-    pub label_columns: usize,
-    pub figures: Vec<FigureView>,
-    pub table: TableView,
-    /// Named cells only: one table per metric, algorithms × cells, published values beside ours
-    /// (the layout of [EP]'s tables).
-    pub matrices: Vec<NamedTable>,
-}
-
-#[derive(Debug, Clone, Serialize)]
-pub struct StudyView {
-    pub id: String,
-    pub title: String,
-    pub description: Vec<String>,
-    pub facts: Vec<Kv>,
-    pub maps: TableView,
-    pub sweeps: Vec<String>,
-    pub base_params: TableView,
-    pub choices: Vec<String>,
-    pub notes: Vec<String>,
-    pub groups: Vec<GroupView>,
-    /// morris / sobol groups: global sensitivity.
-    pub sensitivity: Vec<super::sensitivity::SensitivitySection>,
-    pub claims: Vec<crate::judge::claims::ClaimResult>,
-    pub trajectories: Vec<FigureView>,
-    /// Scan matching: the match diagnostics' sentences and figures ([EP] Figs 25–27, 52–59).
-    pub diagnostics_intro: Vec<String>,
-    pub diagnostics: Vec<FigureView>,
-    /// Scan matching: how the heading error is distributed over the matches of each cell.
-    pub match_tables: Vec<NamedTable>,
-    /// Per-landmark error tables beside published ones (`[report] landmark_reference`).
-    pub landmark_tables: Vec<NamedTable>,
-    /// Paired differences between chosen cells (`[[report.contrasts]]`).
-    pub contrasts: Vec<NamedTable>,
-    pub failures: TableView,
-    pub metrics: TableView,
-    pub provenance: Vec<Kv>,
-}
-
-/// One line of the index page (also written beside each report as `entry.json`, so that a kept
-/// report keeps its line).
-#[derive(Debug, Clone, Serialize, serde::Deserialize)]
-pub struct IndexEntry {
-    pub id: String,
-    pub title: String,
-    pub summary: String,
-    pub runs: String,
-    pub failed: String,
-    pub maps: String,
-    pub algorithms: String,
-}
-
-/// A study rendered into view-models plus the CSV.
-pub struct StudyPages {
-    pub view: StudyView,
-    pub index: IndexEntry,
-    pub csv: String,
-    /// morris / sobol groups: every design row's outputs (`sensitivity.csv`; empty: none).
-    pub sensitivity_csv: String,
 }
 
 /// Maps and runs of a study, in the order the spec lists them.
 struct Study<'a> {
     data: &'a StudyData,
+    /// The built-in algorithms and the study's external ones.
+    catalogue: crate::algo::Catalogue,
     maps: Vec<(String, Option<Map>)>,
     metrics: Vec<&'static MetricDef>,
     /// Base parameters, flattened.
@@ -140,6 +44,10 @@ struct Study<'a> {
 impl Study<'_> {
     fn spec(&self) -> &crate::spec::ExperimentSpec {
         &self.data.resolved.spec
+    }
+    /// The study's algorithms, in the spec's order.
+    fn algorithms(&self) -> impl Iterator<Item = &dyn crate::algo::Algorithm> {
+        self.data.resolved.spec.algorithms.iter().map(|a| self.catalogue.algorithm(a))
     }
     fn runs_of<'b>(
         &'b self,
@@ -272,8 +180,9 @@ pub fn build(
     let metrics: Vec<&'static MetricDef> =
         spec.report.metrics.iter().filter_map(|m| metric_def(m)).collect();
     // Only the sections the study's algorithms read (what entered the run hashes).
-    let base = crate::store::select::read_base(spec, &world_kinds(&maps));
-    let study = Study { data, maps, metrics, base };
+    let catalogue = data.resolved.catalogue();
+    let base = crate::store::select::read_base(spec, &catalogue, &world_kinds(&maps));
+    let study = Study { data, catalogue, maps, metrics, base };
 
     // morris / sobol groups get the sensitivity section instead of error-vs-parameter plots
     let mut groups: Vec<GroupView> = data
@@ -304,6 +213,7 @@ pub fn build(
         super::diagnostics::build(
             d,
             spec,
+            &study.catalogue,
             study.maps.iter().find(|(n, _)| n == &d.map).and_then(|(_, m)| m.as_ref()),
         )
     });
@@ -356,7 +266,7 @@ pub fn build(
         runs: data.runs.len().to_string(),
         failed: format!("{failed}/{}", data.runs.len()),
         maps: spec.maps.join(", "),
-        algorithms: spec.algorithms.iter().map(|a| a.name()).collect::<Vec<_>>().join(", "),
+        algorithms: spec.algorithms.iter().map(|a| a.as_str()).collect::<Vec<_>>().join(", "),
     };
     let csv = summary_csv(&study);
     let sensitivity_csv = super::sensitivity::csv(data, &analyses);
@@ -378,7 +288,7 @@ fn facts(study: &Study<'_>, failed: usize) -> Vec<Kv> {
         kv("Study id", &spec.id),
         kv("Seed", spec.seed),
         kv("Maps", spec.maps.join(", ")),
-        kv("Algorithms", spec.algorithms.iter().map(|a| a.title()).collect::<Vec<_>>().join(", ")),
+        kv("Algorithms", study.algorithms().map(|a| a.title()).collect::<Vec<_>>().join(", ")),
         kv("Sweep points", points),
         kv("Cells (map × algorithm × point)", cells),
         kv("Replicates per cell (n)", spec.replicates),
@@ -387,63 +297,17 @@ fn facts(study: &Study<'_>, failed: usize) -> Vec<Kv> {
     ]
 }
 
-/// The choices of the point-landmark filters: FastSLAM on point worlds, FastSLAM 2.0, EKF-SLAM,
-/// and their motion model.
-fn filter_choices(study: &Study<'_>, kinds: &[crate::world::WorldKind]) -> Vec<String> {
-    use crate::slam::AlgorithmKind as A;
-    use crate::world::WorldKind as W;
-    let b = &study.spec().base;
-    let algos = &study.spec().algorithms;
-    let mut out = Vec::new();
-    let motion_users =
-        algos.iter().any(|a| kinds.iter().any(|&k| a.param_sections(k).contains(&"motion_model")));
-    if motion_users {
-        out.push(b.motion_model.describe());
-    }
-    let fast = algos.iter().any(|a| {
-        matches!(a, A::Fastslam2) || (matches!(a, A::Fastslam1) && kinds.contains(&W::Points))
-    });
-    if fast {
-        out.push(b.fastslam.describe_on_points(algos.contains(&A::Fastslam2)));
-    }
-    if algos.contains(&A::EkfSlam) {
-        out.push(b.ekf.describe());
-    }
-    out.extend(scan_matching_choices(study));
-    out
-}
-
-/// The scan matchers' settings ([EP] leaves most of them open).
-fn scan_matching_choices(study: &Study<'_>) -> Vec<String> {
-    use crate::scanmatch::track;
-    use crate::slam::AlgorithmKind as A;
-    let algos = &study.spec().algorithms;
-    if !algos.iter().any(|a| a.is_scan_matcher()) {
-        return Vec::new();
-    }
-    let b = &study.spec().base;
-    let sm = &b.scan_matching;
-    let mut out = vec![sm.describe(), sm.objective.describe(), sm.segmentation.describe()];
-    if algos.iter().any(|a| matches!(a, A::Psm | A::PsmOriginal)) {
-        out.push(b.psm.describe());
-    }
-    if algos.iter().any(|a| matches!(a, A::Epsm)) {
-        out.push(b.epsm.describe());
-    }
-    if algos.iter().any(|a| matches!(a, A::BruteForce)) {
-        out.push(b.brute_force.describe());
-    }
-    if algos.iter().any(|a| matches!(a, A::PoseSearch(_))) {
-        out.push(b.pose_search.describe());
-    }
-    out.push(track::describe_errors().into());
-    out
+/// The algorithms' modelling-choice sentences on worlds of `kinds`, each once, in topic order.
+fn algorithm_choices(study: &Study<'_>, kinds: &[crate::world::WorldKind]) -> Vec<Choice> {
+    study.catalogue.choices(&study.spec().algorithms, &study.spec().base, kinds)
 }
 
 /// The choices of a study on real data only: the simulation's do not apply.
 fn dataset_choices(study: &Study<'_>) -> Vec<String> {
     let mut out = vec!["Real data: odometry, measurements and truth come from the dataset's files (read from the path in each map file; the files' bytes are part of every run's content hash). The simulation settings of [base] do not apply.".to_string()];
-    out.extend(filter_choices(study, &[crate::world::WorldKind::Points]));
+    out.extend(
+        algorithm_choices(study, &[crate::world::WorldKind::Points]).into_iter().map(|c| c.text),
+    );
     out.push("Trajectory error is evo's APE (translation part) at the steps with truth; truth without headings (GPS) is first aligned to the estimate by a rigid transform (rotation and translation).".into());
     let mut notes: Vec<String> = Vec::new();
     for (name, map) in &study.maps {
@@ -561,28 +425,19 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     let mut out = vec![b.sim.describe(&sig(1.0 / b.sim.dt_s, 3)), b.odometry.describe()];
     let kinds = world_kinds(&study.maps);
     let sensors: Vec<_> =
-        study.spec().algorithms.iter().flat_map(|a| kinds.iter().map(|&k| a.sensors(k))).collect();
+        study.algorithms().flat_map(|a| kinds.iter().map(move |&k| a.sensors(k))).collect();
     if sensors.iter().any(|s| s.laser) {
         out.push(b.laser.describe());
         out.extend(b.laser.describe_artefacts());
     }
-    let reads = |section: &str| {
-        study
-            .spec()
-            .algorithms
-            .iter()
-            .any(|a| kinds.iter().any(|&k| a.sections_read(k).contains(&section)))
-    };
-    if reads("features") {
-        out.push(b.features.describe());
-    }
-    if reads("fastslam") && kinds.contains(&crate::world::WorldKind::Laser) {
-        out.push(b.fastslam.describe_on_lasers());
-    }
+    // the algorithms' sentences; the landmark sensor's stands before the filters' models
+    let (sensor_side, filter_side): (Vec<Choice>, Vec<Choice>) =
+        algorithm_choices(study, &kinds).into_iter().partition(|c| c.topic < Topic::MotionModel);
+    out.extend(sensor_side.into_iter().map(|c| c.text));
     if sensors.iter().any(|s| s.landmarks) {
         out.push(b.landmark_sensor.describe());
     }
-    out.extend(filter_choices(study, &kinds));
+    out.extend(filter_side.into_iter().map(|c| c.text));
     out.push("Seeds derive from (study seed, map, replicate), never from the swept value: replicate k of every sweep point and algorithm sees the same world noise (paired comparisons).".into());
     let aligned: Vec<&str> = study
         .maps
@@ -706,7 +561,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
     let mut agreement: Vec<(usize, usize)> = vec![(0, 0); ref_metrics.len()];
     let mut rows = Vec::new();
     for (map, _) in &study.maps {
-        for algorithm in &spec.algorithms {
+        for algorithm in study.algorithms() {
             for p in &points {
                 let mut row = vec![map.clone()];
                 if show_algorithm {
@@ -742,7 +597,9 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                     .and_then(|v| ParamValue::from_toml(&v).as_f64());
                 let published = x
                     .zip(x_param)
-                    .filter(|_| Some(algorithm) == spec.algorithms.first())
+                    .filter(|_| {
+                        Some(algorithm.name()) == spec.algorithms.first().map(|a| a.as_str())
+                    })
                     .and_then(|(x, k)| study.published(map, k, x));
                 for (mi, m) in ref_metrics.iter().enumerate() {
                     row.push(match published.and_then(|r| r.metric(m.name)) {
@@ -810,7 +667,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                 let mut ours = 0usize;
                 let mut series_map: Vec<String> = Vec::new();
                 for (map, _) in &study.maps {
-                    for algorithm in &spec.algorithms {
+                    for algorithm in study.algorithms() {
                         let mut by_key: BTreeMap<usize, (String, Vec<SeriesPoint>)> =
                             BTreeMap::new();
                         let mut keys: Vec<String> = Vec::new();
@@ -1079,7 +936,6 @@ fn zoomed(fig: &LineFigure) -> Option<(LineFigure, String, f64)> {
 /// ours as mean ± half-width of the 95 % CI, and under it the published value when the reference
 /// has one ([EP] Tables 2–5).
 fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Vec<NamedTable> {
-    let spec = study.spec();
     let label = study.reference_label();
     let mut out = Vec::new();
     for m in &study.metrics {
@@ -1088,7 +944,7 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
         let mut rows = Vec::new();
         let mut agreement = (0, 0);
         for (map, _) in &study.maps {
-            for algorithm in &spec.algorithms {
+            for algorithm in study.algorithms() {
                 let mut ours = vec![map.clone(), algorithm.title().to_string()];
                 let mut published = vec![String::new(), String::new()];
                 let mut tables: Vec<&str> = Vec::new();
@@ -1159,11 +1015,10 @@ fn cost_figure(
     points: &[&crate::store::PointRecord],
     group_slug: &str,
 ) -> Option<FigureView> {
-    let spec = study.spec();
     let mut series = Vec::new();
     let mut all_x = Vec::new();
     for (map, _) in &study.maps {
-        for algorithm in &spec.algorithms {
+        for algorithm in study.algorithms() {
             let mut pts: Vec<SeriesPoint> = points
                 .iter()
                 .filter_map(|p| {
@@ -1225,7 +1080,7 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
         return Vec::new();
     };
     let headline = crate::store::select::headline(spec);
-    let Some(first_algorithm) = spec.algorithms.first() else { return Vec::new() };
+    let Some(first_algorithm) = study.algorithms().next() else { return Vec::new() };
 
     let mut out = Vec::new();
     for (map_name, map) in &study.maps {
@@ -1239,9 +1094,8 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
         ) else {
             continue;
         };
-        let ids: Vec<String> = spec
-            .algorithms
-            .iter()
+        let ids: Vec<String> = study
+            .algorithms()
             .filter_map(|a| {
                 study
                     .runs_of(map_name, a.name(), &reference.label)
@@ -1260,9 +1114,8 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
         }];
         for (ai, id) in ids.iter().enumerate() {
             if let Some(t) = rows.iter().find(|t| &t.run_id == id) {
-                let label = spec
-                    .algorithms
-                    .iter()
+                let label = study
+                    .algorithms()
                     .find(|a| id.contains(&format!("--{}--", a.name())))
                     .map_or(id.clone(), |a| a.title().to_string());
                 paths.push(PathSeries {
@@ -1367,15 +1220,14 @@ fn match_error_views(
     let per_run: Vec<(usize, &MatchRows)> = ids
         .iter()
         .filter_map(|id| {
-            let ai =
-                spec.algorithms.iter().position(|a| id.contains(&format!("--{}--", a.name())))?;
+            let ai = spec.algorithms.iter().position(|a| id.contains(&format!("--{a}--")))?;
             matches.iter().find(|m| &m.run_id == id && !m.matches.is_empty()).map(|m| (ai, m))
         })
         .collect();
     if per_run.is_empty() {
         return Vec::new();
     }
-    type Component = fn(&crate::scanmatch::track::MatchRecord) -> f64;
+    type Component = fn(&crate::trace::MatchRecord) -> f64;
     let components: [(&str, &str, Component); 3] = [
         ("ax", "|ax| [mm]", |m| m.error().0.abs() * 1e3),
         ("ay", "|ay| [mm]", |m| m.error().1.abs() * 1e3),
@@ -1387,7 +1239,7 @@ fn match_error_views(
             let series = per_run
                 .iter()
                 .map(|(ai, rows)| LineSeries {
-                    label: spec.algorithms[*ai].title().to_string(),
+                    label: study.catalogue.algorithm(&spec.algorithms[*ai]).title().to_string(),
                     color: *ai,
                     points: rows
                         .matches
@@ -1419,8 +1271,7 @@ fn match_error_views(
 /// The spread of |aθ| over the matches of each (map, scan matcher, cell), all replicates pooled:
 /// a mean can hide that most matches are exact and a few are far off.
 fn match_distribution(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
-    let spec = study.spec();
-    if !spec.algorithms.iter().any(|a| a.is_scan_matcher()) {
+    if !study.algorithms().any(|a| a.is_scan_matcher()) {
         return Vec::new();
     }
     let ids: Vec<String> = study
@@ -1436,7 +1287,7 @@ fn match_distribution(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> 
     let mut out = Vec::new();
     for (map, _) in &study.maps {
         let mut rows = Vec::new();
-        for algorithm in spec.algorithms.iter().filter(|a| a.is_scan_matcher()) {
+        for algorithm in study.algorithms().filter(|a| a.is_scan_matcher()) {
             for point in &study.data.resolved.points {
                 let mut errors: Vec<f64> = study
                     .runs_of(map, algorithm.name(), &point.label)
@@ -1493,7 +1344,7 @@ fn match_distribution(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> 
 /// replicates, with the error true − estimated in cm, beside the published error.
 fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
     let spec = study.spec();
-    let Some(algorithm) = spec.algorithms.first() else { return Vec::new() };
+    let Some(algorithm) = study.algorithms().next() else { return Vec::new() };
     let mut out = Vec::new();
     // each published table's sweep point, resolved by the plan
     for (reference, label) in
@@ -1603,7 +1454,7 @@ fn contrast_tables(study: &Study<'_>) -> Vec<NamedTable> {
         };
         for metric in metrics {
             let Some(def) = metric_def(metric) else { continue };
-            for algorithm in &spec.algorithms {
+            for algorithm in study.algorithms() {
                 let rows = c
                     .pairs
                     .iter()
@@ -1730,7 +1581,7 @@ fn summary_csv(study: &Study<'_>) -> String {
     }
     out.push_str(",metric,n,failed,runs,mean,sd,ci95_low,ci95_high,median,min,max\n");
     for (map, _) in &study.maps {
-        for algorithm in &spec.algorithms {
+        for algorithm in study.algorithms() {
             for p in &study.data.resolved.points {
                 for m in &study.metrics {
                     let (s, failed, n) = study.cell(map, algorithm.name(), &p.label, m.name);

@@ -7,12 +7,13 @@
 //! median f (a typical one) and the match of largest finite f (the worst fit; [EP] shows a low-
 //! and a high-error step, 2 and 78, the latter chosen as the largest f of its run).
 
-use super::{scan_matcher, world_of};
+use super::world_of;
 use crate::plan::ExperimentPlan;
 use crate::scanmatch::diagnose::{self, Diagnostics, IncrementalMap, Subject};
-use crate::scanmatch::track::{self, MatchRecord};
+use crate::scanmatch::track;
 use crate::store::select;
 use crate::store::{MatchRows, RunRow, TraceRows};
+use crate::trace::MatchRecord;
 use crate::world::laser::Scan;
 
 /// The study's diagnostics, or `None` when it has no scan matcher or no successful run to show;
@@ -25,7 +26,10 @@ pub fn build(
     matches: &[MatchRows],
 ) -> Result<Option<Diagnostics>, String> {
     let spec = &plan.spec.spec;
-    let Some(chooser) = spec.algorithms.iter().copied().find(|a| a.is_scan_matcher()) else {
+    let catalogue = &plan.spec.catalogue;
+    let Some(chooser) =
+        spec.algorithms.iter().map(|a| catalogue.algorithm(a)).find(|a| a.is_scan_matcher())
+    else {
         return Ok(None);
     };
     let Some(first) = spec.algorithms.first() else { return Ok(None) };
@@ -33,11 +37,11 @@ pub fn build(
         .into_iter()
         .filter(|k| plan.maps.iter().any(|m| m.map.world_kind() == *k))
         .collect();
-    let base = select::read_base(spec, &kinds);
+    let base = select::read_base(spec, catalogue, &kinds);
     let Some(point) = select::reference_point(&resolved.points, &base) else { return Ok(None) };
     let headline = select::headline(spec);
     let Some((map_index, shown)) = plan.maps.iter().enumerate().find_map(|(i, m)| {
-        select::median_run(rows, &m.name, first.name(), &point.label, headline).map(|r| (i, r))
+        select::median_run(rows, &m.name, first.as_str(), &point.label, headline).map(|r| (i, r))
     }) else {
         return Ok(None);
     };
@@ -48,7 +52,7 @@ pub fn build(
         .filter_map(|a| {
             rows.iter().find(|r| {
                 &r.map == map
-                    && r.algorithm == a.name()
+                    && r.algorithm == a.as_str()
                     && r.point == point.label
                     && r.replicate == shown.replicate
             })
@@ -85,11 +89,7 @@ pub fn build(
         // every scan matcher of the cell, on its own preparation of the same two scans
         let mut prepared = Vec::new();
         for run in cell.iter().filter(|r| r.algorithm != "odometry") {
-            let Some(kind) = crate::slam::AlgorithmKind::from_name(&run.algorithm)
-                .filter(|a| a.is_scan_matcher())
-            else {
-                continue;
-            };
+            let Some(kind) = catalogue.get(&run.algorithm) else { continue };
             let Some(stored) = matches_of(run).get(k).filter(|s| {
                 s.reference_step == m.reference_step && s.current_step == m.current_step
             }) else {
@@ -97,7 +97,8 @@ pub fn build(
             };
             let Some(rs) = spec_of(run) else { continue };
             let run_params = &plan.points[rs.point].params;
-            let matcher = scan_matcher(kind, run_params);
+            // a matcher slamlab can re-run one match of (not an external program)
+            let Some(matcher) = kind.matcher(run_params) else { continue };
             let (seg, geo) = track::preparation(matcher, &run_params.scan_matching, geometry);
             prepared.push((
                 kind,

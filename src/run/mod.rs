@@ -4,14 +4,16 @@
 //! `status = failed` and the study goes on.
 
 pub mod diagnostics;
+pub mod external;
 pub mod progress;
 pub mod provenance;
 pub mod worlds;
 
+use crate::algo::RunInput;
 use crate::metrics;
+use crate::params::flatten;
 use crate::plan::{ExperimentPlan, RunSpec, SCHEMA_VERSION};
-use crate::slam::{self, AlgorithmKind, SlamError, Trace};
-use crate::spec::params::flatten;
+use crate::slam::SlamError;
 use crate::store::{
     self, Cache, CachedRun, GroupRecord, LandmarkRow, Manifest, MatchRows, ParamValue, PointRecord,
     ResolvedStudy, RunLandmarks, RunRow, RunStatus, StoreError, StudyOutput, Timing, TraceRows,
@@ -155,7 +157,12 @@ pub fn run_study(
         let stored = store::read_runs(&dir).unwrap_or_default();
         let bad = stored.iter().filter(|r| r.status != RunStatus::Ok).count();
         let manifest = manifest(plan, provenance, plan.runs.len(), bad);
-        let diagnosed = plan.spec.spec.algorithms.iter().any(|a| a.is_scan_matcher());
+        let diagnosed = plan
+            .spec
+            .spec
+            .algorithms
+            .iter()
+            .any(|a| plan.spec.catalogue.algorithm(a).is_scan_matcher());
         if store::is_up_to_date(
             &dir,
             &ids,
@@ -201,7 +208,7 @@ pub fn run_study(
     let mut by_algorithm: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
     for r in &plan.runs {
         if let Some(ms) = previous_ms.get(&r.run_id) {
-            let e = by_algorithm.entry(r.algorithm.name()).or_default();
+            let e = by_algorithm.entry(r.algorithm.as_str()).or_default();
             *e = (e.0 + ms, e.1 + 1);
         }
     }
@@ -209,7 +216,7 @@ pub fn run_study(
         previous_ms
             .get(&r.run_id)
             .copied()
-            .or_else(|| by_algorithm.get(r.algorithm.name()).map(|(s, n)| s / *n as f64))
+            .or_else(|| by_algorithm.get(r.algorithm.as_str()).map(|(s, n)| s / *n as f64))
             .unwrap_or_else(|| crate::plan::cost::expected_s(plan, r) * 1e3)
     };
     let planned_cost: BTreeMap<&str, f64> =
@@ -304,7 +311,12 @@ pub fn run_study(
     let diverged = rows.iter().filter(|r| r.status == RunStatus::Diverged).count();
 
     // Diagnostics are an addition to the results: when they cannot be made, say why and go on.
-    let diagnosed = plan.spec.spec.algorithms.iter().any(|a| a.is_scan_matcher());
+    let diagnosed = plan
+        .spec
+        .spec
+        .algorithms
+        .iter()
+        .any(|a| plan.spec.catalogue.algorithm(a).is_scan_matcher());
     let diagnostics = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         diagnostics::build(plan, &resolved, &rows, &traces, &matches)
     })) {
@@ -600,7 +612,7 @@ pub enum SimError {
 pub fn world_of(plan: &ExperimentPlan, run: &RunSpec) -> Result<world::World, SimError> {
     let params = &plan.points[run.point].params;
     let map = &plan.maps[run.map].map;
-    let sensors = run.algorithm.sensors(map.world_kind());
+    let sensors = plan.algorithm(run).sensors(map.world_kind());
     let mut world = match &map.dataset {
         // Real data: read from its files (relative paths from the working directory, the
         // repository); the plan hashed their bytes.
@@ -637,25 +649,29 @@ fn simulate(
     (|| -> Result<_, SimError> {
         let params = &plan.points[run.point].params;
         let kind = plan.maps[run.map].map.world_kind();
-        let mut filter_rng = ChaCha8Rng::seed_from_u64(run.filter_seed);
-        let (trace, cut) = if run.algorithm.is_scan_matcher() {
-            let start = Instant::now();
-            let mut clock = || start.elapsed().as_secs_f64();
-            let tracked = crate::scanmatch::track::track(
-                &shared.world,
-                scan_matcher(run.algorithm, params),
-                &params.scan_matching,
-                run.filter_seed,
-                &mut clock,
-            )?;
-            // The metrics cover the steps up to the last match: a copy of the world cut there.
+        let start = Instant::now();
+        let mut clock = || start.elapsed().as_secs_f64();
+        let features = |p: &crate::features::FeatureParams| shared.features(p);
+        let launch = |l: &crate::algo::Launch<'_>| external::launch(l, &run.run_id);
+        let output = plan.algorithm(run).run(RunInput {
+            world: &shared.world,
+            kind,
+            params,
+            run_id: &run.run_id,
+            seed: run.filter_seed,
+            features: &features,
+            clock: &mut clock,
+            launch: &launch,
+        })?;
+        // A scan matcher's metrics cover the steps up to its last match: a copy of the world
+        // cut there.
+        let cut = output.steps.map(|steps| {
             let mut cut = shared.world.clone();
-            cut.truth.truncate(tracked.steps);
-            cut.odometry.truncate(tracked.steps.saturating_sub(1));
-            (tracked.trace, Some(cut))
-        } else {
-            (run_algorithm(run.algorithm, &shared, params, kind, &mut filter_rng)?, None)
-        };
+            cut.truth.truncate(steps);
+            cut.odometry.truncate(steps.saturating_sub(1));
+            cut
+        });
+        let trace = output.trace;
         let world: &world::World = cut.as_ref().unwrap_or(&shared.world);
         let mut metrics = metrics::compute(world, &trace);
         // a scan matcher's incremental map against the walls of a simulated map
@@ -704,108 +720,6 @@ fn simulate(
     .map_err(|e| e.to_string())
 }
 
-/// A scan-matching algorithm with its parameters.
-pub fn scan_matcher(
-    algorithm: AlgorithmKind,
-    params: &crate::spec::Params,
-) -> crate::scanmatch::track::Matcher<'_> {
-    use crate::scanmatch::track::Matcher;
-    match algorithm {
-        AlgorithmKind::PsmOriginal => Matcher::Psm { params: &params.psm, own_heuristics: true },
-        AlgorithmKind::Epsm => Matcher::Epsm(&params.epsm),
-        AlgorithmKind::BruteForce => Matcher::BruteForce(&params.brute_force),
-        AlgorithmKind::PoseSearch(optimizer) => {
-            Matcher::PoseSearch { optimizer, params: &params.pose_search }
-        }
-        _ => Matcher::Psm { params: &params.psm, own_heuristics: false },
-    }
-}
-
-/// The one place that maps an algorithm name to its implementation and its parameters: which
-/// observations it reads (laser features or point landmarks) follows the world's kind.
-fn run_algorithm(
-    algorithm: AlgorithmKind,
-    shared: &worlds::SharedWorld,
-    params: &crate::spec::Params,
-    kind: WorldKind,
-    filter_rng: &mut ChaCha8Rng,
-) -> Result<Trace, SlamError> {
-    use slam::observations::{Source, stream};
-    let world = &shared.world;
-    let fastslam_line_r = || {
-        nalgebra::Matrix2::new(
-            params.fastslam.obs_var_rho_m2,
-            0.0,
-            0.0,
-            params.fastslam.obs_var_theta_rad2,
-        )
-    };
-    // the scans' features, extracted once per world and `[features]` (see `worlds`)
-    let laser = |line_r| -> Result<_, SlamError> {
-        stream(world, Source::Extracted { features: &shared.features(&params.features)?, line_r })
-    };
-    let is_laser = kind == WorldKind::Laser;
-    match (algorithm, kind) {
-        (AlgorithmKind::Odometry, _) => Ok(slam::odometry::run(world)),
-        (
-            AlgorithmKind::Psm
-            | AlgorithmKind::PsmOriginal
-            | AlgorithmKind::Epsm
-            | AlgorithmKind::BruteForce
-            | AlgorithmKind::PoseSearch(_),
-            _,
-        ) => unreachable!("scan matchers run through scanmatch::track"),
-        (AlgorithmKind::OdometryMap, WorldKind::Laser) => slam::odometry::run_with_map_on(
-            world,
-            &params.fastslam,
-            &laser(fastslam_line_r())?,
-            filter_rng,
-        ),
-        (AlgorithmKind::OdometryMap, WorldKind::Points) => slam::odometry::run_with_point_map(
-            world,
-            &params.fastslam,
-            &stream(world, Source::Points)?,
-            filter_rng,
-        ),
-        (AlgorithmKind::Fastslam1, WorldKind::Laser) => slam::fastslam::run_on(
-            world,
-            &params.fastslam,
-            None,
-            &laser(fastslam_line_r())?,
-            true,
-            filter_rng,
-        ),
-        (AlgorithmKind::Fastslam1, WorldKind::Points) => slam::fastslam::run_on(
-            world,
-            &params.fastslam,
-            Some(&params.motion_model),
-            &stream(world, Source::Points)?,
-            false,
-            filter_rng,
-        ),
-        (AlgorithmKind::Fastslam2, _) => {
-            let observations =
-                if is_laser { laser(fastslam_line_r())? } else { stream(world, Source::Points)? };
-            slam::fastslam2::run(
-                world,
-                &params.fastslam,
-                &params.motion_model,
-                &observations,
-                is_laser,
-                filter_rng,
-            )
-        }
-        (AlgorithmKind::EkfSlam, _) => {
-            let observations = if is_laser {
-                laser(params.ekf.laser_covariance())?
-            } else {
-                stream(world, Source::Points)?
-            };
-            slam::ekf::run(world, &params.motion_model, &params.ekf, &observations, is_laser)
-        }
-    }
-}
-
 /// The parameters of `run` that differ from those `previous` (its earlier result) ran with, as
 /// "path: old → new" ("—" where one side lacks the parameter), in path order.
 pub fn changed_parameters(plan: &ExperimentPlan, run: &RunSpec, previous: &RunRow) -> Vec<String> {
@@ -829,7 +743,7 @@ fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
         &toml::Value::Table(
             plan.points[run.point]
                 .params
-                .sections_read_by(run.algorithm, plan.maps[run.map].map.world_kind()),
+                .sections(&plan.algorithm(run).sections_read(plan.maps[run.map].map.world_kind())),
         ),
         &mut leaves,
     );
@@ -837,7 +751,7 @@ fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
         study: plan.id().to_string(),
         run_id: run.run_id.clone(),
         map: plan.maps[run.map].name.clone(),
-        algorithm: run.algorithm.name().to_string(),
+        algorithm: run.algorithm.to_string(),
         point: plan.points[run.point].label.clone(),
         replicate: run.replicate,
         world_seed: run.world_seed,
@@ -873,6 +787,7 @@ fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -
     code_versions.insert("world".to_string(), WORLD_CODE_VERSION.to_string());
     code_versions.insert("metrics".to_string(), metrics::METRICS_VERSION.to_string());
     for a in &plan.spec.spec.algorithms {
+        let a = plan.spec.catalogue.algorithm(a);
         code_versions.insert(a.name().to_string(), a.code_version().to_string());
     }
     if plan.maps.iter().any(|m| m.map.dataset.is_some()) {
@@ -946,20 +861,26 @@ fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
             .collect(),
         claims: plan.claims.clone(),
         landmark_points: plan.landmark_points.clone(),
+        externals: plan
+            .spec
+            .catalogue
+            .externals()
+            .filter(|e| plan.spec.spec.algorithms.iter().any(|a| a.as_str() == e.name))
+            .cloned()
+            .collect(),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::slam::AlgorithmKind;
 
     fn run(id: &str, params: &str, code: &str) -> RunSpec {
         RunSpec {
             run_id: id.into(),
             map: 0,
             point: 0,
-            algorithm: AlgorithmKind::Odometry,
+            algorithm: crate::algo::AlgorithmId("odometry".into()),
             replicate: 0,
             world_seed: 1,
             filter_seed: 2,

@@ -72,7 +72,7 @@ pub struct Worlds<'p> {
 pub fn key(plan: &ExperimentPlan, run: &RunSpec) -> String {
     let params = &plan.points[run.point].params;
     let map = &plan.maps[run.map].map;
-    let sensors = run.algorithm.sensors(map.world_kind());
+    let sensors = plan.algorithm(run).sensors(map.world_kind());
     format!(
         "{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}",
         run.map,
@@ -134,7 +134,7 @@ mod tests {
 
     fn plan(spec: &str) -> ExperimentPlan {
         crate::plan::build(
-            crate::spec::load(std::path::Path::new(spec)).expect("spec loads"),
+            crate::spec::load(std::path::Path::new(spec), &Default::default()).expect("spec loads"),
             std::path::Path::new("data/maps"),
         )
         .expect("spec plans")

@@ -22,7 +22,7 @@ use super::search::Optimizer;
 use super::segment::{Segmentation, SegmentationParams, prepare};
 use crate::config::{Checks, Violation};
 use crate::geom::Pose2;
-use crate::slam::{SlamError, Trace};
+use crate::trace::{MatchRecord, SlamError, Trace};
 use crate::world::World;
 use crate::world::laser::{LaserGeometry, Scan};
 use serde::{Deserialize, Serialize};
@@ -134,46 +134,6 @@ pub enum Matcher<'a> {
         optimizer: Optimizer,
         params: &'a super::search::SearchParams,
     },
-}
-
-/// One match, as stored per match.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MatchRecord {
-    /// Step of the reference scan and of the current scan.
-    pub reference_step: usize,
-    pub current_step: usize,
-    /// True, initial-guess and estimated pose of the current scan in the reference frame.
-    pub truth: Pose2,
-    pub initial: Pose2,
-    pub estimate: Pose2,
-    /// f at the estimate and at the initial guess [cm²].
-    pub f: f64,
-    pub f_initial: f64,
-    pub pairs: u32,
-    pub iterations: u32,
-    pub evaluations: u64,
-    /// The f-check kept the initial guess.
-    pub fallback: bool,
-    /// Why the matcher stopped.
-    pub stop: String,
-    /// Wall time of the match [s] (not deterministic: kept out of metrics and reports).
-    pub time_s: f64,
-}
-
-impl MatchRecord {
-    /// Estimate minus truth in the reference frame: (ax [m], ay [m], aθ [rad]).
-    pub fn error(&self) -> (f64, f64, f64) {
-        (
-            self.estimate.x - self.truth.x,
-            self.estimate.y - self.truth.y,
-            crate::geom::wrap_angle(self.estimate.theta - self.truth.theta),
-        )
-    }
-
-    /// Whether the matcher produced a usable estimate.
-    pub fn succeeded(&self) -> bool {
-        self.estimate.is_finite() && self.f.is_finite()
-    }
 }
 
 /// A scan-matching run's output: the trace (estimate over `steps` steps) and its matches.

@@ -2,15 +2,16 @@
 //! `deny_unknown_fields` and range-checked, every problem reported with file, line, column and key.
 //! Expansion into runs is [`crate::plan`]'s job.
 
-pub mod params;
-
+use crate::algo::{AlgorithmId, Catalogue};
 use crate::metrics::metric_def;
-use crate::slam::AlgorithmKind;
+pub use crate::params::Params;
 use crate::source::{Locator, SourceError, join_key};
-pub use params::Params;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+pub mod algorithms;
 
 /// A study as written in its TOML file.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -32,7 +33,7 @@ pub struct ExperimentSpec {
     pub fixed_world: bool,
     /// Map names, each `data/maps/<name>.toml`.
     pub maps: Vec<String>,
-    pub algorithms: Vec<AlgorithmKind>,
+    pub algorithms: Vec<AlgorithmId>,
     /// Parameters shared by every run; sweeps override single keys.
     #[serde(default)]
     pub base: Params,
@@ -121,10 +122,10 @@ pub struct ClaimSpec {
     pub maps: Vec<String>,
     /// Algorithm the claim is about (default: the study's first).
     #[serde(default)]
-    pub algorithm: Option<AlgorithmKind>,
+    pub algorithm: Option<AlgorithmId>,
     /// For `greater` / `less`: compare with this algorithm (at `than`, or at the same cell).
     #[serde(default)]
-    pub than_algorithm: Option<AlgorithmKind>,
+    pub than_algorithm: Option<AlgorithmId>,
     /// How many maps must confirm: all (default), most, or any.
     #[serde(default)]
     pub require: Require,
@@ -531,6 +532,8 @@ pub struct LoadedSpec {
     pub locator: Locator,
     pub spec: ExperimentSpec,
     pub sweeps: Vec<SweepBlock>,
+    /// The algorithms its names were resolved against (built-ins and external programs).
+    pub catalogue: Arc<Catalogue>,
 }
 
 /// Problems in one file, each with line, column and key.
@@ -599,9 +602,9 @@ impl From<SpecError> for InputErrors {
 }
 
 /// Reads and validates a spec file.
-pub fn load(path: &Path) -> Result<LoadedSpec, SpecError> {
+pub fn load(path: &Path, catalogue: &Arc<Catalogue>) -> Result<LoadedSpec, SpecError> {
     let text = std::fs::read_to_string(path).map_err(|e| SpecError::io(path, &e))?;
-    let loaded = parse(path, &text)?;
+    let loaded = parse(path, &text, catalogue)?;
     // `experiments/<id>.toml`: the file says which study it is.
     let stem = path.file_stem().unwrap_or_default().to_string_lossy();
     if stem != loaded.spec.id {
@@ -619,8 +622,9 @@ pub fn load(path: &Path) -> Result<LoadedSpec, SpecError> {
     Ok(loaded)
 }
 
-/// Parses and validates spec text (`path` only names it in errors).
-pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
+/// Parses and validates spec text (`path` only names it in errors); algorithm names are
+/// resolved against `catalogue`.
+pub fn parse(path: &Path, text: &str, catalogue: &Arc<Catalogue>) -> Result<LoadedSpec, SpecError> {
     let locator = Locator::new(text);
     let spec: ExperimentSpec = toml::from_str(text)
         .map_err(|e| SpecError::new(path, vec![SourceError::from_toml(&locator, &e)]))?;
@@ -656,12 +660,37 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         err("algorithms", "list at least one algorithm".into());
     }
     for (i, a) in spec.algorithms.iter().enumerate() {
-        if spec.algorithms[..i].contains(a) {
-            err(&format!("algorithms[{i}]"), format!("algorithm `{}` is listed twice", a.name()));
+        if catalogue.get(a.as_str()).is_none() {
+            err(
+                &format!("algorithms[{i}]"),
+                format!(
+                    "unknown algorithm `{a}`, expected one of: {} (external programs are declared in data/algorithms/)",
+                    catalogue.names().join(", ")
+                ),
+            );
+        } else if spec.algorithms[..i].contains(a) {
+            err(&format!("algorithms[{i}]"), format!("algorithm `{a}` is listed twice"));
+        }
+    }
+    // Only names the catalogue knows are asked about below.
+    let known_algorithms: Vec<AlgorithmId> =
+        spec.algorithms.iter().filter(|a| catalogue.get(a.as_str()).is_some()).cloned().collect();
+    let read = sections_read(catalogue, &known_algorithms);
+    let names = spec.algorithms.iter().map(AlgorithmId::as_str).collect::<Vec<_>>().join(", ");
+    for name in spec.base.external.keys() {
+        if !known_algorithms.iter().any(|a| a.as_str() == name)
+            || catalogue.externals().all(|e| e.name != *name)
+        {
+            err(
+                &format!("base.external.{name}"),
+                format!(
+                    "`{name}` is not an external algorithm of this study (its algorithms: {names})"
+                ),
+            );
         }
     }
     // Sensor rates against the clock: checked by the plan, which knows the maps' world kinds.
-    for v in spec.base.validate(crate::slam::Sensors::default()) {
+    for v in spec.base.validate(crate::world::Sensors::NONE) {
         err(&format!("base.{}", v.key), v.message);
     }
     let d = &spec.report.diff;
@@ -726,12 +755,12 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
     // Sweep blocks: flatten nested tables to parameter paths; every leaf must be a non-empty list
     // naming a parameter that exists in [base].
     let mut base_leaves = Vec::new();
-    params::flatten("", &toml::Value::Table(spec.base.to_table()), &mut base_leaves);
+    crate::params::flatten("", &toml::Value::Table(spec.base.to_table()), &mut base_leaves);
     let known = |p: &str| base_leaves.iter().any(|(k, _)| k == p);
     let mut sweeps = Vec::new();
     for (i, block) in spec.sweeps.iter().enumerate() {
         if block.kind.is_design() {
-            let design = check_design(i, block, &base_leaves, &spec.algorithms, &mut err);
+            let design = check_design(i, block, &base_leaves, &read, &names, &mut err);
             sweeps.push(SweepBlock {
                 kind: block.kind,
                 params: Vec::new(),
@@ -768,23 +797,13 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         let switches: Vec<&str> =
             swept.iter().filter_map(|p| p.path.strip_suffix(".model")).collect();
         let variant_field = |p: &str| switches.iter().any(|s| p.starts_with(&format!("{s}.")));
-        let read: Vec<&str> = spec
-            .algorithms
-            .iter()
-            .flat_map(|a| {
-                crate::world::WorldKind::ALL.into_iter().flat_map(move |k| a.sections_read(k))
-            })
-            .collect();
         for p in &swept {
-            let section = p.path.split('.').next().unwrap_or("");
-            if known(&p.path) && !read.contains(&section) {
-                let names: Vec<&str> = spec.algorithms.iter().map(|a| a.name()).collect();
+            if known(&p.path) && !is_read(&read, &p.path) {
                 err(
                     &p.key,
                     format!(
-                        "`{}` is not read by any of this study's algorithms ({}): sweeping it would only repeat identical runs",
+                        "`{}` is not read by any of this study's algorithms ({names}): sweeping it would only repeat identical runs",
                         p.path,
-                        names.join(", ")
                     ),
                 );
                 continue;
@@ -1051,11 +1070,11 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
                 err(&key("maps"), format!("map `{m}` is not one of the study's maps"));
             }
         }
-        for (k, a) in [("algorithm", c.algorithm), ("than_algorithm", c.than_algorithm)] {
+        for (k, a) in [("algorithm", &c.algorithm), ("than_algorithm", &c.than_algorithm)] {
             if let Some(a) = a
-                && !spec.algorithms.contains(&a)
+                && !spec.algorithms.contains(a)
             {
-                err(&key(k), format!("`{}` is not one of the study's algorithms", a.name()));
+                err(&key(k), format!("`{a}` is not one of the study's algorithms"));
             }
         }
         if spec.claims[..i].iter().any(|o| o.id == c.id) {
@@ -1072,7 +1091,26 @@ pub fn parse(path: &Path, text: &str) -> Result<LoadedSpec, SpecError> {
         locator,
         spec,
         sweeps,
+        catalogue: Arc::clone(catalogue),
     })
+}
+
+/// Every `[base]` section (or `external.<name>` table) any of `algorithms` reads in any kind of
+/// world.
+fn sections_read(catalogue: &Catalogue, algorithms: &[AlgorithmId]) -> Vec<String> {
+    algorithms
+        .iter()
+        .flat_map(|a| {
+            crate::world::WorldKind::ALL
+                .into_iter()
+                .flat_map(move |k| catalogue.algorithm(a).sections_read(k))
+        })
+        .collect()
+}
+
+/// Whether the parameter `path` lies in one of the sections `read`.
+fn is_read(read: &[String], path: &str) -> bool {
+    read.iter().any(|r| path == r || path.starts_with(&format!("{r}.")))
 }
 
 /// Checks a morris / sobol block: `ranges` of known parameters read by the study's algorithms,
@@ -1082,7 +1120,8 @@ fn check_design(
     i: usize,
     block: &SweepSpec,
     base_leaves: &[(String, toml::Value)],
-    algorithms: &[AlgorithmKind],
+    read: &[String],
+    names: &str,
     err: &mut dyn FnMut(&str, String),
 ) -> Option<DesignSpec> {
     let key = |k: &str| format!("sweeps[{i}].{k}");
@@ -1119,20 +1158,12 @@ fn check_design(
             );
             continue;
         };
-        let read: Vec<&str> = algorithms
-            .iter()
-            .flat_map(|a| {
-                crate::world::WorldKind::ALL.into_iter().flat_map(move |k| a.sections_read(k))
-            })
-            .collect();
-        if !read.contains(&p.path.split('.').next().unwrap_or("")) {
-            let names: Vec<&str> = algorithms.iter().map(|a| a.name()).collect();
+        if !is_read(read, &p.path) {
             fail(
                 p.key.clone(),
                 format!(
-                    "`{}` is not read by any of this study's algorithms ({}): its indices would be zero by construction",
+                    "`{}` is not read by any of this study's algorithms ({names}): its indices would be zero by construction",
                     p.path,
-                    names.join(", ")
                 ),
             );
             continue;
@@ -1300,12 +1331,12 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
 "#;
 
     fn errs(text: &str) -> Vec<SourceError> {
-        parse(Path::new("x.toml"), text).unwrap_err().errors
+        parse(Path::new("x.toml"), text, &Default::default()).unwrap_err().errors
     }
 
     #[test]
     fn good_spec_flattens_sweeps_in_written_order() {
-        let s = parse(Path::new("x.toml"), GOOD).unwrap();
+        let s = parse(Path::new("x.toml"), GOOD, &Default::default()).unwrap();
         let paths: Vec<_> =
             s.sweeps[0].params.iter().map(|p| (p.path.as_str(), p.key.as_str())).collect();
         assert_eq!(
@@ -1445,7 +1476,7 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let text = format!(
             "{GOOD}\n[report.diff]\nalpha = 0.01\n[report.diff.metrics.ate_rmse_m]\nmin_effect = 0.05\n"
         );
-        let spec = parse(Path::new("t.toml"), &text).unwrap().spec;
+        let spec = parse(Path::new("t.toml"), &text, &Default::default()).unwrap().spec;
         assert_eq!(spec.report.diff.for_metric("ate_rmse_m", (0.05, 0.01)), (0.01, 0.05));
         assert_eq!(spec.report.diff.for_metric("ate_mean_m", (0.05, 0.01)), (0.01, 0.01));
         let e = errs(&format!(
@@ -1472,7 +1503,7 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let good = format!(
             "{DESIGN_HEAD}[[sweeps]]\nkind = \"sobol\"\nsamples = 16\nranges = {{ \"features.dmax_m\" = [0.001, 0.1], \"fastslam.particles\" = [5, 500], \"fastslam.motion_x\" = [0.0001, 0.02] }}\nlog = [\"features.dmax_m\", \"fastslam.particles\"]\ntied = {{ \"fastslam.motion_y\" = \"fastslam.motion_x\" }}\n"
         );
-        let s = parse(Path::new("x.toml"), &good).unwrap();
+        let s = parse(Path::new("x.toml"), &good, &Default::default()).unwrap();
         let d = s.sweeps[0].design.as_ref().unwrap();
         let summary: Vec<(&str, bool, bool)> =
             d.params.iter().map(|p| (p.path.as_str(), p.log, p.integer)).collect();

@@ -197,7 +197,7 @@ pub struct RunLandmarks {
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct MatchRows {
     pub run_id: String,
-    pub matches: Vec<crate::scanmatch::track::MatchRecord>,
+    pub matches: Vec<crate::trace::MatchRecord>,
 }
 
 /// Wall-clock time of a run (when it was computed; `cached` = taken from the cache this time),
@@ -243,7 +243,28 @@ pub struct GroupRecord {
     pub named: bool,
     /// A morris / sobol group: its design rows' sweep points.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub design: Option<crate::plan::design::DesignRecord>,
+    pub design: Option<DesignRecord>,
+}
+
+/// What a design group of `resolved.toml` records: the ranged parameters, the sweep point of
+/// every design row, and (Morris) the paths' moves and realised coordinates.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DesignRecord {
+    /// Sobol: base samples N (rows: A₁…A_N, B₁…B_N, then A with column i from B for each i).
+    /// Morris: trajectories r (rows: the d + 1 points of each trajectory in turn).
+    pub size: usize,
+    /// Point label of each design row (two rows that round to the same parameters share one).
+    pub rows: Vec<String>,
+    /// Morris: the parameter each step of each trajectory moves.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub moved: Vec<Vec<usize>>,
+    /// Morris: each row's realised coordinates in [0, 1] (after rounding).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unit: Vec<Vec<f64>>,
+    /// Morris: the design's step Δ on the unit scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delta: Option<f64>,
 }
 
 /// A sweep point of `resolved.toml`.
@@ -278,6 +299,17 @@ pub struct ResolvedStudy {
     /// The sweep point label of each `[[report.landmark_reference]]` (written only when any).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub landmark_points: Vec<String>,
+    /// The external algorithms the study lists, as declared when it ran (written only when any):
+    /// the report knows them from here, never from `data/algorithms/`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub externals: Vec<crate::algo::external::ExternalSpec>,
+}
+
+impl ResolvedStudy {
+    /// The algorithms its names resolve against: the built-ins and its external ones.
+    pub fn catalogue(&self) -> crate::algo::Catalogue {
+        crate::algo::Catalogue::with_externals(self.externals.clone())
+    }
 }
 
 /// Everything `write_study` puts in a study directory.

@@ -6,7 +6,7 @@ use super::{
     TraceRows,
 };
 use crate::geom::Pose2;
-use crate::scanmatch::track::MatchRecord;
+use crate::trace::MatchRecord;
 use polars::prelude::*;
 use std::path::Path;
 

@@ -9,36 +9,8 @@
 //!
 //! Reals are written in Rust's shortest round-trip form, so they read back bit for bit.
 
-use crate::scanmatch::track::MatchRecord;
-use crate::world::laser::{LaserGeometry, Scan};
+use crate::trace::MatchRecord;
 use std::fmt::Write;
-
-/// `scans.txt` of a world's laser scans.
-pub fn scans_text(geometry: &LaserGeometry, scans: &[Scan]) -> String {
-    let mut s = String::from(
-        "# step n_beams angle_min_rad angle_increment_rad ranges_m (inf = no return)\n",
-    );
-    for scan in scans {
-        let _ = write!(
-            s,
-            "{} {} {} {}",
-            scan.step,
-            scan.ranges_m.len(),
-            geometry.angle_min_rad,
-            geometry.angle_increment_rad
-        );
-        for r in &scan.ranges_m {
-            match r {
-                Some(r) => {
-                    let _ = write!(s, " {r}");
-                }
-                None => s.push_str(" inf"),
-            }
-        }
-        s.push('\n');
-    }
-    s
-}
 
 /// `pairs.txt` of a run's matches.
 pub fn pairs_text(matches: &[MatchRecord]) -> String {
@@ -81,6 +53,7 @@ pub fn matches_text(matches: &[MatchRecord]) -> String {
 mod tests {
     use super::*;
     use crate::geom::Pose2;
+    use crate::world::laser::{LaserGeometry, Scan, scans_text};
 
     #[test]
     fn scans_and_pairs_read_back_bit_for_bit() {

@@ -3,22 +3,39 @@
 //! the same run.
 
 use super::{PointRecord, RunRow, RunStatus};
+use crate::algo::Catalogue;
+use crate::params::flatten;
 use crate::spec::ExperimentSpec;
-use crate::spec::params::flatten;
 use crate::world::WorldKind;
 
 /// The base parameters the study's algorithms read on its kinds of world, flattened (what
 /// entered the run hashes).
-pub fn read_base(spec: &ExperimentSpec, kinds: &[WorldKind]) -> Vec<(String, toml::Value)> {
+pub fn read_base(
+    spec: &ExperimentSpec,
+    catalogue: &Catalogue,
+    kinds: &[WorldKind],
+) -> Vec<(String, toml::Value)> {
     let mut read = toml::Table::new();
     for a in &spec.algorithms {
         for &k in kinds {
-            read.extend(spec.base.sections_read_by(*a, k));
+            merge(&mut read, spec.base.sections(&catalogue.algorithm(a).sections_read(k)));
         }
     }
     let mut base = Vec::new();
     flatten("", &toml::Value::Table(read), &mut base);
     base
+}
+
+/// Adds `more` to `into`, merging tables both have (two external algorithms' `external.<name>`).
+fn merge(into: &mut toml::Table, more: toml::Table) {
+    for (k, v) in more {
+        match (into.get_mut(&k), v) {
+            (Some(toml::Value::Table(a)), toml::Value::Table(b)) => merge(a, b),
+            (_, v) => {
+                into.insert(k, v);
+            }
+        }
+    }
 }
 
 /// The base configuration if it was run (a point whose every assignment is the base value), else

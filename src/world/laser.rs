@@ -10,6 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::TAU;
+use std::fmt::Write;
 
 /// `[base.laser]`. Defaults fill [FT] §10's gaps for a SICK LMS-200 as simulated by Stage.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -76,6 +77,35 @@ impl LaserGeometry {
 pub struct Scan {
     pub step: usize,
     pub ranges_m: Vec<Option<f64>>,
+}
+
+/// `scans.txt` of a world's laser scans: one scan a line,
+/// `step n_beams angle_min_rad angle_increment_rad r_0 … r_{n−1}` (`inf` = no return), reals in
+/// Rust's shortest round-trip form (`slamlab export-scans`, external algorithms).
+pub fn scans_text(geometry: &LaserGeometry, scans: &[Scan]) -> String {
+    let mut s = String::from(
+        "# step n_beams angle_min_rad angle_increment_rad ranges_m (inf = no return)\n",
+    );
+    for scan in scans {
+        let _ = write!(
+            s,
+            "{} {} {} {}",
+            scan.step,
+            scan.ranges_m.len(),
+            geometry.angle_min_rad,
+            geometry.angle_increment_rad
+        );
+        for r in &scan.ranges_m {
+            match r {
+                Some(r) => {
+                    let _ = write!(s, " {r}");
+                }
+                None => s.push_str(" inf"),
+            }
+        }
+        s.push('\n');
+    }
+    s
 }
 
 /// Finest angular resolution [deg] accepted (0.01° = 36 000 beams per turn; real scanners stop

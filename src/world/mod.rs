@@ -36,6 +36,24 @@ impl WorldKind {
     pub const ALL: [WorldKind; 2] = [WorldKind::Laser, WorldKind::Points];
 }
 
+/// Which simulated sensors a run reads: the world simulates nothing more.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Sensors {
+    pub laser: bool,
+    pub landmarks: bool,
+}
+
+impl Sensors {
+    pub const NONE: Sensors = Sensors { laser: false, landmarks: false };
+    pub const LASER: Sensors = Sensors { laser: true, landmarks: false };
+    pub const LANDMARKS: Sensors = Sensors { laser: false, landmarks: true };
+
+    /// Both sets together.
+    pub fn or(self, other: Sensors) -> Sensors {
+        Sensors { laser: self.laser || other.laser, landmarks: self.landmarks || other.landmarks }
+    }
+}
+
 /// Bump when world generation changes what it produces for the same inputs: it is part of every
 /// run's content hash, so cached runs are recomputed.
 pub const WORLD_CODE_VERSION: &str = "world-2";

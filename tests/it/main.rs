@@ -5,6 +5,7 @@ mod code_versions;
 mod determinism;
 mod diff;
 mod export_tum;
+mod external;
 mod fastslam;
 mod fidelity;
 mod ft_maps;

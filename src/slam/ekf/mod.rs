@@ -25,9 +25,10 @@
 //! observations of one step may match the same landmark and both update it; two observations of
 //! one unseen landmark create two landmarks.
 
+use super::driver::{self, Filter};
 use super::fastslam::models::Model;
 use super::motion::MotionModel;
-use super::observations::{Cursor, Observation, StepObservations};
+use super::observations::{Observation, StepObservations};
 use super::{LandmarkMap, SlamError, Trace};
 use crate::config::{Checks, Violation};
 use crate::geom::{Line, Point2, Pose2, wrap_angle};
@@ -529,28 +530,49 @@ pub fn run(
     observations: &[StepObservations],
     points_as_corners: bool,
 ) -> Result<Trace, SlamError> {
-    let mut filter = Ekf::new(params, motion, world.truth[0]);
-    let mut cursor = Cursor::new(observations, params.association == EkfAssociation::Known);
+    let filter = Ekf::new(params, motion, world.truth[0]);
     let steps = world.odometry.len();
-    let mut estimate = Vec::with_capacity(steps + 1);
-    let mut pose_belief = Vec::with_capacity(steps + 1);
-    for k in 0..=steps {
-        let control = k.checked_sub(1).map(|j| &world.odometry[j]);
-        filter.step(control, cursor.at(k));
-        estimate.push(filter.pose());
-        pose_belief.push(Some((filter.pose(), filter.pose_cov())));
+    let run = EkfRun {
+        filter,
+        points_as_corners,
+        estimate: Vec::with_capacity(steps + 1),
+        pose_belief: Vec::with_capacity(steps + 1),
+    };
+    driver::run(world, observations, params.association == EkfAssociation::Known, run)
+}
+
+/// EKF-SLAM as the driver steps it: the filter and the pose estimate and belief of every step.
+struct EkfRun<'a> {
+    filter: Ekf<'a>,
+    points_as_corners: bool,
+    estimate: Vec<Pose2>,
+    pose_belief: Vec<Option<(Pose2, Matrix3<f64>)>>,
+}
+
+impl Filter for EkfRun<'_> {
+    fn step(
+        &mut self,
+        _: usize,
+        control: Option<&Pose2>,
+        observations: &[Observation],
+    ) -> Result<(), SlamError> {
+        self.filter.step(control, observations);
+        self.estimate.push(self.filter.pose());
+        self.pose_belief.push(Some((self.filter.pose(), self.filter.pose_cov())));
+        Ok(())
     }
-    Ok(Trace {
-        estimate,
-        numerical_failures: filter.numerical_failures,
-        map: Some(filter.map(points_as_corners)),
-        neff: Vec::new(),
-        resamples: 0,
-        weighted_steps: filter.weighted_steps,
-        pose_belief,
-        kalman_gain: filter.kalman_gain,
-        matches: Vec::new(),
-    })
+
+    fn finish(self) -> Trace {
+        Trace {
+            estimate: self.estimate,
+            numerical_failures: self.filter.numerical_failures,
+            map: Some(self.filter.map(self.points_as_corners)),
+            weighted_steps: self.filter.weighted_steps,
+            pose_belief: self.pose_belief,
+            kalman_gain: self.filter.kalman_gain,
+            ..Trace::default()
+        }
+    }
 }
 
 #[cfg(test)]

@@ -15,8 +15,9 @@ pub mod models;
 pub mod particle;
 pub mod resample;
 
+use super::driver::{self, Filter};
 use super::motion::MotionModel;
-use super::observations::{self, Cursor, Observation, Source, StepObservations};
+use super::observations::{self, Observation, Source, StepObservations};
 use super::{LandmarkMap, SlamError, Trace};
 use crate::config::{Checks, Violation};
 use crate::features::FeatureParams;
@@ -580,37 +581,110 @@ pub fn run_on(
     {
         return Err(SlamError::NoIdentities);
     }
-    let mut filter = FastSlam1::new(params, motion, world.truth[0]);
-    let mut cursor = Cursor::new(observations, params.association == DataAssociation::Known);
-    let steps = world.odometry.len();
-    let mut neff = Vec::with_capacity(steps + 1);
-    let mut pose_belief = Vec::new();
-    let mut estimator = Estimator::new(params.estimate, steps + 1);
-    for k in 0..=steps {
-        let control = k.checked_sub(1).map(|j| &world.odometry[j]);
-        neff.push(filter.step(control, cursor.at(k), rng));
-        if filter.particles.iter().any(|p| p.map.len() > params.max_landmarks as usize) {
-            return Err(SlamError::LandmarkCap { limit: params.max_landmarks, step: k });
-        }
-        let belief = (motion.is_some() || params.estimate == Estimate::WeightedMean)
-            .then(|| filter.pose_belief());
-        estimator.record(&mut filter.particles, filter.best, belief.map(|b| b.0));
-        if motion.is_some() {
-            pose_belief.push(belief);
+    let run = Fastslam1Run {
+        filter: FastSlam1::new(params, motion, world.truth[0]),
+        rng,
+        record: ParticleRecord::new(params, world.odometry.len()),
+        points_as_corners,
+    };
+    driver::run(world, observations, params.association == DataAssociation::Known, run)
+}
+
+/// FastSLAM 1.0 as the driver steps it.
+struct Fastslam1Run<'a, 'r> {
+    filter: FastSlam1<'a>,
+    rng: &'r mut ChaCha8Rng,
+    record: ParticleRecord,
+    points_as_corners: bool,
+}
+
+impl Filter for Fastslam1Run<'_, '_> {
+    fn step(
+        &mut self,
+        k: usize,
+        control: Option<&Pose2>,
+        observations: &[Observation],
+    ) -> Result<(), SlamError> {
+        let f = &mut self.filter;
+        let neff = f.step(control, observations, self.rng);
+        // the particles' spread, for NEES on point worlds (the study's motion model) and for the
+        // weighted-mean estimate
+        let noisy = f.motion.is_some();
+        let belief =
+            (noisy || f.params.estimate == Estimate::WeightedMean).then(|| f.pose_belief());
+        self.record.record(k, neff, &mut f.particles, f.best, belief, noisy)
+    }
+
+    fn finish(self) -> Trace {
+        let f = self.filter;
+        let counts = (f.numerical_failures, f.resamples, f.weighted_steps);
+        self.record.finish(&f.particles, f.best, self.points_as_corners, counts)
+    }
+}
+
+/// What a particle filter's run records at every step (FastSLAM 1.0 and 2.0): N̂eff, the pose
+/// belief, the trajectory estimate ([`Estimator`]); and the cap on a particle's map.
+pub struct ParticleRecord {
+    neff: Vec<Option<f64>>,
+    pose_belief: Vec<Option<(Pose2, nalgebra::Matrix3<f64>)>>,
+    estimator: Estimator,
+    max_landmarks: u32,
+}
+
+impl ParticleRecord {
+    pub fn new(params: &FastSlamParams, steps: usize) -> Self {
+        Self {
+            neff: Vec::with_capacity(steps + 1),
+            pose_belief: Vec::new(),
+            estimator: Estimator::new(params.estimate, steps + 1),
+            max_landmarks: params.max_landmarks,
         }
     }
-    let (estimate, reported) = estimator.finish(&filter.particles, filter.best);
-    Ok(Trace {
-        estimate,
-        numerical_failures: filter.numerical_failures,
-        map: Some(landmark_map(&filter.particles[reported].map, points_as_corners)),
-        neff,
-        resamples: filter.resamples,
-        weighted_steps: filter.weighted_steps,
-        pose_belief,
-        kalman_gain: Vec::new(),
-        matches: Vec::new(),
-    })
+
+    /// After step `k`: its N̂eff (`None`: nothing weighted the particles), the landmark cap, the
+    /// estimate (`belief`: the weighted mean pose and spread, where computed), and the belief
+    /// itself when `keep_belief` (NEES).
+    pub fn record(
+        &mut self,
+        k: usize,
+        neff: Option<f64>,
+        particles: &mut [Particle],
+        best: usize,
+        belief: Option<(Pose2, nalgebra::Matrix3<f64>)>,
+        keep_belief: bool,
+    ) -> Result<(), SlamError> {
+        self.neff.push(neff);
+        if particles.iter().any(|p| p.map.len() > self.max_landmarks as usize) {
+            return Err(SlamError::LandmarkCap { limit: self.max_landmarks, step: k });
+        }
+        self.estimator.record(particles, best, belief.map(|b| b.0));
+        if keep_belief {
+            self.pose_belief.push(belief);
+        }
+        Ok(())
+    }
+
+    /// The trace: the estimate, and the map of the particle the estimate reports;
+    /// `(numerical failures, resamples, weighted steps)` as the filter counted them.
+    pub fn finish(
+        self,
+        particles: &[Particle],
+        best: usize,
+        points_as_corners: bool,
+        (numerical_failures, resamples, weighted_steps): (u64, u64, u64),
+    ) -> Trace {
+        let (estimate, reported) = self.estimator.finish(particles, best);
+        Trace {
+            estimate,
+            numerical_failures,
+            map: Some(landmark_map(&particles[reported].map, points_as_corners)),
+            neff: self.neff,
+            resamples,
+            weighted_steps,
+            pose_belief: self.pose_belief,
+            ..Trace::default()
+        }
+    }
 }
 
 /// Builds a particle filter's trajectory estimate step by step, as [`FastSlamParams::estimate`]

@@ -59,14 +59,13 @@
 //! (FastSLAM 1.0: association and weights N(z; ẑ(x), Z) at the sampled pose), to show what the
 //! proposal buys.
 
+use super::driver::{self, Filter};
 use super::fastslam::association::{Association, Candidates, resolve_shared};
 use super::fastslam::models::{FullPrediction, Model};
 use super::fastslam::particle::{self, Landmark, Map, Particle};
-use super::fastslam::{
-    DataAssociation, Estimator, FastSlamParams, landmark_map, pose_belief, resample,
-};
+use super::fastslam::{DataAssociation, FastSlamParams, ParticleRecord, pose_belief, resample};
 use super::motion::MotionModel;
-use super::observations::{Cursor, Observation, StepObservations};
+use super::observations::{Observation, StepObservations};
 use super::{SlamError, Trace};
 use crate::geom::{Pose2, wrap_angle};
 use crate::world::World;
@@ -569,34 +568,42 @@ fn run_with(
         return Err(SlamError::NoIdentities);
     }
     let Some(&start) = world.truth.first() else { return Ok(Trace::default()) };
-    let mut filter = FastSlam2::new(params, motion, proposal, start);
-    let steps = world.odometry.len();
-    let mut neff = Vec::with_capacity(steps + 1);
-    let mut pose_belief = Vec::with_capacity(steps + 1);
-    let mut cursor = Cursor::new(observations, params.association == DataAssociation::Known);
-    let mut estimator = Estimator::new(params.estimate, steps + 1);
-    for k in 0..=steps {
-        let control = k.checked_sub(1).map(|j| &world.odometry[j]);
-        neff.push(filter.step(control, cursor.at(k), rng));
-        if filter.particles.iter().any(|p| p.map.len() > params.max_landmarks as usize) {
-            return Err(SlamError::LandmarkCap { limit: params.max_landmarks, step: k });
-        }
-        let belief = filter.pose_belief();
-        estimator.record(&mut filter.particles, filter.best, Some(belief.0));
-        pose_belief.push(Some(belief));
+    let record = ParticleRecord::new(params, world.odometry.len());
+    let run = Fastslam2Run {
+        filter: FastSlam2::new(params, motion, proposal, start),
+        rng,
+        record,
+        points_as_corners,
+    };
+    driver::run(world, observations, params.association == DataAssociation::Known, run)
+}
+
+/// FastSLAM 2.0 as the driver steps it.
+struct Fastslam2Run<'a, 'r> {
+    filter: FastSlam2<'a>,
+    rng: &'r mut ChaCha8Rng,
+    record: ParticleRecord,
+    points_as_corners: bool,
+}
+
+impl Filter for Fastslam2Run<'_, '_> {
+    fn step(
+        &mut self,
+        k: usize,
+        control: Option<&Pose2>,
+        observations: &[Observation],
+    ) -> Result<(), SlamError> {
+        let f = &mut self.filter;
+        let neff = f.step(control, observations, self.rng);
+        let belief = f.pose_belief();
+        self.record.record(k, neff, &mut f.particles, f.best, Some(belief), true)
     }
-    let (estimate, reported) = estimator.finish(&filter.particles, filter.best);
-    Ok(Trace {
-        estimate,
-        numerical_failures: filter.numerical_failures,
-        map: Some(landmark_map(&filter.particles[reported].map, points_as_corners)),
-        neff,
-        resamples: filter.resamples,
-        weighted_steps: filter.weighted_steps,
-        pose_belief,
-        kalman_gain: Vec::new(),
-        matches: Vec::new(),
-    })
+
+    fn finish(self) -> Trace {
+        let f = self.filter;
+        let counts = (f.numerical_failures, f.resamples, f.weighted_steps);
+        self.record.finish(&f.particles, f.best, self.points_as_corners, counts)
+    }
 }
 
 #[cfg(test)]

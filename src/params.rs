@@ -11,13 +11,13 @@ use crate::scanmatch::track::ScanMatchingParams;
 use crate::slam::ekf::EkfParams;
 use crate::slam::fastslam::FastSlamParams;
 use crate::slam::motion::MotionModel;
-use crate::slam::{AlgorithmKind, Sensors};
-use crate::world::WorldKind;
+use crate::world::Sensors;
 use crate::world::laser::LaserParams;
 use crate::world::odometry::OdometryNoise;
 use crate::world::point_sensor::PointSensorParams;
 use crate::world::{SimParams, sensor_period_steps};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// The resolved parameters of one sweep point. Omitted sections and keys take their defaults.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
@@ -49,26 +49,48 @@ pub struct Params {
     pub pose_search: SearchParams,
     /// The brute-force reference ([EP] §6.1).
     pub brute_force: BruteForceParams,
+    /// External algorithms' own parameters, `[base.external.<name>]`, handed to the program as
+    /// written (docs/external-algorithms.md). Not written out when empty, so the studies without
+    /// one keep their run hashes.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub external: BTreeMap<String, toml::Table>,
 }
 
 impl Params {
     /// Range checks of every section, and cross-section checks for the sensors in use (a laser
     /// rate that does not fit the clock does not matter to a study that simulates no laser).
     pub fn validate(&self, sensors: Sensors) -> Vec<Violation> {
+        // every section named (no `..`): a new one cannot be left unchecked
+        let Params {
+            sim,
+            odometry,
+            laser,
+            landmark_sensor,
+            features,
+            fastslam,
+            motion_model,
+            ekf,
+            scan_matching,
+            psm,
+            epsm,
+            pose_search,
+            brute_force,
+            external: _, // the program's own: handed over as written
+        } = self;
         let mut c = Checks::new();
-        c.nested("sim", self.sim.validate());
-        c.nested("odometry", self.odometry.validate());
-        c.nested("laser", self.laser.validate());
-        c.nested("landmark_sensor", self.landmark_sensor.validate());
-        c.nested("features", self.features.validate());
-        c.nested("fastslam", self.fastslam.validate());
-        c.nested("motion_model", self.motion_model.validate());
-        c.nested("ekf", self.ekf.validate());
-        c.nested("scan_matching", self.scan_matching.validate());
-        c.nested("psm", self.psm.validate());
-        c.nested("epsm", self.epsm.validate());
-        c.nested("pose_search", self.pose_search.validate());
-        c.nested("brute_force", self.brute_force.validate());
+        c.nested("sim", sim.validate());
+        c.nested("odometry", odometry.validate());
+        c.nested("laser", laser.validate());
+        c.nested("landmark_sensor", landmark_sensor.validate());
+        c.nested("features", features.validate());
+        c.nested("fastslam", fastslam.validate());
+        c.nested("motion_model", motion_model.validate());
+        c.nested("ekf", ekf.validate());
+        c.nested("scan_matching", scan_matching.validate());
+        c.nested("psm", psm.validate());
+        c.nested("epsm", epsm.validate());
+        c.nested("pose_search", pose_search.validate());
+        c.nested("brute_force", brute_force.validate());
         let in_use = [
             ("laser", self.laser.rate_hz, sensors.laser),
             ("landmark_sensor", self.landmark_sensor.rate_hz, sensors.landmarks),
@@ -90,12 +112,26 @@ impl Params {
         toml::Table::try_from(self).expect("Params serialises to a TOML table")
     }
 
-    /// The sections `algorithm` reads: the world's (only the sensors it uses) and its own. Their
-    /// values — not the whole parameter set — go into a run's content hash, so changing laser
-    /// settings does not invalidate odometry-only runs.
-    pub fn sections_read_by(&self, algorithm: AlgorithmKind, kind: WorldKind) -> toml::Table {
-        let wanted = algorithm.sections_read(kind);
-        self.to_table().into_iter().filter(|(k, _)| wanted.contains(&k.as_str())).collect()
+    /// The sections named in `wanted` (top-level sections, or `external.<name>` for one external
+    /// algorithm's table), in declaration order. Their values — not the whole parameter set — go
+    /// into a run's content hash, so changing laser settings does not invalidate odometry-only
+    /// runs.
+    pub fn sections(&self, wanted: &[String]) -> toml::Table {
+        let mut out = toml::Table::new();
+        for (section, value) in self.to_table() {
+            if wanted.contains(&section) {
+                out.insert(section, value);
+            } else if let toml::Value::Table(table) = value {
+                let picked: toml::Table = table
+                    .into_iter()
+                    .filter(|(sub, _)| wanted.contains(&format!("{section}.{sub}")))
+                    .collect();
+                if !picked.is_empty() {
+                    out.insert(section, toml::Value::Table(picked));
+                }
+            }
+        }
+        out
     }
 }
 
@@ -122,11 +158,33 @@ mod tests {
     }
 
     #[test]
-    fn odometry_baseline_reads_no_sensor_section() {
-        let s = Params::default().sections_read_by(AlgorithmKind::Odometry, WorldKind::Laser);
+    fn sections_come_in_declaration_order() {
+        let wanted = ["odometry".to_string(), "sim".to_string()];
+        let s = Params::default().sections(&wanted);
         let keys: Vec<_> = s.keys().map(String::as_str).collect();
-        // declaration order, not alphabetical
+        // declaration order, not alphabetical nor the order asked
         assert_eq!(keys, vec!["sim", "odometry"]);
+    }
+
+    #[test]
+    fn one_external_table_is_picked_by_its_dotted_name() {
+        let mut p = Params::default();
+        p.external.insert("a".into(), toml::toml! { gate = 4.0 });
+        p.external.insert("b".into(), toml::toml! { gate = 9.0 });
+        let s = p.sections(&["sim".to_string(), "external.b".to_string()]);
+        assert_eq!(
+            toml::to_string(&s).unwrap(),
+            toml::to_string(&toml::toml! {
+                [sim]
+                dt_s = 0.1
+                route_inset_m = 0.0
+                [external.b]
+                gate = 9.0
+            })
+            .unwrap()
+        );
+        // without external tables nothing is written: older studies keep their hashes
+        assert!(!Params::default().to_table().contains_key("external"));
     }
 
     #[test]
