@@ -21,6 +21,7 @@ pub mod plan;
 pub mod report;
 pub mod run;
 pub mod scanmatch;
+pub mod scenario;
 pub mod slam;
 pub mod source;
 pub mod spec;

@@ -51,9 +51,11 @@ const LOG_STEPS: f64 = 50_000.0;
 /// The work of `run`.
 pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
     let params = &plan.points[run.point].params;
-    let map = &plan.maps[run.map].map;
+    let entry = &plan.maps[run.map];
+    let map = &entry.map;
+    let kind = entry.world_kind();
     let algorithm = plan.algorithm(run);
-    let sensors = algorithm.sensors(map.world_kind());
+    let sensors = algorithm.sensors(kind);
     let mut w = Work::default();
     let Some(route) = &map.trajectory else {
         w.log_steps = LOG_STEPS;
@@ -76,7 +78,6 @@ pub fn work(plan: &ExperimentPlan, run: &RunSpec) -> Work {
     } else {
         (0.0, 0.0)
     };
-    let kind = map.world_kind();
     let updates = if kind == WorldKind::Laser {
         scans
     } else {

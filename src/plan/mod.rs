@@ -6,7 +6,9 @@
 //! algorithm — so every point and algorithm of a study sees the same worlds (paired comparisons).
 
 use crate::algo::{Algorithm, AlgorithmId};
+use crate::dataset::DatasetSpec;
 use crate::metrics::METRICS_VERSION;
+use crate::scenario::Scenario;
 use crate::spec::{InputErrors, LoadedSpec, Params, SpecError, SweepKind};
 use crate::store::{ClaimCells, reference as reference_file};
 use crate::world::WORLD_CODE_VERSION;
@@ -29,9 +31,22 @@ pub struct MapEntry {
     pub text: String,
     /// blake3 of the file's bytes (for a dataset map, followed by every data file's bytes).
     pub hash: String,
+    /// The map (a dataset's map has a name, title and notes, no route).
     pub map: Map,
+    /// How to read a real dataset (`None` for a simulated world).
+    pub dataset: Option<DatasetSpec>,
     /// A dataset map whose data files are absent: why (the study is skipped, not failed).
     pub missing_data: Option<String>,
+}
+
+impl MapEntry {
+    /// Point-landmark world (point landmarks, or a dataset of them) or laser world.
+    pub fn world_kind(&self) -> crate::world::WorldKind {
+        match &self.dataset {
+            Some(d) => d.world_kind(),
+            None => self.map.world_kind(),
+        }
+    }
 }
 
 /// A set of points plotted together: x is `params[0]`; further params (grid/zip) split or label
@@ -175,7 +190,7 @@ pub fn build_limited(
     let maps = load_maps(&spec, maps_dir, &mut errors);
     // The sensors the study simulates, from its algorithms and its maps' world kinds: a sensor rate
     // must fit the clock only where that sensor is simulated.
-    let kinds: Vec<crate::world::WorldKind> = maps.iter().map(|m| m.map.world_kind()).collect();
+    let kinds: Vec<crate::world::WorldKind> = maps.iter().map(MapEntry::world_kind).collect();
     let sensors = spec.catalogue.sensors(&spec.spec.algorithms, &kinds);
     let base_errors: Vec<_> = spec
         .spec
@@ -196,7 +211,7 @@ pub fn build_limited(
     };
     // Walls given in bitmap pixels need each laser map's bitmap scale (else every run would fail).
     if sensors.laser && points.iter().any(|p| p.params.laser.wall_thickness_px > 0.0) {
-        let unscaled: Vec<_> = spec.spec.maps.iter().enumerate().filter(|(_, name)| maps.iter().any(|m| &&m.name == name && m.map.world_kind() == crate::world::WorldKind::Laser && m.map.bitmap_m_per_px.is_none())).map(|(i, name)| spec.error_at(&format!("maps[{i}]"), format!("map `{name}` states no bitmap_m_per_px, which laser.wall_thickness_px needs"))).collect();
+        let unscaled: Vec<_> = spec.spec.maps.iter().enumerate().filter(|(_, name)| maps.iter().any(|m| &&m.name == name && m.world_kind() == crate::world::WorldKind::Laser && m.map.bitmap_m_per_px.is_none())).map(|(i, name)| spec.error_at(&format!("maps[{i}]"), format!("map `{name}` states no bitmap_m_per_px, which laser.wall_thickness_px needs"))).collect();
         if !unscaled.is_empty() {
             errors.push(SpecError::new(&spec.path, unscaled));
         }
@@ -272,12 +287,12 @@ fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) ->
                 continue;
             }
         };
-        match Map::from_toml(&text) {
-            Ok(map) if map.name == *name => {
+        match Scenario::from_toml(&text) {
+            Ok(Scenario { map, dataset }) if map.name == *name => {
                 let mut hasher = blake3::Hasher::new();
                 hasher.update(text.as_bytes());
                 let mut missing_data = None;
-                for f in map.dataset.iter().flat_map(|d| d.files(Path::new("."))) {
+                for f in dataset.iter().flat_map(|d| d.files(Path::new("."))) {
                     match std::fs::read(&f) {
                         Ok(bytes) => {
                             hasher.update(&bytes);
@@ -293,14 +308,22 @@ fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) ->
                     }
                 }
                 let hash = hasher.finalize().to_hex().to_string();
-                out.push(MapEntry { name: name.clone(), path, text, hash, map, missing_data });
+                out.push(MapEntry {
+                    name: name.clone(),
+                    path,
+                    text,
+                    hash,
+                    map,
+                    dataset,
+                    missing_data,
+                });
             }
-            Ok(map) => errors.push(SpecError::new(
+            Ok(other) => errors.push(SpecError::new(
                 &path,
                 vec![crate::source::SourceError::at_key(
                     &crate::source::Locator::new(&text),
                     "name",
-                    format!("is `{}` but the file is {name}.toml", map.name),
+                    format!("is `{}` but the file is {name}.toml", other.map.name),
                 )],
             )),
             Err(e) => errors.push(SpecError::new(&path, e)),
@@ -761,17 +784,16 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
             if algorithm.is_scan_matcher() {
                 code_version.push_str(&format!(":{}", algorithm.name()));
             }
-            if map.map.dataset.is_some() {
+            if map.dataset.is_some() {
                 code_version.push_str(&format!("+{}", crate::dataset::DATASET_CODE_VERSION));
-            } else if algorithm.sensors(map.map.world_kind()).landmarks {
+            } else if algorithm.sensors(map.world_kind()).landmarks {
                 code_version.push_str(&format!(
                     "+{}",
                     crate::world::point_sensor::POINT_SENSOR_CODE_VERSION
                 ));
             }
             for (pi, point) in points.iter().enumerate() {
-                let sections =
-                    point.params.sections(&algorithm.sections_read(map.map.world_kind()));
+                let sections = point.params.sections(&algorithm.sections_read(map.world_kind()));
                 for replicate in 0..s.replicates {
                     let world_seed = derive_seed(
                         s.seed,

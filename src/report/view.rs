@@ -11,13 +11,13 @@ use crate::algo::{Choice, Topic};
 use crate::judge::agreement::{self, Published};
 use crate::metrics::{MetricDef, metric_def};
 use crate::params::flatten;
+use crate::scenario::Scenario;
 use crate::spec::{Bands, SweepKind};
 use crate::stats::{self, Summary, sig, sig_ascii};
 use crate::store::reference::ReferenceRow;
 use crate::store::{
     LandmarkRow, MatchRows, ParamValue, RunLandmarks, RunRow, RunStatus, StudyData, TraceRows,
 };
-use crate::world::map::Map;
 use std::collections::BTreeMap;
 
 /// From this many maps, a figure with published series is drawn as one panel per map.
@@ -35,7 +35,7 @@ struct Study<'a> {
     data: &'a StudyData,
     /// The built-in algorithms and the study's external ones.
     catalogue: crate::algo::Catalogue,
-    maps: Vec<(String, Option<Map>)>,
+    maps: Vec<(String, Option<Scenario>)>,
     metrics: Vec<&'static MetricDef>,
     /// Base parameters, flattened.
     base: Vec<(String, toml::Value)>,
@@ -164,7 +164,7 @@ pub fn build(
     diagnostics: Option<&crate::scanmatch::diagnose::Diagnostics>,
 ) -> StudyPages {
     let spec = &data.resolved.spec;
-    let maps: Vec<(String, Option<Map>)> = spec
+    let maps: Vec<(String, Option<Scenario>)> = spec
         .maps
         .iter()
         .map(|name| {
@@ -173,7 +173,7 @@ pub fn build(
                 data.maps
                     .iter()
                     .find(|(n, _)| n == name)
-                    .and_then(|(_, text)| Map::from_toml(text).ok()),
+                    .and_then(|(_, text)| Scenario::from_toml(text).ok()),
             )
         })
         .collect();
@@ -214,7 +214,11 @@ pub fn build(
             d,
             spec,
             &study.catalogue,
-            study.maps.iter().find(|(n, _)| n == &d.map).and_then(|(_, m)| m.as_ref()),
+            study
+                .maps
+                .iter()
+                .find(|(n, _)| n == &d.map)
+                .and_then(|(_, m)| m.as_ref().map(|s| &s.map)),
         )
     });
     let landmark_tables = landmark_tables(&study, traces);
@@ -311,7 +315,7 @@ fn dataset_choices(study: &Study<'_>) -> Vec<String> {
     out.push("Trajectory error is evo's APE (translation part) at the steps with truth; truth without headings (GPS) is first aligned to the estimate by a rigid transform (rotation and translation).".into());
     let mut notes: Vec<String> = Vec::new();
     for (name, map) in &study.maps {
-        for note in map.iter().flat_map(|m| &m.notes) {
+        for note in map.iter().flat_map(|m| &m.map.notes) {
             notes.push(format!("Map {name}: {note}"));
         }
     }
@@ -320,18 +324,21 @@ fn dataset_choices(study: &Study<'_>) -> Vec<String> {
 }
 
 /// The kinds of world among a study's maps (laser first), laser for a map that cannot be read.
-fn world_kinds(maps: &[(String, Option<Map>)]) -> Vec<crate::world::WorldKind> {
+fn world_kinds(maps: &[(String, Option<Scenario>)]) -> Vec<crate::world::WorldKind> {
     let has = |k| {
-        maps.iter()
-            .any(|(_, m)| m.as_ref().map_or(crate::world::WorldKind::Laser, Map::world_kind) == k)
+        maps.iter().any(|(_, m)| {
+            m.as_ref().map_or(crate::world::WorldKind::Laser, Scenario::world_kind) == k
+        })
     };
     crate::world::WorldKind::ALL.into_iter().filter(|&k| has(k)).collect()
 }
 
 fn maps_table(study: &Study<'_>) -> TableView {
     // Point landmarks only matter (and are only shown) when a map has some.
-    let points =
-        study.maps.iter().any(|(_, m)| m.as_ref().is_some_and(|m| !m.point_landmarks.is_empty()));
+    let points = study
+        .maps
+        .iter()
+        .any(|(_, m)| m.as_ref().is_some_and(|m| !m.map.point_landmarks.is_empty()));
     let rows = study
         .maps
         .iter()
@@ -343,7 +350,7 @@ fn maps_table(study: &Study<'_>) -> TableView {
                 .find(|r| &r.map == name && r.status == RunStatus::Ok)
                 .and_then(|r| r.metric("path_length_m"));
             let mut row = vec![name.clone()];
-            match map {
+            match map.as_ref().map(|s| &s.map) {
                 Some(m) => {
                     row.push(format!(
                         "{} + {} = {}",
@@ -451,7 +458,7 @@ fn modelling_choices(study: &Study<'_>) -> Vec<String> {
     // Map notes, each stated once with the maps it applies to (in spec order).
     let mut notes: Vec<(&str, Vec<&str>)> = Vec::new();
     for (name, map) in &study.maps {
-        for note in map.iter().flat_map(|m| &m.notes) {
+        for note in map.iter().flat_map(|m| &m.map.notes) {
             match notes.iter_mut().find(|(n, _)| *n == note.as_str()) {
                 Some((_, maps)) => maps.push(name),
                 None => notes.push((note, vec![name])),
@@ -1083,8 +1090,9 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
     let Some(first_algorithm) = study.algorithms().next() else { return Vec::new() };
 
     let mut out = Vec::new();
-    for (map_name, map) in &study.maps {
-        let Some(map) = map else { continue };
+    for (map_name, scenario) in &study.maps {
+        let Some(scenario) = scenario else { continue };
+        let map = &scenario.map;
         let Some(chosen) = crate::store::select::median_run(
             &study.data.runs,
             map_name,
@@ -1139,7 +1147,7 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
                 }
             }
         }
-        let points_world = map.world_kind() == crate::world::WorldKind::Points;
+        let points_world = scenario.world_kind() == crate::world::WorldKind::Points;
         let fig = TrajectoryFigure {
             walls: map.walls.iter().map(|s| ((s.a.x, s.a.y), (s.b.x, s.b.y))).collect(),
             // a point world's landmarks are its points; its wall corners are not landmarks
@@ -1354,7 +1362,7 @@ fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
             continue;
         };
         for (map_name, map) in &study.maps {
-            let Some(map) = map else { continue };
+            let Some(map) = map.as_ref().map(|s| &s.map) else { continue };
             let ids: Vec<String> = study
                 .runs_of(map_name, algorithm.name(), &point.label)
                 .filter(|r| r.status == RunStatus::Ok)

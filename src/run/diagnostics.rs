@@ -35,7 +35,7 @@ pub fn build(
     let Some(first) = spec.algorithms.first() else { return Ok(None) };
     let kinds: Vec<crate::world::WorldKind> = crate::world::WorldKind::ALL
         .into_iter()
-        .filter(|k| plan.maps.iter().any(|m| m.map.world_kind() == *k))
+        .filter(|k| plan.maps.iter().any(|m| m.world_kind() == *k))
         .collect();
     let base = select::read_base(spec, catalogue, &kinds);
     let Some(point) = select::reference_point(&resolved.points, &base) else { return Ok(None) };

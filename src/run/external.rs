@@ -38,7 +38,10 @@ fn scratch(run_id: &str) -> Result<PathBuf, String> {
             Ok(()) => return Ok(dir),
             Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
             Err(e) => {
-                return Err(format!("cannot make a folder for its files in {}: {e}", dir.display()));
+                return Err(format!(
+                    "cannot make a folder for its files in {}: {e}",
+                    dir.display()
+                ));
             }
         }
     }

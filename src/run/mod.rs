@@ -611,7 +611,7 @@ pub enum SimError {
 /// (with the study's odometry model applied where the log has none).
 pub fn world_of(plan: &ExperimentPlan, run: &RunSpec) -> Result<world::World, SimError> {
     let params = &plan.points[run.point].params;
-    let map = &plan.maps[run.map].map;
+    let map = &plan.maps[run.map];
     let sensors = plan.algorithm(run).sensors(map.world_kind());
     let mut world = match &map.dataset {
         // Real data: read from its files (relative paths from the working directory, the
@@ -620,7 +620,7 @@ pub fn world_of(plan: &ExperimentPlan, run: &RunSpec) -> Result<world::World, Si
             .map_err(|e| SimError::Dataset(e.to_string()))?,
         None => {
             let spec = WorldSpec {
-                map,
+                map: &map.map,
                 sim: &params.sim,
                 odometry: &params.odometry,
                 laser: sensors.laser.then_some(&params.laser),
@@ -648,7 +648,7 @@ fn simulate(
     let shared = world()?;
     (|| -> Result<_, SimError> {
         let params = &plan.points[run.point].params;
-        let kind = plan.maps[run.map].map.world_kind();
+        let kind = plan.maps[run.map].world_kind();
         let start = Instant::now();
         let mut clock = || start.elapsed().as_secs_f64();
         let features = |p: &crate::features::FeatureParams| shared.features(p);
@@ -675,14 +675,14 @@ fn simulate(
         let world: &world::World = cut.as_ref().unwrap_or(&shared.world);
         let mut metrics = metrics::compute(world, &trace);
         // a scan matcher's incremental map against the walls of a simulated map
-        let map = &plan.maps[run.map].map;
-        if !trace.matches.is_empty() && map.dataset.is_none() && !map.walls.is_empty() {
+        let map = &plan.maps[run.map];
+        if !trace.matches.is_empty() && map.dataset.is_none() && !map.map.walls.is_empty() {
             let mut steps = crate::scanmatch::track::matched_steps(&trace.matches);
             steps.sort_unstable();
             steps.dedup();
             metrics.push((
                 metrics::MAP_WALL_RMS,
-                metrics::map_wall_rms(world, &trace.estimate, &steps, &map.walls),
+                metrics::map_wall_rms(world, &trace.estimate, &steps, &map.map.walls),
             ));
         }
         let diverged = trace.estimate.iter().any(|p| !p.is_finite());
@@ -743,7 +743,7 @@ fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
         &toml::Value::Table(
             plan.points[run.point]
                 .params
-                .sections(&plan.algorithm(run).sections_read(plan.maps[run.map].map.world_kind())),
+                .sections(&plan.algorithm(run).sections_read(plan.maps[run.map].world_kind())),
         ),
         &mut leaves,
     );
@@ -790,12 +790,11 @@ fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -
         let a = plan.spec.catalogue.algorithm(a);
         code_versions.insert(a.name().to_string(), a.code_version().to_string());
     }
-    if plan.maps.iter().any(|m| m.map.dataset.is_some()) {
+    if plan.maps.iter().any(|m| m.dataset.is_some()) {
         code_versions
             .insert("datasets".to_string(), crate::dataset::DATASET_CODE_VERSION.to_string());
     }
-    if plan.maps.iter().any(|m| m.map.dataset.is_none() && m.map.world_kind() == WorldKind::Points)
-    {
+    if plan.maps.iter().any(|m| m.dataset.is_none() && m.world_kind() == WorldKind::Points) {
         code_versions.insert(
             "point sensor".to_string(),
             crate::world::point_sensor::POINT_SENSOR_CODE_VERSION.to_string(),

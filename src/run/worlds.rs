@@ -71,8 +71,7 @@ pub struct Worlds<'p> {
 /// Everything [`world_of`] reads for `run`, as a string: equal keys, equal worlds.
 pub fn key(plan: &ExperimentPlan, run: &RunSpec) -> String {
     let params = &plan.points[run.point].params;
-    let map = &plan.maps[run.map].map;
-    let sensors = plan.algorithm(run).sensors(map.world_kind());
+    let sensors = plan.algorithm(run).sensors(plan.maps[run.map].world_kind());
     format!(
         "{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}",
         run.map,

@@ -31,8 +31,9 @@ struct MapFile {
     walls: Vec<Wall>,
     /// Simulated worlds drive this path; datasets have none.
     trajectory: Option<TrajectorySpec>,
-    /// A real dataset instead of a simulation: how to read it (see `crate::dataset`).
-    dataset: Option<crate::dataset::DatasetSpec>,
+    /// A real dataset instead of a simulation: read by `crate::scenario`, which knows the
+    /// loaders; here only whether there is one.
+    dataset: Option<toml::Table>,
     /// Point landmarks [[x, y], …] [m] for range-bearing worlds.
     #[serde(default)]
     landmarks: Vec<[f64; 2]>,
@@ -93,8 +94,6 @@ pub struct Map {
     pub walls: Vec<Segment>,
     /// The driven path of a simulated world (`None` for a dataset).
     pub trajectory: Option<TrajectorySpec>,
-    /// How to read a real dataset (`None` for a simulated world).
-    pub dataset: Option<crate::dataset::DatasetSpec>,
     pub point_landmarks: Vec<Point2>,
     /// Scale [m/px] of the source's bitmap, when the source drew the map as one.
     pub bitmap_m_per_px: Option<f64>,
@@ -164,9 +163,6 @@ impl Map {
                 )]);
             }
             _ => {}
-        }
-        for v in file.dataset.iter().flat_map(|d| d.validate()) {
-            err(&format!("dataset.{}", v.key), v.message);
         }
         if let Some(t) = &file.trajectory {
             if !(t.max_speed_mps > 0.0 && t.max_speed_mps.is_finite()) {
@@ -296,7 +292,6 @@ impl Map {
             start: Pose2::new(file.start.x_m, file.start.y_m, file.start.theta_deg.to_radians()),
             walls,
             trajectory: file.trajectory,
-            dataset: file.dataset,
             point_landmarks: file.landmarks.iter().map(|p| Point2::new(p[0], p[1])).collect(),
             bitmap_m_per_px: file.bitmap_m_per_px,
             lines,
@@ -304,12 +299,13 @@ impl Map {
         })
     }
 
-    /// Point-landmark world (point landmarks or a dataset) or laser world (walls only).
+    /// Point-landmark world (point landmarks) or laser world (walls only). A dataset's kind is
+    /// its loader's: [`crate::scenario::Scenario::world_kind`].
     pub fn world_kind(&self) -> crate::world::WorldKind {
-        match &self.dataset {
-            Some(d) => d.world_kind(),
-            None if self.point_landmarks.is_empty() => crate::world::WorldKind::Laser,
-            None => crate::world::WorldKind::Points,
+        if self.point_landmarks.is_empty() {
+            crate::world::WorldKind::Laser
+        } else {
+            crate::world::WorldKind::Points
         }
     }
 

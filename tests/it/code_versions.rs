@@ -4,9 +4,10 @@
 //! then the fingerprint) are updated.
 
 use crate::util::repo;
+use slamlab::algo::Algorithm;
 use slamlab::geom::Pose2;
 use slamlab::metrics::{self, METRICS_VERSION};
-use slamlab::slam::{AlgorithmKind, odometry};
+use slamlab::slam::odometry;
 use slamlab::world::laser::LaserParams;
 use slamlab::world::map::Map;
 use slamlab::world::odometry::{OdometryNoise, Spread};
@@ -94,7 +95,7 @@ fn hash_run(h: &mut blake3::Hasher, world: &slamlab::world::World) {
 fn outputs_change_only_with_a_code_version_bump() {
     let versions = format!(
         "{WORLD_CODE_VERSION}+{POINT_SENSOR_CODE_VERSION}+{METRICS_VERSION}+{}",
-        AlgorithmKind::Odometry.code_version()
+        slamlab::algo::filters::Odometry.code_version()
     );
     let now = fingerprint();
     assert_eq!(

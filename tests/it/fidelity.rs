@@ -18,7 +18,8 @@ fn published_items_name_existing_studies_and_claims() {
     for it in &items {
         let Some(study) = &it.study else { continue };
         let path = repo().join(format!("experiments/{study}.toml"));
-        let loaded = spec::load(&path).unwrap_or_else(|e| panic!("{}: study {study}: {e}", it.id));
+        let loaded = spec::load(&path, &crate::util::catalogue())
+            .unwrap_or_else(|e| panic!("{}: study {study}: {e}", it.id));
         for c in &it.claims {
             assert!(
                 loaded.spec.claims.iter().any(|x| &x.id == c),

@@ -179,8 +179,11 @@ fn psm_original_equals_diosis_program_on_the_simulated_ep_room() {
         by_run.entry(f[header["run_id"]].clone()).or_default().push(f);
     }
     assert_eq!(by_run.len(), 8);
-    let spec = slamlab::spec::load(&repo.join("experiments/ep-segmentation.toml"))
-        .expect("the spec loads");
+    let spec = slamlab::spec::load(
+        &repo.join("experiments/ep-segmentation.toml"),
+        &crate::util::catalogue(),
+    )
+    .expect("the spec loads");
     let plan = plan::build(spec, &repo.join("data/maps")).expect("the spec plans");
     let (mut total, mut identical) = (0, 0);
     for (run_id, rows) in &by_run {

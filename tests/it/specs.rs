@@ -16,7 +16,7 @@ fn every_experiment_validates_and_plans() {
     assert!(specs.len() >= 3, "expected the example studies in {}", dir.display());
     let mut ids = Vec::new();
     for path in specs {
-        let loaded = spec::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let loaded = spec::load(&path, &crate::util::catalogue()).unwrap_or_else(|e| panic!("{e}"));
         // the file is named after the study
         assert_eq!(
             path.file_stem().unwrap().to_str().unwrap(),
@@ -43,7 +43,9 @@ fn every_experiment_validates_and_plans() {
 
 #[test]
 fn odometry_noise_study_covers_the_five_thesis_maps() {
-    let loaded = spec::load(&repo().join("experiments/odometry-noise.toml")).unwrap();
+    let loaded =
+        spec::load(&repo().join("experiments/odometry-noise.toml"), &crate::util::catalogue())
+            .unwrap();
     assert_eq!(
         loaded.spec.maps,
         ["recinto_basico", "lineamedia", "bigloop", "bigloop2", "complex"]
@@ -54,7 +56,9 @@ fn odometry_noise_study_covers_the_five_thesis_maps() {
 #[test]
 fn a_fixed_world_study_varies_only_the_filter_seeds() {
     // [PF]'s design: the same odometry and map in all 20 runs, only the filter's randomness varies
-    let loaded = spec::load(&repo().join("experiments/pf-particles.toml")).unwrap();
+    let loaded =
+        spec::load(&repo().join("experiments/pf-particles.toml"), &crate::util::catalogue())
+            .unwrap();
     assert!(loaded.spec.fixed_world);
     let plan = plan::build(loaded, &repo().join("data/maps")).unwrap();
     let world: std::collections::BTreeSet<u64> = plan.runs.iter().map(|r| r.world_seed).collect();
@@ -63,7 +67,7 @@ fn a_fixed_world_study_varies_only_the_filter_seeds() {
     assert_eq!(filter.len(), plan.spec.spec.replicates as usize, "a filter seed per replicate");
     // and a study without the flag draws a world per replicate
     let other = plan::build(
-        spec::load(&repo().join("experiments/pf-neff-p0.toml")).unwrap(),
+        spec::load(&repo().join("experiments/pf-neff-p0.toml"), &crate::util::catalogue()).unwrap(),
         &repo().join("data/maps"),
     )
     .unwrap();

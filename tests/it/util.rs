@@ -69,3 +69,9 @@ pub fn run_and_report(spec: &str, work: &Path, threads: &str) {
     ]);
     ok(&["report", "--results", s(&results), "--out", s(&reports)]);
 }
+
+/// The algorithms the committed studies may name: the built-ins and `data/algorithms/`.
+pub fn catalogue() -> std::sync::Arc<slamlab::algo::Catalogue> {
+    slamlab::spec::algorithms::catalogue(&[repo().join("data/algorithms")])
+        .unwrap_or_else(|e| panic!("data/algorithms: {e}"))
+}
