@@ -21,6 +21,8 @@ report: build
 	$(BIN) run $(SPECS)
 	$(BIN) report --specs experiments
 	tests/tools/readme_block.sh write README.md reports/fidelity/summary.md
+	@mkdir -p target && $(BIN) algorithms --markdown > target/algorithms.md
+	tests/tools/readme_block.sh write README.md target/algorithms.md algorithms
 
 ## Only (re)run the studies, without rendering.
 run: build

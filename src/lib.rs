@@ -1,11 +1,12 @@
 //! slamlab: a reproducible-experiment pipeline and report generator for 2-D SLAM.
 //!
-//! Data flows one way (see `CONVENTIONS.md`):
-//! `spec` (TOML as written) → `plan` (validated, expanded, hashed) → `run` (rayon; per run:
-//! `world::generate` → algorithm in `slam` → `metrics::compute`) → `store` (Parquet) →
-//! `report` (HTML, LaTeX, SVG, CSV); real logs enter through `dataset` (the run layer calls it).
-//! `geom`, `world`, `features`, `slam`, `scanmatch` and `metrics` are pure: no IO, no
-//! printing, no threads, no global RNG.
+//! Data flows one way (docs/architecture.md):
+//! `spec` (TOML as written, algorithm names resolved against the `algo` catalogue) → `plan`
+//! (validated, expanded, hashed) → `run` (rayon; per run: the world → `Algorithm::run` →
+//! `metrics::compute`) → `store` (Parquet) → `judge` → `report` (HTML, LaTeX, SVG, CSV); a map
+//! file is a `scenario`, simulated by `world` or read from a real log by `dataset`.
+//! `geom`, `trace`, `world`, `features`, `slam`, `scanmatch`, `metrics` and `algo` are pure: no
+//! IO, no printing, no threads, no global RNG; external programs are started by `run`.
 
 pub mod algo;
 pub mod cli;

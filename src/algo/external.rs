@@ -7,8 +7,8 @@
 use super::{Algorithm, Choice, Launch, Listing, Output, Role, RunInput, RunSize, Topic, Work};
 use crate::geom::{Point2, Pose2, wrap_angle};
 use crate::params::Params;
-use crate::scanmatch::track::Matcher;
-use crate::trace::{LandmarkMap, SlamError, Trace};
+use crate::scanmatch::track::{self, Matcher};
+use crate::trace::{LandmarkMap, MatchRecord, SlamError, Trace};
 use crate::world::point_sensor::UNKNOWN_LANDMARK;
 use crate::world::{RangeNoise, Sensors, World, WorldKind};
 use serde::{Deserialize, Serialize};
@@ -32,6 +32,10 @@ pub enum Reads {
     Landmarks,
     /// Raw laser scans (`scans.txt`).
     Laser,
+    /// The laser scans and the pairs slamlab's trigger chose (`scans.txt`, `pairs.txt`): the
+    /// program is a scan matcher and writes one estimate per pair (`matches.txt`); slamlab chains
+    /// them into the trajectory as it does its own matchers'.
+    ScanPairs,
 }
 
 /// `data/algorithms/<name>.toml` as written.
@@ -108,8 +112,10 @@ impl ExternalSpec {
     }
 }
 
-/// What the program writes: `estimate.tum` (required) and `map.txt` (optional).
+/// What an estimator writes: `estimate.tum` (required) and `map.txt` (optional).
 pub const OUTPUTS: &[&str] = &["estimate.tum", "map.txt"];
+/// What a scan matcher writes: one estimate per pair.
+pub const MATCHER_OUTPUTS: &[&str] = &["matches.txt"];
 
 impl Algorithm for ExternalSpec {
     fn name(&self) -> &str {
@@ -131,13 +137,20 @@ impl Algorithm for ExternalSpec {
         format!("{EXTERNAL_CODE_VERSION}:{}:{hash}", self.descriptor.version).into()
     }
     fn role(&self) -> Role {
-        Role::Estimator
+        if self.reads(Reads::ScanPairs) { Role::ScanMatcher } else { Role::Estimator }
     }
     fn sensors(&self, _: WorldKind) -> Sensors {
-        Sensors { laser: self.reads(Reads::Laser), landmarks: self.reads(Reads::Landmarks) }
+        Sensors {
+            laser: self.reads(Reads::Laser) || self.reads(Reads::ScanPairs),
+            landmarks: self.reads(Reads::Landmarks),
+        }
     }
     fn sections(&self, _: WorldKind) -> Vec<String> {
-        let mut s = self.descriptor.sections.clone();
+        // a matcher's pairs follow slamlab's trigger: its settings are part of every run's inputs
+        let trigger = self.reads(Reads::ScanPairs)
+            && !self.descriptor.sections.iter().any(|s| s == "scan_matching");
+        let mut s: Vec<String> = trigger.then(|| "scan_matching".to_string()).into_iter().collect();
+        s.extend(self.descriptor.sections.iter().cloned());
         s.push(self.params_section());
         s
     }
@@ -156,7 +169,14 @@ impl Algorithm for ExternalSpec {
             let shown: Vec<String> = leaves.iter().map(|(k, v)| format!("{k} = {v}")).collect();
             let _ = write!(text, " Its parameters: {}.", shown.join(", "));
         }
-        vec![Choice { topic: Topic::Own, text }]
+        let mut out = vec![Choice { topic: Topic::Own, text }];
+        if self.role() == Role::ScanMatcher {
+            // slamlab's trigger, chaining and error measure apply to it as to its own matchers
+            let sm = &params.scan_matching;
+            out.push(Choice { topic: Topic::ScanMatching, text: sm.describe() });
+            out.push(Choice { topic: Topic::MatchErrors, text: track::describe_errors().into() });
+        }
+        out
     }
     fn work(&self, _: &Params, _: &RunSize) -> Work {
         Work { external_s: self.descriptor.expected_s, ..Work::default() }
@@ -165,17 +185,58 @@ impl Algorithm for ExternalSpec {
         None
     }
     fn run(&self, input: RunInput<'_>) -> Result<Output, SlamError> {
-        let inputs = self.inputs(&input)?;
+        let matcher = self.role() == Role::ScanMatcher;
+        let pairs = if matcher {
+            Some(track::pairs(input.world, &input.params.scan_matching)?)
+        } else {
+            None
+        };
+        let mut inputs = self.inputs(&input)?;
+        if let Some((pairs, _)) = &pairs {
+            inputs.push(("pairs.txt", track::pairs_text(pairs)));
+        }
         let launch = Launch {
             command: &self.descriptor.command,
             inputs,
-            outputs: OUTPUTS,
+            outputs: if matcher { MATCHER_OUTPUTS } else { OUTPUTS },
             timeout_s: self.descriptor.timeout_s,
         };
         let fail = |why: String| SlamError::External { name: self.name.clone(), why };
         let written = (input.launch)(&launch).map_err(fail)?;
         let file =
             |name: &str| written.iter().find(|(n, _)| *n == name).and_then(|(_, t)| t.as_ref());
+        if let Some((pairs, steps)) = pairs {
+            let Some(text) = file("matches.txt") else {
+                return Err(fail("it wrote no matches.txt".into()));
+            };
+            let estimates = read_matches(text, &pairs).map_err(fail)?;
+            let world = input.world;
+            let matches: Vec<MatchRecord> = pairs
+                .iter()
+                .zip(estimates)
+                .map(|(p, estimate)| MatchRecord {
+                    reference_step: p.reference_step,
+                    current_step: p.current_step,
+                    truth: world.truth[p.current_step].relative_to(world.truth[p.reference_step]),
+                    initial: p.initial,
+                    estimate,
+                    // what slamlab's own matchers count, an external one does not report
+                    f: f64::NAN,
+                    f_initial: f64::NAN,
+                    pairs: 0,
+                    iterations: 0,
+                    evaluations: 0,
+                    fallback: false,
+                    stop: "external".into(),
+                    time_s: f64::NAN,
+                })
+                .collect();
+            let estimate = track::chain(world, &matches, steps);
+            return Ok(Output {
+                trace: Trace { estimate, matches, ..Trace::default() },
+                steps: Some(steps),
+            });
+        }
         let Some(tum) = file("estimate.tum") else {
             return Err(fail("it wrote no estimate.tum".into()));
         };
@@ -198,7 +259,7 @@ impl ExternalSpec {
         if self.reads(Reads::Landmarks) {
             files.push(("landmarks.txt", landmarks_text(world)));
         }
-        if self.reads(Reads::Laser) {
+        if self.reads(Reads::Laser) || self.reads(Reads::ScanPairs) {
             let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
             files.push(("scans.txt", crate::world::laser::scans_text(&geometry, &world.scans)));
         }
@@ -240,7 +301,7 @@ impl ExternalSpec {
                 }),
             );
         }
-        if let (true, Some(g)) = (self.reads(Reads::Laser), world.laser) {
+        if let (true, Some(g)) = (self.sensors(input.kind).laser, world.laser) {
             t.insert(
                 "laser".into(),
                 toml::Value::Table(toml::toml! {
@@ -336,6 +397,47 @@ pub fn read_tum(text: &str, expected: usize, dt_s: f64) -> Result<Vec<Pose2>, St
     Ok(poses)
 }
 
+/// `matches.txt`: one line per pair of `pairs.txt`, in order, `ref_step cur_step x_m y_m
+/// theta_rad` — the current scan's pose in the reference scan's frame (`nan` where the match
+/// failed: the chain then follows the initial guess).
+pub fn read_matches(text: &str, pairs: &[track::Pair]) -> Result<Vec<Pose2>, String> {
+    let mut out = Vec::with_capacity(pairs.len());
+    for (line, fields) in data_lines(text) {
+        if fields.len() != 5 {
+            return Err(format!(
+                "matches.txt line {line}: expected 5 fields (ref_step cur_step x y theta), got {}",
+                fields.len()
+            ));
+        }
+        let Some(pair) = pairs.get(out.len()) else {
+            return Err(format!(
+                "matches.txt line {line}: more matches than the {} pairs",
+                pairs.len()
+            ));
+        };
+        let steps = (fields[0].parse::<usize>(), fields[1].parse::<usize>());
+        if steps != (Ok(pair.reference_step), Ok(pair.current_step)) {
+            return Err(format!(
+                "matches.txt line {line}: expected the pair {} {} (pairs.txt's order), got {} {}",
+                pair.reference_step, pair.current_step, fields[0], fields[1]
+            ));
+        }
+        let v = fields[2..]
+            .iter()
+            .map(|f| number("matches.txt", line, f))
+            .collect::<Result<Vec<f64>, _>>()?;
+        out.push(Pose2::new(v[0], v[1], v[2]));
+    }
+    if out.len() != pairs.len() {
+        return Err(format!(
+            "matches.txt has {} matches, expected one per pair ({})",
+            out.len(),
+            pairs.len()
+        ));
+    }
+    Ok(out)
+}
+
 /// `map.txt`: one point landmark a line, `x y` or `x y id`.
 pub fn read_map(text: &str) -> Result<LandmarkMap, String> {
     let mut map = LandmarkMap::default();
@@ -399,6 +501,21 @@ mod tests {
         assert_eq!(m.points, [Point2::new(1.0, 2.0), Point2::new(3.5, 4.0), Point2::new(5.0, 6.0)]);
         assert_eq!(m.point_ids, [Some(7), None, None]);
         assert!(read_map("1 2 3 4\n").unwrap_err().contains("line 1"));
+    }
+
+    #[test]
+    fn a_matcher_answers_each_pair_in_order() {
+        let pair =
+            |r, c| track::Pair { reference_step: r, current_step: c, initial: Pose2::IDENTITY };
+        let pairs = [pair(0, 5), pair(5, 9)];
+        let m =
+            read_matches("# ref cur x y theta\n0 5 0.5 0 0.1\n5 9 nan nan nan\n", &pairs).unwrap();
+        assert_eq!(m[0], Pose2::new(0.5, 0.0, 0.1));
+        assert!(!m[1].is_finite(), "a failed match is NaN: the chain follows the initial guess");
+        let e = read_matches("0 5 0.5 0 0.1\n", &pairs).unwrap_err();
+        assert!(e.contains("has 1 matches, expected one per pair (2)"), "{e}");
+        let e = read_matches("0 5 0.5 0 0.1\n5 8 0 0 0\n", &pairs).unwrap_err();
+        assert!(e.contains("line 2") && e.contains("expected the pair 5 9"), "{e}");
     }
 
     #[test]

@@ -201,34 +201,31 @@ pub fn prepared(
     )
 }
 
-/// Runs `matcher` along the world's scans (see the module doc). `seed` seeds the stochastic
-/// optimisers (one derived seed per match); `clock` returns seconds.
-pub fn track(
-    world: &World,
-    matcher: Matcher<'_>,
-    params: &ScanMatchingParams,
-    seed: u64,
-    clock: &mut dyn FnMut() -> f64,
-) -> Result<Tracked, SlamError> {
-    let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
-    let (segmentation, geometry) = preparation(matcher, params, geometry);
-    let mut estimate = vec![world.truth[0]];
-    let mut matches = Vec::new();
+/// One match a run makes: the reference and current scans' steps, and the initial guess of the
+/// current scan's pose in the reference frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pair {
+    pub reference_step: usize,
+    pub current_step: usize,
+    pub initial: Pose2,
+}
+
+/// The matches a run makes, and the steps it covers (the metrics stop after the last match when
+/// `max_matches` ends the run). Which scans are paired depends on the odometry alone — the
+/// trigger and the initial guess — never on what a matcher estimates, so every matcher of a study
+/// matches the same pairs.
+pub fn pairs(world: &World, params: &ScanMatchingParams) -> Result<(Vec<Pair>, usize), SlamError> {
     let Some(first) = world.scans.first() else {
         return Err(SlamError::MissingSensor("laser"));
     };
-    let mut reference = (first.step, prepared(first, &geometry, &segmentation));
+    let mut reference = first.step;
     let mut steps = world.truth.len();
+    let mut out = Vec::new();
     for scan in &world.scans[1..] {
-        // Dead-reckon up to this scan.
-        while estimate.len() <= scan.step {
-            let k = estimate.len() - 1;
-            estimate.push(estimate[k].compose(world.odometry[k]));
-        }
-        let odometry = world.odometry[reference.0..scan.step]
+        let odometry = world.odometry[reference..scan.step]
             .iter()
             .fold(Pose2::IDENTITY, |acc, d| acc.compose(*d));
-        let elapsed_s = (scan.step - reference.0) as f64 * world.dt_s;
+        let elapsed_s = (scan.step - reference) as f64 * world.dt_s;
         let moved = odometry.x.hypot(odometry.y) >= params.trigger_distance_m
             && params.trigger_distance_m > 0.0;
         let turned = odometry.theta.abs() >= params.trigger_angle_deg.to_radians()
@@ -241,18 +238,86 @@ pub fn track(
             InitialGuess::Odometry => odometry,
             InitialGuess::Identity => Pose2::IDENTITY,
         };
-        let current = prepared(scan, &geometry, &segmentation);
-        let match_seed = match_seed(seed, matches.len());
+        out.push(Pair { reference_step: reference, current_step: scan.step, initial });
+        reference = scan.step;
+        if params.max_matches > 0 && out.len() >= params.max_matches as usize {
+            steps = scan.step + 1;
+            break;
+        }
+    }
+    Ok((out, steps))
+}
+
+/// `pairs.txt`: one pair a line, `ref_step cur_step guess_x_m guess_y_m guess_theta_rad` (the
+/// current scan's initial pose in the reference scan's frame), reals in Rust's shortest
+/// round-trip form (`slamlab export-scans`, external scan matchers).
+pub fn pairs_text(pairs: &[Pair]) -> String {
+    let mut s = String::from("# ref_step cur_step guess_x_m guess_y_m guess_theta_rad\n");
+    for p in pairs {
+        s.push_str(&format!(
+            "{} {} {} {} {}\n",
+            p.reference_step, p.current_step, p.initial.x, p.initial.y, p.initial.theta
+        ));
+    }
+    s
+}
+
+/// The trajectory of `steps` poses from the matches ([EP] Fig. 1): a matched scan's pose is its
+/// reference's composed with the match (the initial guess where the match is not finite);
+/// between matches it follows the odometry.
+pub fn chain(world: &World, matches: &[MatchRecord], steps: usize) -> Vec<Pose2> {
+    let mut estimate = vec![world.truth[0]];
+    let dead_reckon = |estimate: &mut Vec<Pose2>, until: usize| {
+        while estimate.len() < until {
+            let k = estimate.len() - 1;
+            estimate.push(estimate[k].compose(world.odometry[k]));
+        }
+    };
+    for m in matches {
+        dead_reckon(&mut estimate, m.current_step + 1);
+        let delta = if m.estimate.is_finite() { m.estimate } else { m.initial };
+        estimate[m.current_step] = estimate[m.reference_step].compose(delta);
+    }
+    dead_reckon(&mut estimate, steps);
+    estimate.truncate(steps);
+    estimate
+}
+
+/// Runs `matcher` along the world's scans (see the module doc). `seed` seeds the stochastic
+/// optimisers (one derived seed per match); `clock` returns seconds.
+pub fn track(
+    world: &World,
+    matcher: Matcher<'_>,
+    params: &ScanMatchingParams,
+    seed: u64,
+    clock: &mut dyn FnMut() -> f64,
+) -> Result<Tracked, SlamError> {
+    let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
+    let (segmentation, geometry) = preparation(matcher, params, geometry);
+    let (pairs, steps) = pairs(world, params)?;
+    let mut scans = world.scans.iter();
+    let mut next_scan = |step: usize| scans.find(|s| s.step == step).expect("a pair names scans");
+    let mut reference =
+        pairs.first().map(|p| prepared(next_scan(p.reference_step), &geometry, &segmentation));
+    let mut matches = Vec::with_capacity(pairs.len());
+    for (k, pair) in pairs.iter().enumerate() {
+        let current = prepared(next_scan(pair.current_step), &geometry, &segmentation);
+        let reference_scan = reference.as_ref().expect("the first pair's reference is prepared");
         let start = clock();
-        let result =
-            run_matcher(matcher, &reference.1, &current, initial, &params.objective, match_seed);
+        let result = run_matcher(
+            matcher,
+            reference_scan,
+            &current,
+            pair.initial,
+            &params.objective,
+            match_seed(seed, k),
+        );
         let time_s = clock() - start;
-        let truth = world.truth[scan.step].relative_to(world.truth[reference.0]);
-        let record = MatchRecord {
-            reference_step: reference.0,
-            current_step: scan.step,
-            truth,
-            initial,
+        matches.push(MatchRecord {
+            reference_step: pair.reference_step,
+            current_step: pair.current_step,
+            truth: world.truth[pair.current_step].relative_to(world.truth[pair.reference_step]),
+            initial: pair.initial,
             estimate: result.pose,
             f: result.f,
             f_initial: result.f_initial,
@@ -262,21 +327,10 @@ pub fn track(
             fallback: result.fallback,
             stop: format!("{:?}", result.stop),
             time_s,
-        };
-        let delta = if record.estimate.is_finite() { record.estimate } else { initial };
-        estimate[scan.step] = estimate[reference.0].compose(delta);
-        matches.push(record);
-        reference = (scan.step, current);
-        if params.max_matches > 0 && matches.len() >= params.max_matches as usize {
-            steps = scan.step + 1;
-            break;
-        }
+        });
+        reference = Some(current);
     }
-    while estimate.len() < steps {
-        let k = estimate.len() - 1;
-        estimate.push(estimate[k].compose(world.odometry[k]));
-    }
-    estimate.truncate(steps);
+    let estimate = chain(world, &matches, steps);
     Ok(Tracked { trace: Trace { estimate, matches, ..Trace::default() }, steps })
 }
 

@@ -1380,7 +1380,11 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let claim = |body: &str| format!("{GOOD}\n[[claims]]\nid = \"c\"\ntext = \"t\"\n{body}\n");
         let keys = |body: &str| errs(&claim(body)).into_iter().map(|e| e.key).collect::<Vec<_>>();
         let ok = "source = \"[FT] x\"\nkind = \"seed\"\nmetric = \"ate_rmse_m\"\ntest = \"flat\"\nover = { \"odometry.k\" = [0.0, 0.1] }\ntolerance_rel = 0.2\nwhy = \"the thesis's rerun\"";
-        assert!(parse(Path::new("x.toml"), &claim(ok)).is_ok(), "{:?}", keys(ok));
+        assert!(
+            parse(Path::new("x.toml"), &claim(ok), &Default::default()).is_ok(),
+            "{:?}",
+            keys(ok)
+        );
         assert!(
             keys(&ok.replace("\nwhy = \"the thesis's rerun\"", ""))
                 .contains(&"claims[0].why".to_string())
@@ -1397,7 +1401,11 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         );
         let fails =
             "source = \"[FT] x\"\nkind = \"seed\"\ntest = \"fails\"\nat = { \"odometry.k\" = 0.1 }";
-        assert!(parse(Path::new("x.toml"), &claim(fails)).is_ok(), "{:?}", keys(fails));
+        assert!(
+            parse(Path::new("x.toml"), &claim(fails), &Default::default()).is_ok(),
+            "{:?}",
+            keys(fails)
+        );
         assert!(
             keys(&format!("{fails}\nmetric = \"ate_rmse_m\""))
                 .contains(&"claims[0].metric".to_string())
@@ -1466,6 +1474,7 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let err = parse(
             Path::new("experiments/x.toml"),
             &GOOD.replace("replicates = 2", "replicates = 0"),
+            &Default::default(),
         )
         .unwrap_err();
         assert_eq!(err.to_string(), "experiments/x.toml:5:1: key `replicates`: must be ≥ 1");
@@ -1577,7 +1586,7 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         let base = format!(
             "{DESIGN_HEAD}[[sweeps]]\nkind = \"sobol\"\nsamples = 16\nranges = {{ \"features.dmax_m\" = [0.001, 0.1], \"fastslam.particles\" = [5, 500] }}\n[[claims]]\nid = \"c\"\nsource = \"slamlab\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"st\"\nparameter = \"fastslam.particles\"\ntest = \"above\"\nvalue = 0.3\n"
         );
-        assert!(parse(Path::new("x.toml"), &base).is_ok());
+        assert!(parse(Path::new("x.toml"), &base, &Default::default()).is_ok());
         let keys = |text: String| errs(&text).into_iter().map(|e| e.key).collect::<Vec<_>>();
         assert_eq!(
             keys(base.replace("index = \"st\"", "index = \"mu_star\"")),
@@ -1599,7 +1608,8 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
                 &base.replace(
                     "test = \"above\"",
                     "test = \"greater\"\nthan_parameter = \"features.dmax_m\""
-                )
+                ),
+                &Default::default()
             )
             .is_ok()
         );

@@ -9,20 +9,21 @@
 //!
 //! Reals are written in Rust's shortest round-trip form, so they read back bit for bit.
 
+use crate::scanmatch::track::Pair;
 use crate::trace::MatchRecord;
 use std::fmt::Write;
 
 /// `pairs.txt` of a run's matches.
 pub fn pairs_text(matches: &[MatchRecord]) -> String {
-    let mut s = String::from("# ref_step cur_step guess_x_m guess_y_m guess_theta_rad\n");
-    for m in matches {
-        let _ = writeln!(
-            s,
-            "{} {} {} {} {}",
-            m.reference_step, m.current_step, m.initial.x, m.initial.y, m.initial.theta
-        );
-    }
-    s
+    let pairs: Vec<Pair> = matches
+        .iter()
+        .map(|m| Pair {
+            reference_step: m.reference_step,
+            current_step: m.current_step,
+            initial: m.initial,
+        })
+        .collect();
+    crate::scanmatch::track::pairs_text(&pairs)
 }
 
 /// `matches.txt`: each pair with the truth and slamlab's estimate.

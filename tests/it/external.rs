@@ -108,7 +108,7 @@ fn python_programs_run_beside_the_built_ins_and_their_failures_are_runs() {
     // The external algorithms are recorded, and the report shows them.
     assert_eq!(
         study.resolved.externals.iter().map(|e| e.name.as_str()).collect::<Vec<_>>(),
-        ["crash_py", "ekf_slam_py", "garbage_py", "hang_py", "missing_program", "odometry_py"]
+        ["ekf_slam_py", "crash_py", "garbage_py", "hang_py", "missing_program", "odometry_py"]
     );
     ok(&["report", "--results", s(&results), "--out", s(&reports)]);
     let html = std::fs::read_to_string(reports.join("external/index.html")).unwrap();
@@ -167,4 +167,57 @@ fn an_unknown_algorithm_names_the_external_folder() {
         err.contains("unknown algorithm `my_slam`") && err.contains("data/algorithms"),
         "{err}"
     );
+}
+
+/// A scan matcher in Python gets the pairs slamlab's trigger chose and returns one estimate per
+/// pair, which slamlab chains and scores like its own matchers': answering every pair with its
+/// initial guess must reproduce dead reckoning along the matched steps, on PSM's pairs.
+#[test]
+fn an_external_scan_matcher_gets_the_pairs_and_is_chained() {
+    let work = tempfile::tempdir().unwrap();
+    let (results, cache) = (work.path().join("results"), work.path().join("cache"));
+    let mut args = vec!["run", "tests/specs/external-matcher.toml", "--quiet", "--results"];
+    args.extend([s(&results), "--cache", s(&cache)]);
+    args.extend(ALGORITHM_DIRS);
+    ok(&args);
+    let dir = results.join("external-matcher");
+    let study = store::read_study(&dir).unwrap();
+    assert!(study.runs.iter().all(|r| r.status == RunStatus::Ok), "{:?}", study.runs);
+    let matches = store::read_matches(&dir, &|_| true).unwrap();
+    let traces = store::read_traces(&dir, &|_| true).unwrap();
+    let of = |algorithm: &str, replicate: u32| {
+        let id = &study
+            .runs
+            .iter()
+            .find(|r| r.algorithm == algorithm && r.replicate == replicate)
+            .unwrap()
+            .run_id;
+        (
+            matches.iter().find(|m| &m.run_id == id).unwrap(),
+            traces.iter().find(|t| &t.run_id == id).unwrap(),
+        )
+    };
+    for replicate in 0..2 {
+        let ((echo, echo_trace), (psm, _), (_, odometry)) =
+            (of("echo_matcher_py", replicate), of("psm", replicate), of("odometry", replicate));
+        let pairs = |m: &store::MatchRows| {
+            m.matches.iter().map(|k| (k.reference_step, k.current_step)).collect::<Vec<_>>()
+        };
+        assert_eq!(echo.matches.len(), 15, "max_matches = 15");
+        assert_eq!(pairs(echo), pairs(psm), "every matcher of a study matches the same pairs");
+        for m in &echo.matches {
+            // the initial guess went out and came back bit for bit
+            assert_eq!(m.estimate, m.initial);
+            assert_eq!(m.stop, "external");
+        }
+        // chained initial guesses are dead reckoning, up to the last match
+        let last = echo.matches.last().unwrap().current_step;
+        assert_eq!(echo_trace.estimate.len(), last + 1);
+        for (k, (a, b)) in echo_trace.estimate.iter().zip(&odometry.estimate).enumerate() {
+            assert!(
+                (a.x - b.x).abs() < 1e-9 && (a.y - b.y).abs() < 1e-9,
+                "step {k}: {a:?} vs dead reckoning {b:?}"
+            );
+        }
+    }
 }

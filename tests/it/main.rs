@@ -15,6 +15,7 @@ mod pipeline;
 mod point_worlds;
 mod psm_reference;
 mod psm_samples;
+mod readme;
 mod scan_matching;
 mod sensitivity;
 mod sharding;

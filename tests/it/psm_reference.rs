@@ -196,7 +196,7 @@ fn psm_original_equals_diosis_program_on_the_simulated_ep_room() {
         let params = &plan.points[spec.point].params;
         let tracked = track(
             &world,
-            run::scan_matcher(spec.algorithm, params),
+            plan.algorithm(spec).matcher(params).expect("a built-in scan matcher"),
             &params.scan_matching,
             spec.filter_seed,
             &mut || 0.0,

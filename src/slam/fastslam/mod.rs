@@ -1007,7 +1007,7 @@ mod tests {
         // so one landmark
         let stream = [StepObservations { step: 0, observations: vec![o, o] }];
         let mut f = FastSlam1::new(&p, None, pose);
-        f.weigh_and_update(0, Cursor::new(&stream, true).at(0));
+        f.weigh_and_update(0, observations::Cursor::new(&stream, true).at(0));
         assert_eq!(f.particles[0].map.corners.len(), 1);
         assert!(
             (f.particles[0].log_weight - p.p0.ln()).abs() < 1e-12,

@@ -4,6 +4,7 @@
 
 use super::*;
 use crate::geom::{Line, Point2};
+use crate::slam::observations::Cursor;
 use rand::SeedableRng;
 use std::f64::consts::{PI, TAU};
 use std::sync::Arc;
