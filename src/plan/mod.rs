@@ -115,6 +115,11 @@ impl ExperimentPlan {
     pub fn algorithm(&self, run: &RunSpec) -> &dyn Algorithm {
         self.spec.catalogue.algorithm(&run.algorithm)
     }
+
+    /// Whether the study lists a scan matcher (its results then carry match diagnostics).
+    pub fn has_scan_matcher(&self) -> bool {
+        self.spec.spec.algorithms.iter().any(|a| self.spec.catalogue.algorithm(a).is_scan_matcher())
+    }
 }
 
 /// Derives a 64-bit seed from (study seed, map, replicate, stream name).
@@ -192,6 +197,22 @@ pub fn build_limited(
     // must fit the clock only where that sensor is simulated.
     let kinds: Vec<crate::world::WorldKind> = maps.iter().map(MapEntry::world_kind).collect();
     let sensors = spec.catalogue.sensors(&spec.spec.algorithms, &kinds);
+    // An algorithm that reads landmark readings needs a world that has landmarks to read (an
+    // external program can ask for them on a laser world, where it would see none).
+    let mut blind = Vec::new();
+    for (i, id) in spec.spec.algorithms.iter().enumerate() {
+        for m in maps.iter().filter(|m| m.world_kind() == crate::world::WorldKind::Laser) {
+            if spec.catalogue.algorithm(id).sensors(m.world_kind()).landmarks {
+                blind.push(spec.error_at(
+                    &format!("algorithms[{i}]"),
+                    format!("`{id}` reads landmark readings, but map `{}` is a laser world (no point landmarks): it would see none", m.name),
+                ));
+            }
+        }
+    }
+    if !blind.is_empty() {
+        errors.push(SpecError::new(&spec.path, blind));
+    }
     let base_errors: Vec<_> = spec
         .spec
         .base

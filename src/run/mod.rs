@@ -157,12 +157,7 @@ pub fn run_study(
         let stored = store::read_runs(&dir).unwrap_or_default();
         let bad = stored.iter().filter(|r| r.status != RunStatus::Ok).count();
         let manifest = manifest(plan, provenance, plan.runs.len(), bad);
-        let diagnosed = plan
-            .spec
-            .spec
-            .algorithms
-            .iter()
-            .any(|a| plan.spec.catalogue.algorithm(a).is_scan_matcher());
+        let diagnosed = plan.has_scan_matcher();
         if store::is_up_to_date(
             &dir,
             &ids,
@@ -311,12 +306,7 @@ pub fn run_study(
     let diverged = rows.iter().filter(|r| r.status == RunStatus::Diverged).count();
 
     // Diagnostics are an addition to the results: when they cannot be made, say why and go on.
-    let diagnosed = plan
-        .spec
-        .spec
-        .algorithms
-        .iter()
-        .any(|a| plan.spec.catalogue.algorithm(a).is_scan_matcher());
+    let diagnosed = plan.has_scan_matcher();
     let diagnostics = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         diagnostics::build(plan, &resolved, &rows, &traces, &matches)
     })) {

@@ -192,14 +192,12 @@ fn an_external_scan_matcher_gets_the_pairs_and_is_chained() {
             .find(|r| r.algorithm == algorithm && r.replicate == replicate)
             .unwrap()
             .run_id;
-        (
-            matches.iter().find(|m| &m.run_id == id).unwrap(),
-            traces.iter().find(|t| &t.run_id == id).unwrap(),
-        )
+        (matches.iter().find(|m| &m.run_id == id), traces.iter().find(|t| &t.run_id == id).unwrap())
     };
     for replicate in 0..2 {
         let ((echo, echo_trace), (psm, _), (_, odometry)) =
             (of("echo_matcher_py", replicate), of("psm", replicate), of("odometry", replicate));
+        let (echo, psm) = (echo.expect("the external matcher's matches"), psm.expect("PSM's"));
         let pairs = |m: &store::MatchRows| {
             m.matches.iter().map(|k| (k.reference_step, k.current_step)).collect::<Vec<_>>()
         };
@@ -220,4 +218,22 @@ fn an_external_scan_matcher_gets_the_pairs_and_is_chained() {
             );
         }
     }
+}
+
+#[test]
+fn an_external_filter_on_a_world_without_its_sensor_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = dir.path().join("t.toml");
+    std::fs::write(
+        &spec,
+        "id = \"t\"\ntitle = \"T\"\nseed = 1\nreplicates = 1\nmaps = [\"bigloop2\"]\nalgorithms = [\"ekf_slam_py\"]\n",
+    )
+    .unwrap();
+    let out = slamlab(&["validate", s(&spec)]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(":6:") && err.contains("laser world") && err.contains("bigloop2"),
+        "{err}"
+    );
 }
