@@ -63,6 +63,10 @@ pub enum SlamError {
     External { name: String, why: String },
 }
 
+/// The stop reason of a match an external program made (`algo::external`): slamlab scores its
+/// estimate but counts no evaluations for it.
+pub const EXTERNAL_STOP: &str = "external";
+
 /// One match, as stored per match.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MatchRecord {

@@ -7,8 +7,9 @@
 use super::{Algorithm, Choice, Launch, Listing, Output, Role, RunInput, RunSize, Topic, Work};
 use crate::geom::{Point2, Pose2, wrap_angle};
 use crate::params::Params;
+use crate::scanmatch::objective::Objective;
 use crate::scanmatch::track::{self, Matcher};
-use crate::trace::{LandmarkMap, MatchRecord, SlamError, Trace};
+use crate::trace::{EXTERNAL_STOP, LandmarkMap, MatchRecord, SlamError, Trace};
 use crate::world::point_sensor::UNKNOWN_LANDMARK;
 use crate::world::{RangeNoise, Sensors, World, WorldKind};
 use serde::{Deserialize, Serialize};
@@ -19,7 +20,7 @@ use std::fmt::Write;
 pub const PROTOCOL: u32 = 1;
 
 /// Part of every external run's code version: bump when what slamlab writes or reads changes.
-pub const EXTERNAL_CODE_VERSION: &str = "external-1";
+pub const EXTERNAL_CODE_VERSION: &str = "external-2";
 
 /// Default wall-clock limit of one run [s].
 pub const DEFAULT_TIMEOUT_S: f64 = 600.0;
@@ -193,6 +194,13 @@ impl Algorithm for ExternalSpec {
         };
         let mut inputs = self.inputs(&input)?;
         if let Some((pairs, _)) = &pairs {
+            // the scans the pairs name, and the pairs
+            let world = input.world;
+            let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
+            let steps = paired_steps(pairs);
+            let paired: Vec<_> =
+                world.scans.iter().filter(|s| steps.contains(&s.step)).cloned().collect();
+            inputs.push(("scans.txt", crate::world::laser::scans_text(&geometry, &paired)));
             inputs.push(("pairs.txt", track::pairs_text(pairs)));
         }
         let launch = Launch {
@@ -211,26 +219,7 @@ impl Algorithm for ExternalSpec {
             };
             let estimates = read_matches(text, &pairs).map_err(fail)?;
             let world = input.world;
-            let matches: Vec<MatchRecord> = pairs
-                .iter()
-                .zip(estimates)
-                .map(|(p, estimate)| MatchRecord {
-                    reference_step: p.reference_step,
-                    current_step: p.current_step,
-                    truth: world.truth[p.current_step].relative_to(world.truth[p.reference_step]),
-                    initial: p.initial,
-                    estimate,
-                    // what slamlab's own matchers count, an external one does not report
-                    f: f64::NAN,
-                    f_initial: f64::NAN,
-                    pairs: 0,
-                    iterations: 0,
-                    evaluations: 0,
-                    fallback: false,
-                    stop: "external".into(),
-                    time_s: f64::NAN,
-                })
-                .collect();
+            let matches = score(world, input.params, &pairs, estimates)?;
             let estimate = track::chain(world, &matches, steps);
             return Ok(Output {
                 trace: Trace { estimate, matches, ..Trace::default() },
@@ -259,7 +248,7 @@ impl ExternalSpec {
         if self.reads(Reads::Landmarks) {
             files.push(("landmarks.txt", landmarks_text(world)));
         }
-        if self.reads(Reads::Laser) || self.reads(Reads::ScanPairs) {
+        if self.reads(Reads::Laser) {
             let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
             files.push(("scans.txt", crate::world::laser::scans_text(&geometry, &world.scans)));
         }
@@ -320,6 +309,61 @@ impl ExternalSpec {
         t.insert("params".into(), toml::Value::Table(own));
         toml::to_string(&t).expect("a run's inputs serialise to TOML")
     }
+}
+
+/// The steps of the scans `pairs` name.
+fn paired_steps(pairs: &[track::Pair]) -> std::collections::BTreeSet<usize> {
+    pairs.iter().flat_map(|p| [p.reference_step, p.current_step]).collect()
+}
+
+/// The match records of an external matcher's estimates, scored as every built-in matcher's are:
+/// f and the valid pairs by the study's objective on scans prepared by its segmentation (the
+/// common yardstick), at the estimate and at the initial guess, and the error against the true
+/// pose change. A match whose estimate leaves too few pairs (f = ∞) or is not finite counts as
+/// failed, as a built-in's does; the program's evaluations and time are its own and unknown.
+fn score(
+    world: &World,
+    params: &Params,
+    pairs: &[track::Pair],
+    estimates: Vec<Pose2>,
+) -> Result<Vec<MatchRecord>, SlamError> {
+    let geometry = world.laser.ok_or(SlamError::MissingSensor("laser"))?;
+    let sm = &params.scan_matching;
+    let steps = paired_steps(pairs);
+    let prepared: std::collections::BTreeMap<usize, crate::scanmatch::scan::PolarScan> = world
+        .scans
+        .iter()
+        .filter(|s| steps.contains(&s.step))
+        .map(|s| (s.step, track::prepared(s, &geometry, &sm.segmentation)))
+        .collect();
+    Ok(pairs
+        .iter()
+        .zip(estimates)
+        .map(|(p, estimate)| {
+            let mut cost = Objective::new(
+                &prepared[&p.reference_step],
+                &prepared[&p.current_step],
+                &sm.objective,
+            );
+            let (f, valid) =
+                if estimate.is_finite() { cost.f_and_pairs(estimate) } else { (f64::NAN, 0) };
+            MatchRecord {
+                reference_step: p.reference_step,
+                current_step: p.current_step,
+                truth: world.truth[p.current_step].relative_to(world.truth[p.reference_step]),
+                initial: p.initial,
+                estimate,
+                f,
+                f_initial: cost.f_and_pairs(p.initial).0,
+                pairs: valid as u32,
+                iterations: 0,
+                evaluations: 0,
+                fallback: false,
+                stop: EXTERNAL_STOP.into(),
+                time_s: f64::NAN,
+            }
+        })
+        .collect())
 }
 
 /// `odometry.txt`: line k is the increment uₖ from pose k to pose k + 1 in the robot frame of
@@ -426,7 +470,8 @@ pub fn read_matches(text: &str, pairs: &[track::Pair]) -> Result<Vec<Pose2>, Str
             .iter()
             .map(|f| number("matches.txt", line, f))
             .collect::<Result<Vec<f64>, _>>()?;
-        out.push(Pose2::new(v[0], v[1], v[2]));
+        // headings in (−π, π], as slamlab's own matchers give them
+        out.push(Pose2::new(v[0], v[1], if v[2].is_finite() { wrap_angle(v[2]) } else { v[2] }));
     }
     if out.len() != pairs.len() {
         return Err(format!(

@@ -432,7 +432,16 @@ pub fn match_metrics(matches: &[crate::trace::MatchRecord]) -> RunMetrics {
         ),
         ("f_mean", mean(&mut ok.iter().map(|m| m.f))),
         ("f_max", max(&mut ok.iter().map(|m| m.f))),
-        ("evals_mean", mean(&mut matches.iter().map(|m| m.evaluations as f64))),
+        // an external program's evaluations are its own, uncounted: none rather than 0
+        (
+            "evals_mean",
+            mean(
+                &mut matches
+                    .iter()
+                    .filter(|m| m.stop != crate::trace::EXTERNAL_STOP)
+                    .map(|m| m.evaluations as f64),
+            ),
+        ),
         ("pairs_mean", mean(&mut ok.iter().map(|m| m.pairs as f64))),
         ("match_failure_rate", (matches.len() - ok.len()) as f64 / n),
         ("fallback_rate", matches.iter().filter(|m| m.fallback).count() as f64 / n),

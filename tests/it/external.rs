@@ -208,6 +208,24 @@ fn an_external_scan_matcher_gets_the_pairs_and_is_chained() {
             assert_eq!(m.estimate, m.initial);
             assert_eq!(m.stop, "external");
         }
+        // every estimate is scored like a built-in matcher's: by the common objective f, and by
+        // its error against the true pose change
+        let row = study
+            .runs
+            .iter()
+            .find(|r| r.algorithm == "echo_matcher_py" && r.replicate == replicate)
+            .unwrap();
+        assert_eq!(row.metric("match_failure_rate"), Some(0.0), "no match of the echo failed");
+        assert!(row.metric("f_mean").is_some_and(f64::is_finite), "f of its estimates");
+        assert!(row.metric("evals_mean").is_none_or(f64::is_nan), "it reports no evaluations");
+        let atheta = echo
+            .matches
+            .iter()
+            .map(|m| slamlab::geom::wrap_angle(m.initial.theta - m.truth.theta).abs().to_degrees())
+            .sum::<f64>()
+            / echo.matches.len() as f64;
+        let got = row.metric("atheta_mean_deg").unwrap();
+        assert!((got - atheta).abs() < 1e-9, "aθ of the echo {got} = that of the guesses {atheta}");
         // chained initial guesses are dead reckoning, up to the last match
         let last = echo.matches.last().unwrap().current_step;
         assert_eq!(echo_trace.estimate.len(), last + 1);
