@@ -665,6 +665,7 @@ fn cmd_slurm(
         bin: text(&bin),
         specs: specs.iter().map(|s| text(s)).collect(),
         maps: text(&dirs.maps),
+        algorithms: dirs.algorithms.iter().map(|a| text(a)).collect(),
         cache: text(&dirs.cache),
         results: text(&dirs.results),
         reports: Some(text(reports)),

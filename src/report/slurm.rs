@@ -30,6 +30,8 @@ pub struct Job {
     pub bin: String,
     pub specs: Vec<String>,
     pub maps: String,
+    /// The folders of external algorithms' descriptors (`--algorithms`).
+    pub algorithms: Vec<String>,
     pub cache: String,
     pub results: String,
     /// Render the reports here after the runs (none: results only).
@@ -124,6 +126,7 @@ pub fn scripts(
         bin => q(&job.bin),
         specs => specs,
         maps => q(&job.maps),
+        algorithms => job.algorithms.iter().map(|a| format!("--algorithms {}", q(a))).collect::<Vec<_>>(),
         cache => q(&job.cache),
         results => q(&job.results),
         reports => job.reports.as_deref().map(q),
@@ -151,6 +154,7 @@ mod tests {
                 bin: "/shared/slam lab/target/release/slamlab".into(),
                 specs: vec!["experiments/smoke.toml".into(), "experiments/ft-dmax.toml".into()],
                 maps: "data/maps".into(),
+                algorithms: vec!["data/algorithms".into(), "/home/me/my algorithms".into()],
                 cache: "data/cache".into(),
                 results: "data/results".into(),
                 reports: Some("reports".into()),
@@ -201,6 +205,14 @@ mod tests {
         }
         assert!(runs.contains(r#"run --shard "${SLURM_ARRAY_TASK_ID}/4""#), "{runs}");
         assert!(runs.contains("experiments/smoke.toml experiments/ft-dmax.toml"), "{runs}");
+        // the external algorithms' folders go with every run, quoted
+        for script in [&runs, &assemble] {
+            assert!(
+                script
+                    .contains("--algorithms data/algorithms --algorithms '/home/me/my algorithms'"),
+                "{script}"
+            );
+        }
         assert!(
             runs.contains("118 not yet in the cache")
                 && runs.contains("600 s of one core of the reference machine in all, 151 s in the"),
