@@ -106,7 +106,7 @@ pub fn parse_items(text: &str) -> Result<Vec<Item>, String> {
     Ok(f.item)
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "UPPERCASE")]
 pub enum Class {
     Match,
@@ -125,6 +125,26 @@ impl Class {
             Class::Missing => "MISSING",
         }
     }
+}
+
+/// How an item judged on a study's published cells came out: a study's report keeps these
+/// (`items.json`), so that a kept report (a study without results here) contributes its items to
+/// the scoreboard as it contributes its claims.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CellVerdict {
+    pub id: String,
+    pub class: Class,
+    pub basis: String,
+}
+
+/// The cell items of `study` among `classified` (in the order of `items`).
+pub fn cell_verdicts(items: &[Item], classified: &[ItemResult], study: &str) -> Vec<CellVerdict> {
+    items
+        .iter()
+        .zip(classified)
+        .filter(|(it, r)| it.cells.is_some() && it.missing.is_none() && r.study == study)
+        .map(|(_, r)| CellVerdict { id: r.id.clone(), class: r.class, basis: r.basis.clone() })
+        .collect()
 }
 
 /// An item with its class and the numbers behind it.
@@ -355,10 +375,13 @@ fn classify_claims(ids: &[String], claims: &[&ClaimResult]) -> (Class, String) {
 
 /// Classifies every item. `studies` are the studies with runs; `claims` every judged claim
 /// (including those of studies whose report was kept without runs).
+/// Classifies every item: on the studies' results, their claims, and — for a study without
+/// results here whose report is kept — the cell verdicts that report kept (`kept`).
 pub fn classify(
     items: &[Item],
     studies: &BTreeMap<String, &StudyData>,
     claims: &[ClaimResult],
+    kept: &[CellVerdict],
 ) -> Vec<ItemResult> {
     items
         .iter()
@@ -367,9 +390,10 @@ pub fn classify(
             let (class, basis) = if let Some(why) = &it.missing {
                 (Class::Missing, format!("no counterpart: {why}"))
             } else if let Some(sel) = &it.cells {
-                match studies.get(&study) {
-                    Some(data) => classify_cells(data, sel),
-                    None => (Class::Missing, format!("study {study} has no results here")),
+                match (studies.get(&study), kept.iter().find(|k| k.id == it.id)) {
+                    (Some(data), _) => classify_cells(data, sel),
+                    (None, Some(k)) => (k.class, k.basis.clone()),
+                    (None, None) => (Class::Missing, format!("study {study} has no results here")),
                 }
             } else {
                 let of_study: Vec<&ClaimResult> =

@@ -229,6 +229,7 @@ pub fn render_all(
     let mut kept: Vec<(String, model::IndexEntry)> = Vec::new();
     let mut claims: Vec<ClaimResult> =
         pages.iter().flat_map(|p| p.view.claims.iter().cloned()).collect();
+    let mut kept_cells: Vec<crate::judge::scoreboard::CellVerdict> = Vec::new();
     for id in keep.iter().filter(|id| !rendered.contains(&id.as_str())) {
         let dir = reports_dir.join(id);
         let Ok(bytes) = std::fs::read(dir.join(ENTRY)) else { continue };
@@ -247,6 +248,16 @@ pub fn render_all(
                     ReportError::Items {
                         path,
                         message: format!("kept report's claims do not parse: {e}"),
+                    }
+                })?);
+            }
+            if rel == ITEMS {
+                // … and so do its items judged on published cells
+                let path = dir.join(ITEMS);
+                kept_cells.extend(serde_json::from_slice::<Vec<_>>(&bytes).map_err(|e| {
+                    ReportError::Items {
+                        path,
+                        message: format!("kept report's item verdicts do not parse: {e}"),
                     }
                 })?);
             }
@@ -297,7 +308,17 @@ pub fn render_all(
     // The fidelity scoreboard.
     let by_id: std::collections::BTreeMap<String, &store::StudyData> =
         studies.iter().map(|d| (d.resolved.spec.id.clone(), d)).collect();
-    let classified = crate::judge::scoreboard::classify(&items, &by_id, &claims);
+    let classified = crate::judge::scoreboard::classify(&items, &by_id, &claims, &kept_cells);
+    for p in &pages {
+        let id = &p.view.id;
+        let cells = crate::judge::scoreboard::cell_verdicts(&items, &classified, id);
+        if !cells.is_empty() {
+            files.push((
+                format!("{id}/{ITEMS}"),
+                serde_json::to_vec_pretty(&cells).expect("item verdicts serialise"),
+            ));
+        }
+    }
     let linked: Vec<String> = index.iter().map(|e| e.id.clone()).collect();
     let board = fidelity::build(&classified, &claims, linked);
     let block = fidelity::readme_block(&board, &classified, &claims);
@@ -402,6 +423,9 @@ fn previous_studies(reports_dir: &Path) -> Vec<String> {
 }
 /// A report's judged claims (what the scoreboard reads of a kept report).
 const CLAIMS: &str = "claims.json";
+/// A report's items judged on its published cells (what the scoreboard reads of a kept report
+/// besides its claims).
+const ITEMS: &str = "items.json";
 
 /// Every file under `dir` as (relative path with `/`, bytes), sorted.
 fn read_tree(dir: &Path) -> Result<Vec<(String, Vec<u8>)>, ReportError> {

@@ -87,3 +87,44 @@ fn a_stale_readme_block_fails_the_check() {
     assert!(w.status.success());
     assert!(block_check(&readme, &block).status.success());
 }
+
+/// The Quick start runs one study and renders with `--specs experiments`: every other study keeps
+/// its committed report, and with it its share of the scoreboard — its claims and its items
+/// judged on published cells. The committed scoreboard and index must come out unchanged.
+#[test]
+fn rendering_one_study_keeps_the_committed_scoreboard() {
+    let work = tempfile::tempdir().unwrap();
+    let (results, cache, reports) =
+        (work.path().join("results"), work.path().join("cache"), work.path().join("reports"));
+    let copy = std::process::Command::new("cp")
+        .arg("-r")
+        .arg(repo().join("reports"))
+        .arg(&reports)
+        .status()
+        .unwrap();
+    assert!(copy.success());
+    crate::util::ok(&[
+        "run",
+        "experiments/smoke.toml",
+        "--quiet",
+        "--results",
+        crate::util::s(&results),
+        "--cache",
+        crate::util::s(&cache),
+    ]);
+    crate::util::ok(&[
+        "report",
+        "--results",
+        crate::util::s(&results),
+        "--out",
+        crate::util::s(&reports),
+        "--specs",
+        "experiments",
+    ]);
+    for file in ["fidelity/summary.md", "fidelity/fidelity.md", "fidelity/index.html", "index.html"]
+    {
+        let committed = std::fs::read_to_string(repo().join("reports").join(file)).unwrap();
+        let rendered = std::fs::read_to_string(reports.join(file)).unwrap();
+        assert!(committed == rendered, "{file} changed when only smoke was rendered");
+    }
+}
