@@ -21,6 +21,7 @@ report: build
 	$(BIN) run $(SPECS)
 	$(BIN) report --specs experiments
 	tests/tools/readme_block.sh write README.md reports/fidelity/summary.md
+	tests/tools/readme_block.sh write README.md reports/fidelity/margins.md margins
 	@mkdir -p target && $(BIN) algorithms --markdown > target/algorithms.md
 	tests/tools/readme_block.sh write README.md target/algorithms.md algorithms
 
@@ -75,7 +76,8 @@ check-reports: build
 	$(BIN) report --specs experiments --out "$$tmp/reports" >/dev/null || exit 1; \
 	if diff -r reports "$$tmp/reports" >/dev/null; then echo "check-reports: reports/ is up to date"; \
 	else diff -rq reports "$$tmp/reports"; echo "check-reports: reports/ differs from what the results give (make report)" >&2; exit 1; fi; \
-	tests/tools/readme_block.sh check README.md "$$tmp/reports/fidelity/summary.md"
+	tests/tools/readme_block.sh check README.md "$$tmp/reports/fidelity/summary.md" && \
+	tests/tools/readme_block.sh check README.md "$$tmp/reports/fidelity/margins.md" margins
 
 ## Open every report in headless Chromium: console errors or missing images fail (screenshots in
 ## target/reports-html/). Needs Debian's chromium.

@@ -1,22 +1,42 @@
-//! Agreement of one of our cells with one published number, judged by the publication's own
-//! spread: (published mean, its variance if printed, the runs behind it) + our replicates →
-//! compatible or not.
+//! Agreement of one of our cells with one published number: (published mean, its spread if
+//! printed, the runs behind it) + our replicates + the work's equivalence margin ε
+//! ([`super::margins`]) → shown **equivalent**, shown **different**, or **unresolved**, with the
+//! number of our replicates that would resolve it at the observed spread.
 //!
-//! - A published mean **with its variance** over m runs ([FT] prints σ² over its 5 runs): Welch's
-//!   test of our replicates against (mean, σ², m); compatible when p ≥ [`ALPHA`].
-//! - A published mean **without a variance** over m runs (one run per cell in [EP] and [EV]; [FT]'s
-//!   landmark counts): the 95 % prediction interval for the mean of m further runs from our
-//!   replicates, x̄ ± t_{n−1} s √(1/n + 1/m) (m = 1: a single run); compatible when it holds the
-//!   published value.
-//! - ∞ published (nothing detected): compatible only when every one of our replicates is ∞ too; ∞
-//!   or NaN in ours against a finite published value is incompatible.
+//! Failing to reject a difference never shows equivalence: a cell is equivalent only when the
+//! data place the difference inside ±ε (two one-sided tests at 5 % each, [Sc]), and different
+//! only when they place it outside ±ε.
+//!
+//! - A published **mean of m ≥ 2 runs** ([FT] prints σ² over its 5 runs): the 90 % interval of
+//!   d = x̄ − published, with se² = s²/n + σ²/m and Welch–Satterthwaite degrees of freedom. Where
+//!   no variance is printed ([FT]'s landmark counts), our own s² stands in for the publication's
+//!   (se² = s² (1/n + 1/m), n − 1 degrees of freedom). Equivalent when the interval lies within
+//!   ±ε, different when it lies wholly outside, else unresolved.
+//! - **One published run** ([EP], [EV]): distribution-free, as a skewed metric needs.
+//!   - Equivalent when the order-statistic interval of our median (coverage ≥ 90 %, which needs
+//!     n ≥ 5) lies within published ± ε: the bulk of our runs, not just their range, is within
+//!     the margin.
+//!   - Different when that interval lies wholly outside published ± ε *and* the published run
+//!     falls outside our distribution-free 90 % prediction interval for one run, [x₍ⱼ₎,
+//!     x₍ₙ₊₁₋ⱼ₎] with j = ⌊0.05 (n + 1)⌋ (n ≥ 19): a run we could have produced is never evidence
+//!     of a difference.
+//!   - The published run's rank among ours is reported either way.
+//! - Our replicates all equal (a deterministic metric): the value is compared exactly, |d| ≤ ε.
+//! - ∞ published (nothing detected): equivalent when every one of ours is ∞, else different; ∞ or
+//!   NaN in ours against a finite published value is different.
 //! - Fewer than 2 of our replicates: not judged.
 
-use crate::stats::compare::{prediction_interval, welch_summary_p};
 use crate::stats::hypothesis::{mean, sample_variance};
+use statrs::distribution::{Binomial, ContinuousCDF, DiscreteCDF, StudentsT};
 
-/// Significance level of the agreement tests (and 1 − the prediction interval's level).
+/// One-sided level of each half of the equivalence and difference tests (a 90 % interval).
 pub const ALPHA: f64 = 0.05;
+/// Fewest replicates whose median interval reaches 90 % coverage (2 · 0.5⁵ = 0.0625 ≤ 0.10).
+pub const MEDIAN_MIN_N: usize = 5;
+/// Fewest replicates whose 90 % prediction interval for one run is bounded (j = ⌊0.05 (n + 1)⌋ ≥ 1).
+pub const PREDICTION_MIN_N: usize = 19;
+/// The most replicates a suggestion names (beyond it: "no practical number").
+pub const MAX_SUGGESTED: usize = 10_000;
 
 /// A published number with what the publication says of its spread.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,51 +48,177 @@ pub struct Published {
     pub runs: u32,
 }
 
+/// What the data show of one cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outcome {
+    Equivalent,
+    Different,
+    Unresolved,
+}
+
+/// How many of our replicates would resolve an unresolved cell at the observed spread.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Needed {
+    Replicates(usize),
+    /// More runs of ours cannot resolve it (the published spread alone is wider than the gap to
+    /// the margin, or the published run is one we could produce while our median is beyond the
+    /// margin).
+    Never,
+}
+
 /// The judgement of one cell.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Agreement {
     /// None when it cannot be judged (fewer than 2 replicates of ours).
-    pub compatible: Option<bool>,
-    /// Welch's p, when a variance is published.
-    pub p: Option<f64>,
-    /// The prediction interval, when no variance is published.
+    pub outcome: Option<Outcome>,
+    /// The margin ε the cell was judged with.
+    pub margin: f64,
+    /// The 90 % interval of ours − published (means), or of our median (single run).
     pub interval: Option<(f64, f64)>,
+    /// Single run: the share of our replicates below the published value (ties count half).
+    pub rank: Option<f64>,
+    /// Unresolved cells: the replicates that would resolve them.
+    pub needed: Option<Needed>,
 }
 
-/// Judges our replicates `ours` against `published`.
-pub fn judge(published: Published, ours: &[f64]) -> Agreement {
-    let none = Agreement { compatible: None, p: None, interval: None };
+impl Agreement {
+    fn not_judged(margin: f64) -> Self {
+        Agreement { outcome: None, margin, interval: None, rank: None, needed: None }
+    }
+    fn exact(outcome: Outcome, margin: f64) -> Self {
+        Agreement { outcome: Some(outcome), ..Self::not_judged(margin) }
+    }
+}
+
+fn student_quantile(df: f64, p: f64) -> f64 {
+    StudentsT::new(0.0, 1.0, df.max(1e-9)).map_or(f64::NAN, |t| t.inverse_cdf(p))
+}
+
+/// Three-way decision of an interval against ±ε around 0.
+fn decide((lo, hi): (f64, f64), eps: f64) -> Outcome {
+    if lo >= -eps && hi <= eps {
+        Outcome::Equivalent
+    } else if lo > eps || hi < -eps {
+        Outcome::Different
+    } else {
+        Outcome::Unresolved
+    }
+}
+
+/// Judges our replicates `ours` against `published` within margin `eps`.
+pub fn judge(published: Published, ours: &[f64], eps: f64) -> Agreement {
     if ours.len() < 2 || published.mean.is_nan() {
-        return none;
+        return Agreement::not_judged(eps);
     }
     if published.mean.is_infinite() {
-        return Agreement { compatible: Some(ours.iter().all(|v| *v == published.mean)), ..none };
+        let same = ours.iter().all(|v| *v == published.mean);
+        return Agreement::exact(if same { Outcome::Equivalent } else { Outcome::Different }, eps);
     }
     if ours.iter().any(|v| !v.is_finite()) {
-        return Agreement { compatible: Some(false), ..none };
+        return Agreement::exact(Outcome::Different, eps);
     }
-    match published.var {
-        Some(var) if published.runs >= 2 => {
-            let p = welch_summary_p(
-                mean(ours),
-                sample_variance(ours),
-                ours.len(),
-                published.mean,
-                var,
-                published.runs as usize,
-            );
-            Agreement { compatible: Some(p >= ALPHA), p: Some(p), interval: None }
-        }
-        _ => {
-            let (lo, hi) = prediction_interval(ours, 1.0 - ALPHA, published.runs.max(1));
-            // A constant sample gives a point interval: equal up to rounding is compatible.
-            let tol = 1e-9 * published.mean.abs().max(1e-12);
-            Agreement {
-                compatible: Some(published.mean >= lo - tol && published.mean <= hi + tol),
-                p: None,
-                interval: Some((lo, hi)),
+    if ours.iter().all(|v| *v == ours[0]) && published.var.is_none_or(|v| v == 0.0) {
+        let d = ours[0] - published.mean;
+        let outcome = if d.abs() <= eps { Outcome::Equivalent } else { Outcome::Different };
+        return Agreement { interval: Some((d, d)), ..Agreement::exact(outcome, eps) };
+    }
+    if published.runs >= 2 {
+        of_means(published, ours, eps)
+    } else {
+        of_single_run(published.mean, ours, eps)
+    }
+}
+
+/// A published mean of m ≥ 2 runs.
+fn of_means(p: Published, ours: &[f64], eps: f64) -> Agreement {
+    let (n, m) = (ours.len() as f64, p.runs as f64);
+    let s2 = sample_variance(ours);
+    let (theirs, their_df) = match p.var {
+        Some(v) => (v, m - 1.0),
+        None => (s2, n - 1.0),
+    };
+    let (a, b) = (s2 / n, theirs / m);
+    let se = (a + b).sqrt();
+    let d = mean(ours) - p.mean;
+    if se == 0.0 {
+        let outcome = if d.abs() <= eps { Outcome::Equivalent } else { Outcome::Different };
+        return Agreement { interval: Some((d, d)), ..Agreement::exact(outcome, eps) };
+    }
+    let df = match p.var {
+        Some(_) => (a + b).powi(2) / (a * a / (n - 1.0) + b * b / their_df),
+        None => n - 1.0,
+    };
+    let half = student_quantile(df, 1.0 - ALPHA) * se;
+    let interval = (d - half, d + half);
+    let outcome = decide(interval, eps);
+    let needed = (outcome == Outcome::Unresolved).then(|| {
+        // the half-width that would decide: the distance from d to the nearer margin edge
+        let gap = (eps - d.abs()).abs();
+        let fixed = b; // the publication's part of se², which more runs of ours cannot shrink
+        let mut k = ours.len() + 1;
+        // iterate t's degrees of freedom with the count
+        for _ in 0..4 {
+            let t = student_quantile(k as f64 - 1.0, 1.0 - ALPHA);
+            let room = (gap / t).powi(2) - fixed;
+            if gap == 0.0 || room <= 0.0 || (p.var.is_none() && (gap / t).powi(2) <= s2 / m) {
+                return Needed::Never;
             }
+            k = ((s2 / room).ceil() as usize).max(ours.len() + 1);
         }
+        if k > MAX_SUGGESTED { Needed::Never } else { Needed::Replicates(k) }
+    });
+    Agreement { outcome: Some(outcome), margin: eps, interval: Some(interval), rank: None, needed }
+}
+
+/// The order-statistic interval of the median of `n` sorted values with coverage ≥ 1 − 2α:
+/// 1-based ranks (k, n + 1 − k) with the largest k such that 2 P(Bin(n, ½) ≤ k − 1) ≤ 2α.
+fn median_ranks(n: usize) -> Option<(usize, usize)> {
+    let bin = Binomial::new(0.5, n as u64).ok()?;
+    let k =
+        (1..=n.div_ceil(2)).take_while(|k| 2.0 * bin.cdf(*k as u64 - 1) <= 2.0 * ALPHA).last()?;
+    Some((k, n + 1 - k))
+}
+
+/// One published run.
+fn of_single_run(published: f64, ours: &[f64], eps: f64) -> Agreement {
+    let mut x = ours.to_vec();
+    x.sort_by(f64::total_cmp);
+    let n = x.len();
+    let below = x.iter().filter(|v| **v < published).count() as f64;
+    let ties = x.iter().filter(|v| **v == published).count() as f64;
+    let rank = (below + 0.5 * ties) / n as f64;
+    let band = (published - eps, published + eps);
+    let median_ci = median_ranks(n).map(|(lo, hi)| (x[lo - 1], x[hi - 1]));
+    let j = ((n + 1) as f64 * ALPHA).floor() as usize;
+    let outside_prediction = j >= 1 && (published < x[j - 1] || published > x[n - j]);
+    let outcome = match median_ci {
+        Some((lo, hi)) if lo >= band.0 && hi <= band.1 => Outcome::Equivalent,
+        Some((lo, hi)) if (lo > band.1 || hi < band.0) && outside_prediction => Outcome::Different,
+        _ => Outcome::Unresolved,
+    };
+    let needed = (outcome == Outcome::Unresolved).then(|| {
+        let median = if n % 2 == 1 { x[n / 2] } else { 0.5 * (x[n / 2 - 1] + x[n / 2]) };
+        let gap = (eps - (median - published).abs()).abs();
+        // a robust spread: the interquartile range of a normal is 1.349 σ
+        let iqr = x[(3 * n) / 4] - x[n / 4];
+        let sigma = if iqr > 0.0 { iqr / 1.349 } else { sample_variance(&x).sqrt() };
+        let beyond = (median - published).abs() > eps;
+        let inside_range = published >= x[0] && published <= x[n - 1];
+        if gap == 0.0 || (beyond && inside_range) {
+            return Needed::Never;
+        }
+        // the median's standard error is ≈ 1.2533 σ / √n; z(0.95) = 1.645
+        let k = ((1.645 * 1.2533 * sigma / gap).powi(2)).ceil() as usize;
+        let floor = if beyond { PREDICTION_MIN_N } else { MEDIAN_MIN_N };
+        let k = k.max(floor).max(n + 1);
+        if k > MAX_SUGGESTED { Needed::Never } else { Needed::Replicates(k) }
+    });
+    Agreement {
+        outcome: Some(outcome),
+        margin: eps,
+        interval: median_ci.map(|(lo, hi)| (lo - published, hi - published)),
+        rank: Some(rank),
+        needed,
     }
 }
 
@@ -80,61 +226,118 @@ pub fn judge(published: Published, ours: &[f64]) -> Agreement {
 mod tests {
     use super::*;
 
+    fn mean_of_5(mean: f64, var: f64) -> Published {
+        Published { mean, var: Some(var), runs: 5 }
+    }
+
+    /// The case: [FT]'s Welch accepted 1.5–1.9× gaps with n = 5 published and 8 ours.
     #[test]
-    fn welch_with_the_published_spread() {
-        // ours 0.26 ± small over 10 runs; thesis 0.14 with σ² 0.0015 over 5: clearly apart
-        let ours = [0.25, 0.27, 0.26, 0.24, 0.28, 0.26, 0.25, 0.27, 0.26, 0.26];
-        let far = judge(Published { mean: 0.14, var: Some(0.0015), runs: 5 }, &ours);
-        assert_eq!(far.compatible, Some(false));
-        // a wide published spread makes the same gap compatible
-        let wide = judge(Published { mean: 0.20, var: Some(0.02), runs: 5 }, &ours);
-        assert_eq!(wide.compatible, Some(true));
-        assert!(wide.p.unwrap() > 0.05);
+    fn a_gap_of_one_point_six_is_not_equivalent() {
+        // ours ≈ 0.26 with sd 0.12 over 8 runs; the thesis 0.16 with σ² 0.01 over 5 runs
+        let ours = [0.12, 0.41, 0.18, 0.33, 0.22, 0.39, 0.15, 0.28];
+        let p = mean_of_5(0.16, 0.01);
+        let a = judge(p, &ours, 0.2 * 0.16);
+        assert_ne!(a.outcome, Some(Outcome::Equivalent));
+        assert_eq!(a.outcome, Some(Outcome::Unresolved), "{a:?}");
+        // the old rule (Welch p ≥ 0.05) called it compatible
+        let old = crate::stats::compare::welch_summary_p(
+            mean(&ours),
+            sample_variance(&ours),
+            8,
+            0.16,
+            0.01,
+            5,
+        );
+        assert!(old >= 0.05, "{old}");
+        // and more of our runs cannot resolve it: the thesis's own spread is wider than the gap
+        assert_eq!(a.needed, Some(Needed::Never));
     }
 
     #[test]
-    fn single_runs_use_a_prediction_interval() {
-        let ours = [1.0, 1.2, 0.8, 1.1, 0.9];
-        // 95 % PI for one run: 1 ± t_{0.975,4}·s·√(1 + 1/5) = 1 ± 0.481
+    fn means_within_and_beyond_the_margin() {
+        // tight on both sides, 2 % apart: equivalent within 20 %
+        let ours = [1.01, 1.03, 1.02, 1.02, 1.01, 1.03, 1.02, 1.02];
+        assert_eq!(judge(mean_of_5(1.0, 0.0004), &ours, 0.2).outcome, Some(Outcome::Equivalent));
+        // tight and 60 % apart: different
+        let far: Vec<f64> = ours.iter().map(|v| v * 1.6).collect();
+        assert_eq!(judge(mean_of_5(1.0, 0.0004), &far, 0.2).outcome, Some(Outcome::Different));
+        // noisy, near the edge: unresolved, with a count that would resolve it
+        let noisy = [1.0, 1.5, 0.9, 1.4, 1.1, 1.3, 1.2, 1.0];
+        let a = judge(mean_of_5(1.0, 0.0004), &noisy, 0.25);
+        assert_eq!(a.outcome, Some(Outcome::Unresolved), "{a:?}");
+        let Some(Needed::Replicates(k)) = a.needed else { panic!("{a:?}") };
+        assert!(k > 8 && k < 200, "{k}");
+        // at that count, with the same mean and spread, the cell resolves
+        let more = with_moments(k, mean(&noisy), sample_variance(&noisy).sqrt());
+        assert_ne!(judge(mean_of_5(1.0, 0.0004), &more, 0.25).outcome, Some(Outcome::Unresolved));
+    }
+
+    /// k values with exactly this sample mean and standard deviation.
+    fn with_moments(k: usize, m: f64, s: f64) -> Vec<f64> {
+        let raw: Vec<f64> = (0..k).map(|i| (i as f64 * 0.618).fract()).collect();
+        let (rm, rs) = (mean(&raw), sample_variance(&raw).sqrt());
+        raw.iter().map(|v| m + s * (v - rm) / rs).collect()
+    }
+
+    #[test]
+    fn counts_without_a_published_variance_use_ours() {
+        // [FT]'s 22.2 landmarks over 5 runs against our constant 22: equal within the margin
         assert_eq!(
-            judge(Published { mean: 1.6, var: None, runs: 1 }, &ours).compatible,
-            Some(false)
+            judge(Published { mean: 22.2, var: None, runs: 5 }, &[22.0; 8], 0.2 * 22.2).outcome,
+            Some(Outcome::Equivalent)
         );
         assert_eq!(
-            judge(Published { mean: 1.4, var: None, runs: 1 }, &ours).compatible,
-            Some(true)
+            judge(Published { mean: 22.2, var: None, runs: 5 }, &[34.0; 8], 0.2 * 22.2).outcome,
+            Some(Outcome::Different)
         );
-        // the mean of 5 published runs must be closer: 1.4 is outside that narrower interval
-        assert_eq!(
-            judge(Published { mean: 1.4, var: None, runs: 5 }, &ours).compatible,
-            Some(false)
-        );
-        let (lo, hi) = prediction_interval(&ours, 1.0 - ALPHA, 1);
-        let half = 2.7764451051977934 * 0.15811388300841897 * (1.2f64).sqrt();
-        assert!((lo - (1.0 - half)).abs() < 1e-9 && (hi - (1.0 + half)).abs() < 1e-9);
+    }
+
+    /// One published run against a skewed replicate set ([EV]: ours 1.4–2.9× the thesis).
+    #[test]
+    fn a_single_run_against_skewed_replicates() {
+        let ours = [0.06, 0.07, 0.08, 0.09, 0.10, 0.12, 0.15, 0.22, 0.41, 0.63];
+        // the old normal interval reached below zero and held the published value
+        let (lo, _) = crate::stats::compare::prediction_interval(&ours, 0.95, 1);
+        assert!(lo < 0.0);
+        let a = judge(Published { mean: 0.0645, var: None, runs: 1 }, &ours, 0.2 * 0.0645);
+        assert_eq!(a.outcome, Some(Outcome::Unresolved), "{a:?}");
+        assert_eq!(a.rank, Some(0.1));
+        // our median lies beyond the margin, but the published run is one we could produce
+        assert_eq!(a.needed, Some(Needed::Never));
+        // a published run at our bulk, within a margin that covers it: equivalent
+        let near = [0.100, 0.101, 0.099, 0.102, 0.098, 0.100, 0.103, 0.097, 0.35, 0.02];
+        let a = judge(Published { mean: 0.1, var: None, runs: 1 }, &near, 0.02);
+        assert_eq!(a.outcome, Some(Outcome::Equivalent), "{a:?}");
+        // the range alone would not do: a wide bulk is not within the margin
+        let wide = [0.02, 0.05, 0.08, 0.1, 0.12, 0.15, 0.18, 0.2, 0.25, 0.3];
+        let a = judge(Published { mean: 0.1, var: None, runs: 1 }, &wide, 0.02);
+        assert_eq!(a.outcome, Some(Outcome::Unresolved));
+    }
+
+    #[test]
+    fn a_single_run_far_outside_enough_replicates_differs() {
+        let ours: Vec<f64> = (0..20).map(|i| 1.0 + 0.01 * i as f64).collect();
+        let a = judge(Published { mean: 3.0, var: None, runs: 1 }, &ours, 0.6);
+        assert_eq!(a.outcome, Some(Outcome::Different));
+        // with 8 replicates the same gap cannot be shown without assuming a distribution
+        let a = judge(Published { mean: 3.0, var: None, runs: 1 }, &ours[..8], 0.6);
+        assert_eq!(a.outcome, Some(Outcome::Unresolved));
+        assert_eq!(a.needed, Some(Needed::Replicates(PREDICTION_MIN_N)));
+        // four replicates cannot locate the median at 90 %
+        assert_eq!(median_ranks(4), None);
+        assert_eq!(median_ranks(5), Some((1, 5)));
+        assert_eq!(median_ranks(10), Some((2, 9)));
     }
 
     #[test]
     fn infinities_and_small_samples() {
         let inf = [f64::INFINITY; 3];
-        assert_eq!(
-            judge(Published { mean: f64::INFINITY, var: Some(0.0), runs: 5 }, &inf).compatible,
-            Some(true)
-        );
-        assert_eq!(
-            judge(Published { mean: f64::INFINITY, var: Some(0.0), runs: 5 }, &[1.0, 2.0])
-                .compatible,
-            Some(false)
-        );
-        assert_eq!(
-            judge(Published { mean: 1.0, var: None, runs: 1 }, &[1.0, f64::INFINITY]).compatible,
-            Some(false)
-        );
-        assert_eq!(judge(Published { mean: 1.0, var: None, runs: 1 }, &[1.0]).compatible, None);
-        // a constant sample equal to the published value
-        assert_eq!(
-            judge(Published { mean: 9.0, var: None, runs: 5 }, &[9.0, 9.0, 9.0]).compatible,
-            Some(true)
-        );
+        let p = |mean| Published { mean, var: Some(0.0), runs: 5 };
+        assert_eq!(judge(p(f64::INFINITY), &inf, 0.0).outcome, Some(Outcome::Equivalent));
+        assert_eq!(judge(p(f64::INFINITY), &[1.0, 2.0], 0.0).outcome, Some(Outcome::Different));
+        let one = Published { mean: 1.0, var: None, runs: 1 };
+        assert_eq!(judge(one, &[1.0, f64::INFINITY], 0.2).outcome, Some(Outcome::Different));
+        assert_eq!(judge(one, &[1.0], 0.2).outcome, None);
+        assert_eq!(judge(one, &[1.05, 1.05, 1.05], 0.2).outcome, Some(Outcome::Equivalent));
     }
 }

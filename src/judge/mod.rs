@@ -7,5 +7,6 @@
 pub mod agreement;
 pub mod change;
 pub mod claims;
+pub mod margins;
 pub mod scoreboard;
 pub mod sensitivity;

@@ -1,22 +1,33 @@
 //! The fidelity scoreboard: every published result item of the reference works
-//! (`data/reference/published-results.toml`) classified MATCH / TREND / DISAGREE / MISSING from the
-//! studies' runs, and every claim's verdict tallied per reference work and per kind.
+//! (`data/reference/published-results.toml`) classified MATCH / TREND / DISAGREE / UNRESOLVED /
+//! CALIBRATED / MISSING from the studies' runs, and every claim's verdict tallied per reference
+//! work and per kind.
 //!
-//! The rule, decided before looking at any number and applied to every item alike:
-//! - An item answered by **published cells**: each cell is judged by [`super::agreement`] (Welch
-//!   against the published variance, or a prediction interval for the published runs).
-//!   MATCH when at least half of the judged cells are compatible ([`MATCH_SHARE`]). Otherwise
-//!   TREND when ours follow the published ordering: the mean Spearman rank correlation of
-//!   published and ours over each (map, algorithm, metric) series of ≥ 3 cells is at least
-//!   [`TREND_RHO`] (over all the item's cells of a metric when no series has 3); else DISAGREE.
-//! - An item answered by **claims**: MATCH when every testable claim is confirmed; DISAGREE when
-//!   one is refuted, or one is inconclusive with its point estimate on the wrong side; TREND when
-//!   the non-confirmed ones are inconclusive with the point estimate on the claimed side;
-//!   MISSING when every claim is untestable.
+//! The rule, fixed before the scoreboard was regenerated under it (2026-11-26, issue 25), applied
+//! to every item alike:
+//! - An item answered by **published cells**: each cell is shown equivalent, shown different or
+//!   unresolved within its work's margin ([`super::agreement`], [`super::margins`]). Where the
+//!   item is about an effect along an axis (the swept parameter, or the algorithms compared), its
+//!   **trend** is scored per series along that axis: a series that does not move (range within
+//!   the margin) is "no effect", which agrees with a published series that does not move (1) and
+//!   contradicts one that does (0); two moving series score their Spearman ρ. Then:
+//!   - MATCH when at least half the judged cells are shown equivalent ([`MATCH_SHARE`]) and the
+//!     trend, if the item has one, scores at least [`TREND_RHO`];
+//!   - TREND when the trend scores at least [`TREND_RHO`] (the shape, not the levels);
+//!   - DISAGREE when the trend scores below it, or, for an item without a trend, when at least
+//!     half the judged cells are shown different;
+//!   - UNRESOLVED otherwise: neither shown equivalent nor shown different, with the replicates
+//!     that would resolve the cells at the observed spread.
+//! - An item answered by **claims**: CALIBRATED when every claim is a calibration (true by
+//!   construction, never a MATCH); MATCH when every testable claim is confirmed; DISAGREE when
+//!   one is refuted; TREND when the rest are inconclusive with the point estimate on the claimed
+//!   side; UNRESOLVED when one is inconclusive with it on the other side; MISSING when every claim
+//!   is untestable.
 //! - An item with **no counterpart**: MISSING, with the reason.
 
-use super::agreement::{self, Published};
+use super::agreement::{self, Needed, Outcome, Published};
 use super::claims::{ClaimResult, Verdict};
+use super::margins::{self, WorkMargins};
 use crate::stats::compare::spearman;
 use crate::stats::sig;
 use crate::store::reference::{ReferenceRow, cell_metric_name};
@@ -24,9 +35,10 @@ use crate::store::{ParamValue, StudyData};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// Share of compatible cells from which an item MATCHes.
+/// Share of cells shown equivalent from which an item MATCHes.
 pub const MATCH_SHARE: f64 = 0.5;
-/// Mean Spearman ρ from which an item that does not match follows the published TREND.
+/// Mean trend score (Spearman ρ; 1 or 0 for series that do not move) from which an item follows
+/// the published trend.
 pub const TREND_RHO: f64 = 0.5;
 
 /// `published-results.toml`.
@@ -78,6 +90,42 @@ pub struct CellSelector {
     #[serde(default)]
     pub maps: Vec<String>,
     pub metrics: Vec<String>,
+    /// What the item's effect runs along: `value` (the swept parameter; the wide layout's
+    /// default), `cell`, `algorithm` or `map` (series over the others), or `none` (an item about
+    /// levels; the long layout's default).
+    #[serde(default)]
+    pub axis: Option<Axis>,
+}
+
+/// The axis a published item's trend runs along.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Axis {
+    Value,
+    Cell,
+    Algorithm,
+    Map,
+    None,
+}
+
+impl Axis {
+    /// Fewest cells a series along this axis needs: an ordering needs 3, a comparison 2.
+    fn min_series(self) -> usize {
+        match self {
+            Axis::Value | Axis::Cell => 3,
+            Axis::Algorithm | Axis::Map => 2,
+            Axis::None => usize::MAX,
+        }
+    }
+    fn as_str(self) -> &'static str {
+        match self {
+            Axis::Value => "the swept parameter",
+            Axis::Cell => "the cells",
+            Axis::Algorithm => "the algorithms",
+            Axis::Map => "the maps",
+            Axis::None => "none",
+        }
+    }
 }
 
 /// Parses the items file; errors name the item and key.
@@ -112,16 +160,27 @@ pub enum Class {
     Match,
     Trend,
     Disagree,
+    Unresolved,
+    Calibrated,
     Missing,
 }
 
 impl Class {
-    pub const ALL: [Class; 4] = [Class::Match, Class::Trend, Class::Disagree, Class::Missing];
+    pub const ALL: [Class; 6] = [
+        Class::Match,
+        Class::Trend,
+        Class::Disagree,
+        Class::Unresolved,
+        Class::Calibrated,
+        Class::Missing,
+    ];
     pub fn as_str(self) -> &'static str {
         match self {
             Class::Match => "MATCH",
             Class::Trend => "TREND",
             Class::Disagree => "DISAGREE",
+            Class::Unresolved => "UNRESOLVED",
+            Class::Calibrated => "CALIBRATED",
             Class::Missing => "MISSING",
         }
     }
@@ -258,28 +317,65 @@ fn selected<'a>(data: &'a StudyData, sel: &CellSelector) -> Vec<(&'a ReferenceRo
     out
 }
 
-/// Classifies an item answered by published cells.
-fn classify_cells(data: &StudyData, sel: &CellSelector) -> (Class, String) {
+/// A series' trend score against the published one: 1 when neither moves beyond the margin
+/// around its level, 0 when one moves and the other does not, else Spearman's ρ (0 when
+/// undefined).
+pub fn trend_score(published: &[f64], ours: &[f64], relative: f64) -> f64 {
+    let moves = |v: &[f64]| {
+        let (lo, hi) =
+            v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(*x), b.max(*x)));
+        let level = v.iter().map(|x| x.abs()).sum::<f64>() / v.len() as f64;
+        hi - lo > relative * level
+    };
+    match (moves(published), moves(ours)) {
+        (false, false) => 1.0,
+        (true, true) => {
+            let rho = spearman(published, ours);
+            if rho.is_finite() { rho } else { 0.0 }
+        }
+        _ => 0.0,
+    }
+}
+
+/// Classifies an item answered by published cells, within the margins of its work.
+fn classify_cells(data: &StudyData, sel: &CellSelector, work: &WorkMargins) -> (Class, String) {
     let rows = selected(data, sel);
-    // series key (map, algorithm, metric) → (published, ours mean)
+    let long = rows.first().is_some_and(|(r, _)| !r.cell.is_empty());
+    let axis = sel.axis.unwrap_or(if long { Axis::None } else { Axis::Value });
+    // series key (the cell's coordinates off the axis, metric) → (published, ours mean)
     let mut series: BTreeMap<(String, String, String), Vec<(f64, f64)>> = BTreeMap::new();
-    let (mut compatible, mut judged) = (0usize, 0usize);
+    let (mut equivalent, mut different, mut unresolved) = (0usize, 0usize, 0usize);
+    let mut needed: Vec<Needed> = Vec::new();
+    let mut replicates = BTreeMap::<usize, usize>::new();
     for (row, metric) in &rows {
         let (Some(p), Some(ours)) = (published(data, row, metric), our_values(data, row, metric))
         else {
             continue;
         };
-        let a = agreement::judge(p, &ours);
-        if let Some(c) = a.compatible {
-            judged += 1;
-            compatible += c as usize;
+        let a = agreement::judge(p, &ours, work.margin(metric, p.mean));
+        match a.outcome {
+            Some(Outcome::Equivalent) => equivalent += 1,
+            Some(Outcome::Different) => different += 1,
+            Some(Outcome::Unresolved) => {
+                unresolved += 1;
+                needed.extend(a.needed);
+                *replicates.entry(ours.len()).or_default() += 1;
+            }
+            None => {}
         }
         let mean = ours.iter().sum::<f64>() / ours.len() as f64;
-        series
-            .entry((row.map.clone(), row.algorithm.clone(), metric.clone()))
-            .or_default()
-            .push((p.mean, mean));
+        if !(p.mean.is_finite() && mean.is_finite()) {
+            continue;
+        }
+        let key = match axis {
+            Axis::Value | Axis::None => (row.map.clone(), format!("{}{}", row.algorithm, row.cell)),
+            Axis::Cell => (row.map.clone(), row.algorithm.clone()),
+            Axis::Algorithm => (row.map.clone(), row.cell.clone()),
+            Axis::Map => (row.algorithm.clone(), format!("{}{}", row.cell, row.value)),
+        };
+        series.entry((key.0, key.1, metric.clone())).or_default().push((p.mean, mean));
     }
+    let judged = equivalent + different + unresolved;
     if judged == 0 {
         return (
             Class::Missing,
@@ -289,51 +385,70 @@ fn classify_cells(data: &StudyData, sel: &CellSelector) -> (Class, String) {
             ),
         );
     }
-    let share = compatible as f64 / judged as f64;
-    let rho_of = |s: &[(f64, f64)]| {
-        spearman(
-            &s.iter().map(|x| x.0).collect::<Vec<_>>(),
-            &s.iter().map(|x| x.1).collect::<Vec<_>>(),
-        )
-    };
-    let mut rhos: Vec<f64> = series
+    let scores: Vec<f64> = series
         .values()
-        .filter(|s| s.len() >= 3)
-        .map(|s| rho_of(s))
-        .filter(|r| r.is_finite())
+        .filter(|s| s.len() >= axis.min_series())
+        .map(|s| {
+            let (p, o): (Vec<f64>, Vec<f64>) = s.iter().copied().unzip();
+            trend_score(&p, &o, work.relative)
+        })
         .collect();
-    let mut scope = "series";
-    if rhos.is_empty() {
-        // no series of 3: one ordering per metric over the item's cells
-        let mut by_metric: BTreeMap<&str, Vec<(f64, f64)>> = BTreeMap::new();
-        for ((_, _, m), s) in &series {
-            by_metric.entry(m.as_str()).or_default().extend(s);
-        }
-        rhos = by_metric
-            .values()
-            .filter(|s| s.len() >= 3)
-            .map(|s| rho_of(s))
-            .filter(|r| r.is_finite())
-            .collect();
-        scope = "metric";
+    let trend = (!scores.is_empty()).then(|| scores.iter().sum::<f64>() / scores.len() as f64);
+    let half = |k: usize| k as f64 >= MATCH_SHARE * judged as f64;
+    let class = match trend {
+        _ if half(equivalent) && trend.is_none_or(|t| t >= TREND_RHO) => Class::Match,
+        Some(t) if t >= TREND_RHO => Class::Trend,
+        Some(_) => Class::Disagree,
+        None if half(different) => Class::Disagree,
+        None => Class::Unresolved,
+    };
+    let margin = format!("±{} %", sig(work.relative * 100.0, 2));
+    let mut basis = format!(
+        "of {judged} cells, {equivalent} shown equivalent within {margin}, {different} shown different, {unresolved} unresolved"
+    );
+    match trend {
+        Some(t) => basis.push_str(&format!(
+            "; trend along {}: mean score {} over {} series (Spearman ρ; 1 or 0 for a series that does not move)",
+            axis.as_str(),
+            sig(t, 2),
+            scores.len()
+        )),
+        None if axis == Axis::None => basis.push_str("; an item about levels, no trend"),
+        None => basis.push_str(&format!("; no series along {} to order", axis.as_str())),
     }
-    let rho = if rhos.is_empty() { f64::NAN } else { rhos.iter().sum::<f64>() / rhos.len() as f64 };
-    let class = if share >= MATCH_SHARE {
-        Class::Match
-    } else if rho >= TREND_RHO {
-        Class::Trend
-    } else {
-        Class::Disagree
-    };
-    let rho_text = if rho.is_nan() {
-        "no ordering to compare".to_string()
-    } else {
-        format!("mean Spearman ρ {} over {} {scope} orderings", sig(rho, 2), rhos.len())
-    };
-    (
-        class,
-        format!("{compatible} of {judged} cells compatible with the published spread; {rho_text}"),
-    )
+    if unresolved > 0 {
+        basis.push_str(&format!("; {}", needed_text(&needed, &replicates)));
+    }
+    (class, basis)
+}
+
+/// What would resolve the unresolved cells: the median count of replicates per cell at the
+/// observed spread, and how many no count of ours can resolve.
+fn needed_text(needed: &[Needed], replicates: &BTreeMap<usize, usize>) -> String {
+    let mut counts: Vec<usize> = needed
+        .iter()
+        .filter_map(|n| match n {
+            Needed::Replicates(k) => Some(*k),
+            Needed::Never => None,
+        })
+        .collect();
+    counts.sort_unstable();
+    let never = needed.len() - counts.len();
+    let now = replicates.keys().map(|n| n.to_string()).collect::<Vec<_>>().join("–");
+    let mut parts = Vec::new();
+    if !counts.is_empty() {
+        parts.push(format!(
+            "{} would resolve at a median of {} replicates per cell (now {now})",
+            counts.len(),
+            counts[counts.len() / 2]
+        ));
+    }
+    if never > 0 {
+        parts.push(format!(
+            "{never} cannot be resolved by more runs of ours (the published spread is wider than the gap to the margin, or the published run is one of ours while our median lies beyond the margin)"
+        ));
+    }
+    parts.join("; ")
 }
 
 /// Classifies an item answered by claims.
@@ -356,17 +471,22 @@ fn classify_claims(ids: &[String], claims: &[&ClaimResult]) -> (Class, String) {
             ),
         );
     }
+    if found.iter().all(|c| c.kind == "calibration") {
+        return (Class::Calibrated, format!("{listed} (a calibration: true by construction)"));
+    }
     let testable: Vec<&&ClaimResult> =
         found.iter().copied().filter(|c| c.verdict != Verdict::Untestable).collect();
     let class = if testable.is_empty() {
         Class::Missing
     } else if testable.iter().all(|c| c.verdict == Verdict::Confirmed) {
         Class::Match
-    } else if testable.iter().any(|c| {
-        c.verdict == Verdict::Refuted
-            || (c.verdict == Verdict::Inconclusive && c.direction_agrees != Some(true))
-    }) {
+    } else if testable.iter().any(|c| c.verdict == Verdict::Refuted) {
         Class::Disagree
+    } else if testable
+        .iter()
+        .any(|c| c.verdict == Verdict::Inconclusive && c.direction_agrees != Some(true))
+    {
+        Class::Unresolved
     } else {
         Class::Trend
     };
@@ -391,7 +511,7 @@ pub fn classify(
                 (Class::Missing, format!("no counterpart: {why}"))
             } else if let Some(sel) = &it.cells {
                 match (studies.get(&study), kept.iter().find(|k| k.id == it.id)) {
-                    (Some(data), _) => classify_cells(data, sel),
+                    (Some(data), _) => classify_cells(data, sel, margins::for_label(&it.seed)),
                     (None, Some(k)) => (k.class, k.basis.clone()),
                     (None, None) => (Class::Missing, format!("study {study} has no results here")),
                 }
@@ -446,7 +566,7 @@ mod tests {
         assert_eq!(c(Confirmed, Some(true), Confirmed, Some(true)), Class::Match);
         assert_eq!(c(Confirmed, Some(true), Refuted, Some(false)), Class::Disagree);
         assert_eq!(c(Confirmed, Some(true), Inconclusive, Some(true)), Class::Trend);
-        assert_eq!(c(Confirmed, Some(true), Inconclusive, Some(false)), Class::Disagree);
+        assert_eq!(c(Confirmed, Some(true), Inconclusive, Some(false)), Class::Unresolved);
         assert_eq!(c(Untestable, None, Untestable, None), Class::Missing);
         assert_eq!(c(Untestable, None, Confirmed, Some(true)), Class::Match);
         let x = claim("a", Confirmed, Some(true));
@@ -486,6 +606,20 @@ mod tests {
         assert_eq!(point_in(&points, &base, &row(theta, 0.001224)).as_deref(), Some("rho-base"));
         assert_eq!(point_in(&points, &base, &row(theta, 1e-4)).as_deref(), Some("theta-small"));
         assert_eq!(point_in(&points, &base, &row(theta, 0.5)), None, "no counterpart");
+    }
+
+    /// A series that does not move is "no effect": it agrees with a flat published series and
+    /// contradicts a sloped one ([FT]-R13: ours 23 landmarks at every M, the thesis 31 → 22).
+    #[test]
+    fn a_flat_series_against_a_flat_and_a_sloped_published_one() {
+        let ours = [23.0, 23.0, 23.0, 23.0, 23.0];
+        assert_eq!(trend_score(&[22.4, 22.0, 22.2, 22.6, 22.0], &ours, 0.2), 1.0);
+        assert_eq!(trend_score(&[31.0, 27.0, 24.0, 22.0, 22.0], &ours, 0.2), 0.0);
+        // both moving: Spearman's ρ, whatever the levels
+        assert_eq!(trend_score(&[0.84, 0.5, 0.3, 0.26], &[2.0, 1.5, 1.2, 1.0], 0.2), 1.0);
+        assert_eq!(trend_score(&[0.84, 0.5, 0.3, 0.26], &[1.0, 1.2, 1.5, 2.0], 0.2), -1.0);
+        // ours moving where the publication is flat: no agreement
+        assert_eq!(trend_score(&[0.13, 0.14, 0.15], &[0.2, 0.4, 0.6], 0.2), 0.0);
     }
 
     #[test]

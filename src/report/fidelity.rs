@@ -36,6 +36,37 @@ pub struct FidelityView {
     pub claims_total: usize,
     /// Studies with a page in this report folder (the others are named, not linked).
     pub studies: Vec<String>,
+    /// The equivalence margins per reference work (`judge::margins`).
+    pub margins: TableView,
+}
+
+/// The margins table (`judge::margins`), as the scoreboard and the README show it.
+pub fn margins_table() -> TableView {
+    use crate::judge::margins::WORKS;
+    TableView {
+        columns: ["Work", "Margin", "Why", "Resolutions"].map(String::from).to_vec(),
+        rows: WORKS
+            .iter()
+            .map(|w| {
+                let res = if w.resolutions.is_empty() {
+                    "—".to_string()
+                } else {
+                    w.resolutions
+                        .iter()
+                        .map(|(m, r, why)| format!("{m}: {r} ({why})"))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                };
+                vec![
+                    format!("[{}]", w.tag),
+                    format!("±{} %", crate::stats::sig(w.relative * 100.0, 2)),
+                    w.why.to_string(),
+                    res,
+                ]
+            })
+            .collect(),
+        align: "lrp{0.4\\linewidth}p{0.35\\linewidth}".into(),
+    }
 }
 
 fn counts_row(label: String, classes: &[Class]) -> Vec<String> {
@@ -83,7 +114,8 @@ pub fn build(items: &[ItemResult], claims: &[ClaimResult], studies: Vec<String>)
         })
         .collect();
     rows.push(counts_row("all".into(), &items.iter().map(|i| i.class).collect::<Vec<_>>()));
-    let item_counts = TableView { columns, rows, align: "lrrrrr".into() };
+    let align = format!("l{}r", "r".repeat(Class::ALL.len()));
+    let item_counts = TableView { columns, rows, align };
 
     let mut columns = vec!["Reference work".to_string(), "Kind".to_string()];
     columns.extend(Verdict::ALL.iter().map(|v| v.as_str().to_string()));
@@ -149,6 +181,7 @@ pub fn build(items: &[ItemResult], claims: &[ClaimResult], studies: Vec<String>)
         items_total: items.len(),
         claims_total: claims.len(),
         studies,
+        margins: margins_table(),
     }
 }
 

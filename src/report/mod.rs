@@ -332,6 +332,10 @@ pub fn render_all(
     ));
     files.push(("fidelity/summary.md".into(), block.clone().into_bytes()));
     files.push((
+        "fidelity/margins.md".into(),
+        fidelity::markdown_table(&board.margins).into_bytes(),
+    ));
+    files.push((
         "fidelity/fidelity.md".into(),
         fidelity::full_markdown(&board, &block).into_bytes(),
     ));

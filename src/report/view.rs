@@ -8,7 +8,8 @@ use super::model::{
     FigureView, GroupView, IndexEntry, Kv, NamedTable, StudyPages, StudyView, TableView,
 };
 use crate::algo::{Choice, Topic};
-use crate::judge::agreement::{self, Published};
+use crate::judge::agreement::{self, Outcome, Published};
+use crate::judge::margins;
 use crate::metrics::{MetricDef, metric_def};
 use crate::params::flatten;
 use crate::scenario::Scenario;
@@ -85,10 +86,22 @@ impl Study<'_> {
     fn published_runs(&self) -> u32 {
         self.spec().report.reference.as_ref().map_or(1, |r| r.runs)
     }
-    /// Whether a published value (with its variance, if printed) is compatible with our cell
-    /// (`judge::agreement`); None when it cannot be judged.
-    fn compatible(&self, mean: f64, var: Option<f64>, ours: &[f64]) -> Option<bool> {
-        agreement::judge(Published { mean, var, runs: self.published_runs() }, ours).compatible
+    /// The margins of the work the study's published values come from.
+    fn work(&self) -> &'static margins::WorkMargins {
+        margins::for_label(self.spec().report.reference.as_ref().map_or("", |r| r.label.as_str()))
+    }
+    /// Whether a published value of `metric` (with its variance, if printed) is shown equivalent
+    /// to our cell, shown different, or unresolved (`judge::agreement`); None when it cannot be
+    /// judged.
+    fn agreement(
+        &self,
+        metric: &str,
+        mean: f64,
+        var: Option<f64>,
+        ours: &[f64],
+    ) -> Option<Outcome> {
+        let p = Published { mean, var, runs: self.published_runs() };
+        agreement::judge(p, ours, self.work().margin(metric, mean)).outcome
     }
     /// The published dispersion drawn on the dashed series: the 95 % CI of the published mean
     /// when its variance over its runs is printed ([FT]), else none.
@@ -103,16 +116,18 @@ impl Study<'_> {
             _ => (f64::NAN, f64::NAN),
         }
     }
-    /// The sentence that says how ≠ is decided.
+    /// The sentence that says how ≠ and ? are decided.
     fn agreement_rule(&self) -> String {
         let m = self.published_runs();
+        let margin = sig(self.work().relative * 100.0, 2);
         if m >= 2 {
             format!(
-                "Welch's test of our replicates against the published mean and variance over its {m} runs (p < 0.05), or where no variance is printed, our 95 % prediction interval for the mean of {m} runs"
+                "the 90 % interval of our mean minus the published mean of {m} runs (with its printed variance, or ours where none is printed) against ±{margin} % of the published value"
             )
         } else {
-            "our 95 % prediction interval for a single run (the source ran one run per cell)"
-                .to_string()
+            format!(
+                "the order-statistic 90 % interval of our median against ±{margin} % of the published single run; a published run inside our replicates' 90 % prediction interval is never shown different (distribution-free)"
+            )
         }
     }
     /// The published row for (map, parameter = value), if the study shows a reference.
@@ -565,7 +580,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
         .collect();
     let label = study.reference_label();
     columns.extend(ref_metrics.iter().map(|m| format!("{label}: {}", m.title)));
-    let mut agreement: Vec<(usize, usize)> = vec![(0, 0); ref_metrics.len()];
+    let mut agreement: Vec<Tally> = vec![Tally::default(); ref_metrics.len()];
     let mut rows = Vec::new();
     for (map, _) in &study.maps {
         for algorithm in study.algorithms() {
@@ -613,22 +628,16 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                         None => String::new(),
                         Some(v) => {
                             let var = published.and_then(|r| r.metric(&format!("{}_var", m.name)));
-                            let compatible = study.compatible(
+                            let outcome = study.agreement(
+                                m.name,
                                 v,
                                 var,
                                 &study.values(map, algorithm.name(), &p.label, m.name),
                             );
-                            if let Some(c) = compatible {
-                                agreement[mi].1 += 1;
-                                agreement[mi].0 += c as usize;
-                            }
+                            agreement[mi].add(outcome);
                             let var =
                                 var.map(|w| format!(" (σ² {})", sig(w, 2))).unwrap_or_default();
-                            format!(
-                                "{}{var}{}",
-                                sig(v, TABLE_DIGITS),
-                                if compatible == Some(false) { " ≠" } else { "" }
-                            )
+                            format!("{}{var}{}", sig(v, TABLE_DIGITS), Tally::mark(outcome))
                         }
                     });
                 }
@@ -647,8 +656,8 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
     let agreement: Vec<String> = ref_metrics
         .iter()
         .zip(&agreement)
-        .filter(|(_, (_, n))| *n > 0)
-        .map(|(m, (k, n))| format!("{}: the published value is compatible with ours in {k} of {n} cells (≠ marks the others) by {}.", m.title, study.agreement_rule()))
+        .filter(|(_, t)| t.judged > 0)
+        .map(|(m, t)| format!("{}: {} by {}.", m.title, t.sentence(), study.agreement_rule()))
         .collect();
 
     let mut figures = Vec::new();
@@ -949,7 +958,7 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
         let mut columns = vec!["Map".to_string(), "Algorithm".to_string()];
         columns.extend(points.iter().map(|p| p.label.clone()));
         let mut rows = Vec::new();
-        let mut agreement = (0, 0);
+        let mut agreement = Tally::default();
         for (map, _) in &study.maps {
             for algorithm in study.algorithms() {
                 let mut ours = vec![map.clone(), algorithm.title().to_string()];
@@ -966,19 +975,17 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
                     });
                     match study.published_cell(map, algorithm.name(), &p.label, m.name) {
                         Some((v, table)) => {
-                            let compatible = study.compatible(
+                            let outcome = study.agreement(
+                                m.name,
                                 v,
                                 None,
                                 &study.values(map, algorithm.name(), &p.label, m.name),
                             );
-                            if let Some(c) = compatible {
-                                agreement.1 += 1;
-                                agreement.0 += c as usize;
-                            }
+                            agreement.add(outcome);
                             published.push(format!(
                                 "{}{}",
                                 sig(v, TABLE_DIGITS),
-                                if compatible == Some(false) { " ≠" } else { "" }
+                                Tally::mark(outcome)
                             ));
                             if !tables.contains(&table) {
                                 tables.push(table);
@@ -995,11 +1002,10 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
                 rows.push(published);
             }
         }
-        let caption = if agreement.1 > 0 {
+        let caption = if agreement.judged > 0 {
             format!(
-                "Ours: mean ± half-width of the 95 % confidence interval over the replicates; under it the published value. The published value is compatible with ours in {} of {} cells (≠ marks the others) by {}.",
-                agreement.0,
-                agreement.1,
+                "Ours: mean ± half-width of the 95 % confidence interval over the replicates; under it the published value. {} by {}.",
+                agreement.sentence(),
                 study.agreement_rule()
             )
         } else {
@@ -1524,6 +1530,41 @@ fn contrast_entry(c: &stats::compare::PairedContrast) -> String {
 /// A published landmark is matched to a true one within this distance [m] (the tables give whole
 /// centimetres).
 const LANDMARK_MATCH_M: f64 = 0.02;
+
+/// How a table's published cells came out against ours.
+#[derive(Debug, Clone, Copy, Default)]
+struct Tally {
+    judged: usize,
+    equivalent: usize,
+    different: usize,
+}
+
+impl Tally {
+    fn add(&mut self, outcome: Option<Outcome>) {
+        if let Some(o) = outcome {
+            self.judged += 1;
+            self.equivalent += (o == Outcome::Equivalent) as usize;
+            self.different += (o == Outcome::Different) as usize;
+        }
+    }
+    /// The mark after a published value: ≠ shown different, ? unresolved.
+    fn mark(outcome: Option<Outcome>) -> &'static str {
+        match outcome {
+            Some(Outcome::Different) => " ≠",
+            Some(Outcome::Unresolved) => " ?",
+            _ => "",
+        }
+    }
+    fn sentence(&self) -> String {
+        format!(
+            "Of {} cells, {} are shown equivalent to the published value, {} shown different (≠) and {} unresolved (?)",
+            self.judged,
+            self.equivalent,
+            self.different,
+            self.judged - self.equivalent - self.different
+        )
+    }
+}
 
 fn failures_table(data: &StudyData) -> TableView {
     TableView {

@@ -126,9 +126,14 @@ pub struct ClaimSpec {
     /// For `greater` / `less`: compare with this algorithm (at `than`, or at the same cell).
     #[serde(default)]
     pub than_algorithm: Option<AlgorithmId>,
-    /// How many maps must confirm: all (default), most, or any.
+    /// How many maps must confirm: all (default), most, any, or `pooled` (the effect on average
+    /// over the maps, by a random-effects test).
     #[serde(default)]
     pub require: Require,
+    /// Why `require` is not "all": the source's wording that makes the claim one about most maps,
+    /// any map, or the average over the maps (required for `most`, `any` and `pooled`).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub require_why: String,
     /// A claim on a global-sensitivity index (a morris / sobol sweep of the study) instead of a
     /// cell: `above` / `below` / `between` test the index's 95 % bootstrap interval against
     /// `value` (and `upper`), `greater` / `less` the interval of its difference with
@@ -267,8 +272,8 @@ pub enum Require {
     Most,
     /// Confirmed on at least one map.
     Any,
-    /// One test on the runs of all maps together (a general claim, tested with the power of all
-    /// replicates; `flat` claims are checked per map as for `all`).
+    /// The effect on average over the maps (a claim worded as an average): a random-effects test
+    /// of the maps' relative effects (`flat` claims are checked per map as for `all`).
     Pooled,
 }
 
@@ -1055,6 +1060,12 @@ pub fn parse(path: &Path, text: &str, catalogue: &Arc<Catalogue>) -> Result<Load
             || c.min_effect_rel.is_some();
         if needs_why && c.why.trim().is_empty() {
             err(&key("why"), "say why the tolerance, margin or minimum effect is what it is (a `why` is required for flat, not_greater and not_less claims and any explicit minimum effect)".into());
+        }
+        if c.require != Require::All && c.require_why.trim().is_empty() {
+            err(
+                &key("require_why"),
+                "a claim the source states for every map uses require = \"all\"; for `most`, `any` or `pooled` quote the source's wording that makes it a claim about most maps, any map or the average".into(),
+            );
         }
         if c.kind == ClaimKind::Seed && c.seed_tag().is_none() {
             err(
