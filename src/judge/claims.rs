@@ -43,6 +43,7 @@
 //! world), so cell comparisons use paired differences over replicates.
 
 use super::margins;
+use crate::spec::cause::{self, Piece, Placeholder, Stat};
 use crate::algo::{AlgorithmId, Catalogue};
 use crate::spec::{ClaimSpec, ClaimTest, FlatDirection, Require};
 use crate::stats::compare::{paired_differences as paired, t_interval, t_one_sided_p};
@@ -629,7 +630,7 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
                 let reasons: Vec<&str> = outcomes.iter().filter(|o| o.verdict == Verdict::Untestable).map(|o| o.text.as_str()).collect();
                 format!("untestable: {}", reasons.first().copied().unwrap_or(""))
             } else {
-                claim.cause.clone().unwrap_or_else(|| "not yet investigated".into())
+                claim.cause.as_deref().map_or_else(|| "not yet investigated".into(), |c| render_cause(data, algorithm, c))
             };
             Some(ClaimResult {
                 study: spec.id.clone(),
@@ -648,6 +649,61 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
             })
         })
         .collect()
+}
+
+/// A cause with its placeholders filled from the study's runs (`spec::cause`); a placeholder
+/// that names no cell renders as `⟨…⟩`, which `slamlab report` refuses.
+pub fn render_cause(data: &StudyData, algorithm: &str, text: &str) -> String {
+    match cause::parse(text) {
+        Err(e) => format!("⟨{e}⟩"),
+        Ok(pieces) => pieces
+            .iter()
+            .map(|p| match p {
+                Piece::Text(t) => t.clone(),
+                Piece::Value(v) => cause_value(data, algorithm, v)
+                    .unwrap_or_else(|e| format!("⟨{}: {e}⟩", v.source)),
+            })
+            .collect(),
+    }
+}
+
+fn cause_value(data: &StudyData, algorithm: &str, v: &Placeholder) -> Result<String, String> {
+    let cells: Vec<BTreeMap<u32, f64>> = v
+        .cells
+        .iter()
+        .map(|c| {
+            let alg = c.algorithm.as_deref().unwrap_or(algorithm);
+            let values = data.replicate_values(&v.map, alg, &c.point, &v.metric);
+            if values.is_empty() {
+                Err(format!("no successful run of {alg} at `{}` on {}", c.point, v.map))
+            } else {
+                Ok(values)
+            }
+        })
+        .collect::<Result<_, _>>()?;
+    let s = summarize(&cells[0]);
+    let x = match v.stat {
+        Stat::Mean => s.mean,
+        Stat::Sd => s.std,
+        Stat::Median => s.median,
+        Stat::Min => s.min,
+        Stat::Max => s.max,
+        Stat::Lo => s.ci_low,
+        Stat::Hi => s.ci_high,
+        Stat::N => return Ok(s.n.to_string()),
+        Stat::Ratio => s.mean / summarize(&cells[1]).mean,
+        Stat::Diff => s.mean - summarize(&cells[1]).mean,
+        Stat::PairedDiff | Stat::PairedLo | Stat::PairedHi => {
+            let d = paired(&cells[0], &cells[1]);
+            let (lo, hi) = t_interval(&d, CONFIDENCE);
+            match v.stat {
+                Stat::PairedDiff => mean(&d),
+                Stat::PairedLo => lo,
+                _ => hi,
+            }
+        }
+    };
+    Ok(sig(x, v.digits))
 }
 
 /// A cell as the claim wrote it: `a.b = 1, c.d = 2`, or "base".

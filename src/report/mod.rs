@@ -33,6 +33,10 @@ pub enum ReportError {
     #[error("{path}: {message}")]
     Items { path: std::path::PathBuf, message: String },
     #[error(
+        "study {study}, claim {claim}: the cause's {message} (placeholders: README, \"Cause texts\")"
+    )]
+    Cause { study: String, claim: String, message: String },
+    #[error(
         "{0}: no study results here (no <study>/runs.parquet): nothing to report; check --results"
     )]
     NoStudies(std::path::PathBuf),
@@ -220,6 +224,15 @@ pub fn render_all(
         let built = view::build(&data, &traces, diagnostics.as_ref());
         if let Some(e) = trace_error.into_inner() {
             return Err(e.into());
+        }
+        if let Some(c) = built.view.claims.iter().find(|c| c.cause.contains('⟨')) {
+            let at = c.cause.find('⟨').unwrap_or(0);
+            let end = c.cause[at..].find('⟩').map_or(c.cause.len(), |k| at + k + '⟩'.len_utf8());
+            return Err(ReportError::Cause {
+                study: c.study.clone(),
+                claim: c.id.clone(),
+                message: c.cause[at..end].to_string(),
+            });
         }
         pages.push(built);
         studies.push(data);

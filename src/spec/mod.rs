@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 pub mod algorithms;
+pub mod cause;
 
 /// A study as written in its TOML file.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -1060,6 +1061,27 @@ pub fn parse(path: &Path, text: &str, catalogue: &Arc<Catalogue>) -> Result<Load
             || c.min_effect_rel.is_some();
         if needs_why && c.why.trim().is_empty() {
             err(&key("why"), "say why the tolerance, margin or minimum effect is what it is (a `why` is required for flat, not_greater and not_less claims and any explicit minimum effect)".into());
+        }
+        if let Some(text) = &c.cause {
+            if let Err(e) = cause::parse(text) {
+                err(&key("cause"), e);
+            }
+            let numbers = cause::literal_numbers(text);
+            if !numbers.is_empty() {
+                err(
+                    &key("cause"),
+                    format!(
+                        "literal number(s) {}: write a result as a placeholder {{mean:METRIC:MAP:POINT}}, a published number inside a citation [FT …], a setting of the runs in a code span `…` (README, \"Cause texts\")",
+                        numbers.join(", ")
+                    ),
+                );
+            }
+            if text.trim_start().starts_with("Measured") && !text.contains('{') {
+                err(
+                    &key("cause"),
+                    "a \"Measured:\" cause shows what was measured as placeholders filled from this study's runs; a cause no committed study isolates is \"Suspected:\"".into(),
+                );
+            }
         }
         if c.require != Require::All && c.require_why.trim().is_empty() {
             err(
