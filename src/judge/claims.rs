@@ -43,9 +43,9 @@
 //! world), so cell comparisons use paired differences over replicates.
 
 use super::margins;
-use crate::spec::cause::{self, Piece, Placeholder, Stat};
 use crate::algo::{AlgorithmId, Catalogue};
-use crate::spec::{ClaimSpec, ClaimTest, FlatDirection, Require};
+use crate::spec::cause::{self, Piece, Placeholder, Stat};
+use crate::spec::{Across, ClaimSpec, ClaimTest, FlatDirection, Require};
 use crate::stats::compare::{paired_differences as paired, t_interval, t_one_sided_p};
 use crate::stats::hypothesis::{holm, mean};
 use crate::stats::{self, Summary, sig};
@@ -591,10 +591,26 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
     spec.claims
         .iter()
         .filter_map(|claim| {
+            if claim.judged_on.is_some() {
+                return None; // judged on the timing page, not in the report
+            }
             let cells = data.resolved.claims.iter().find(|c| c.id == claim.id)?;
-            let maps: Vec<&String> = if claim.maps.is_empty() { spec.maps.iter().collect() } else { claim.maps.iter().collect() };
+            let claim_maps: Vec<&String> = if claim.maps.is_empty() { spec.maps.iter().collect() } else { claim.maps.iter().collect() };
             let algorithm = claim.algorithm.as_ref().or(spec.algorithms.first())?.as_str();
-            let outcomes: Vec<MapOutcome> = maps.iter().map(|m| if claim.index.is_some() { index_on_map(&analyses, claim, m, algorithm) } else { on_map(data, claim, cells, m, algorithm) }).collect();
+            // The units the verdicts range over: maps, or (map, cell) pairs.
+            let units: Vec<(String, ClaimCells)> = match claim.across {
+                Across::Maps => claim_maps.iter().map(|m| (m.to_string(), cells.clone())).collect(),
+                Across::Cells => claim_maps
+                    .iter()
+                    .flat_map(|m| data.resolved.points.iter().map(move |p| {
+                        let at = Some(p.label.clone());
+                        (format!("{m} @ {}", p.label), ClaimCells { id: claim.id.clone(), at: at.clone(), than: at, over: Vec::new() })
+                    }))
+                    .collect(),
+            };
+            let map_of = |unit: &str| unit.split(" @ ").next().unwrap_or(unit).to_string();
+            let outcomes: Vec<MapOutcome> = units.iter().map(|(u, c)| if claim.index.is_some() { index_on_map(&analyses, claim, &map_of(u), algorithm) } else { on_map(data, claim, c, &map_of(u), algorithm) }).collect();
+            let maps: Vec<&String> = units.iter().map(|(u, _)| u).collect();
             let verdicts: Vec<Verdict> = outcomes.iter().map(|o| o.verdict).collect();
             let comparative = matches!(claim.test, ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess);
             let pooled = (claim.require == Require::Pooled && comparative).then(|| pooled(&outcomes));
@@ -603,16 +619,18 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
                 None => combine(&verdicts, claim.require),
             };
             let count = |v: Verdict| verdicts.iter().filter(|x| **x == v).count();
+            let unit = if claim.across == Across::Cells { "cell" } else { "map" };
             let require = match claim.require {
-                Require::All => "every map",
-                Require::Most => "most maps",
-                Require::Any => "any map",
-                Require::Pooled if comparative => "the maps on average (random effects)",
-                Require::Pooled => "every map",
+                Require::All => format!("every {unit}"),
+                Require::Most => format!("most {unit}s"),
+                Require::Any => format!("any {unit}"),
+                Require::Pooled if comparative => format!("the {unit}s on average (random effects)"),
+                Require::Pooled => format!("every {unit}"),
             };
             let mut summary = format!(
-                "Required on {require}; on their own, of {} map(s): {} confirmed, {} refuted, {} inconclusive, {} untestable",
+                "Required on {require}; on their own, of {} {}: {} confirmed, {} refuted, {} inconclusive, {} untestable",
                 verdicts.len(),
+                if claim.across == Across::Cells { "cells (map, sweep point)" } else { "map(s)" },
                 count(Verdict::Confirmed),
                 count(Verdict::Refuted),
                 count(Verdict::Inconclusive),
@@ -943,9 +961,11 @@ fn test_text(c: &ClaimSpec, cells: &ClaimCells, log: bool, catalogue: &Catalogue
             let over: Vec<&str> = cells.over.iter().map(|(v, _)| v.as_str()).collect();
             let tol = match (c.tolerance, c.tolerance_rel) {
                 (Some(t), _) => sig(t, 3),
-                (None, r) => {
-                    format!("{} % of the cells' mean level", sig(100.0 * r.unwrap_or(f64::NAN), 2))
-                }
+                (None, r) => format!(
+                    "{} % of the level at {}",
+                    sig(100.0 * r.unwrap_or(f64::NAN), 2),
+                    over.first().copied().unwrap_or("the first value")
+                ),
             };
             let how = match c.direction {
                 FlatDirection::Both => "equivalent (TOST: every pair's 90 % CI of the paired difference within ±tolerance)".to_string(),

@@ -654,8 +654,9 @@ fn claim_cells(spec: &LoadedSpec, points: &[SweepPoint]) -> Result<Vec<ClaimCell
     let mut out = Vec::new();
     let mut errors = Vec::new();
     for (i, c) in spec.spec.claims.iter().enumerate() {
-        // An index claim is about a whole design, not cells.
-        if c.index.is_some() {
+        // An index claim is about a whole design, not cells; a claim across cells is about every
+        // cell.
+        if c.index.is_some() || c.across == crate::spec::Across::Cells {
             out.push(ClaimCells { id: c.id.clone(), at: None, than: None, over: Vec::new() });
             continue;
         }

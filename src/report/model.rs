@@ -69,6 +69,8 @@ pub struct StudyView {
     /// morris / sobol groups: global sensitivity.
     pub sensitivity: Vec<SensitivitySection>,
     pub claims: Vec<crate::judge::claims::ClaimResult>,
+    /// Cost claims stated in time (`judged_on = "time"`): "id (text)", judged on the timing page.
+    pub timed_claims: Vec<String>,
     pub trajectories: Vec<FigureView>,
     /// Scan matching: the match diagnostics' sentences and figures ([EP] Figs 25–27, 52–59).
     pub diagnostics_intro: Vec<String>,

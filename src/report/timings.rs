@@ -145,8 +145,16 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
         let Some(cells_of) = data.resolved.claims.iter().find(|c| c.id == claim.id) else {
             continue;
         };
-        let Some(at) = cells_of.at.clone() else { continue };
-        let than = cells_of.than.clone().unwrap_or_else(|| at.clone());
+        // the claim's cell, or every cell for a claim across cells
+        let pairs: Vec<(String, String)> = match (&cells_of.at, claim.across) {
+            (_, crate::spec::Across::Cells) => {
+                data.resolved.points.iter().map(|p| (p.label.clone(), p.label.clone())).collect()
+            }
+            (Some(at), _) => {
+                vec![(at.clone(), cells_of.than.clone().unwrap_or_else(|| at.clone()))]
+            }
+            (None, _) => continue,
+        };
         if !matches!(
             claim.test,
             ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess
@@ -158,7 +166,7 @@ pub fn build(data: &StudyData, matches: &[MatchRows]) -> Option<TimingPage> {
         } else {
             claim.maps.iter().collect()
         };
-        for map in maps {
+        for (map, (at, than)) in maps.iter().flat_map(|m| pairs.iter().map(move |p| (*m, p))) {
             let x = cells.get(&(map.clone(), a.name().to_string(), at.clone()));
             let y = cells.get(&(map.clone(), b.name().to_string(), than.clone()));
             // the claim's minimum effect as a ratio: relative, or an absolute one over the

@@ -260,6 +260,12 @@ pub fn build(
         groups,
         sensitivity,
         claims: crate::judge::claims::evaluate(data),
+        timed_claims: spec
+            .claims
+            .iter()
+            .filter(|c| c.judged_on.is_some())
+            .map(|c| format!("{} (“{}”)", c.id, c.text))
+            .collect(),
         trajectories,
         diagnostics_intro: diagnostics.as_ref().map_or(Vec::new(), |d| d.intro.clone()),
         diagnostics: diagnostics.map_or(Vec::new(), |d| d.figures),

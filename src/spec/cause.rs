@@ -233,7 +233,8 @@ mod tests {
 
     #[test]
     fn placeholders_parse() {
-        let p = parse("ours {mean:landmarks_detected:recinto_basico:features.lmin_m=5} of 8").unwrap();
+        let p =
+            parse("ours {mean:landmarks_detected:recinto_basico:features.lmin_m=5} of 8").unwrap();
         assert_eq!(p.len(), 3);
         let Piece::Value(v) = &p[1] else { panic!() };
         assert_eq!(v.stat, Stat::Mean);
@@ -252,9 +253,10 @@ mod tests {
     fn literal_numbers_are_found_outside_placeholders_citations_and_settings() {
         let ok = "Recinto keeps {mean:landmarks_detected:recinto_basico:base} landmarks at `Lmin = 7 m` [FT Table 10.4: 4.4], on bigloop2 and in C6 (see [EP] L423)";
         assert!(literal_numbers(ok).is_empty(), "{:?}", literal_numbers(ok));
-        assert_eq!(literal_numbers("error 0.23 against 0.14 m over 22 landmarks"), [
-            "0.23", "0.14", "22"
-        ]);
+        assert_eq!(
+            literal_numbers("error 0.23 against 0.14 m over 22 landmarks"),
+            ["0.23", "0.14", "22"]
+        );
         // a bracket that is not a citation does not hide numbers
         assert_eq!(literal_numbers("CI [0.02, 0.15]"), ["0.02", "0.15"]);
         // a number glued to a unit is still a number; a ratio sign is not a word

@@ -131,6 +131,16 @@ pub struct ClaimSpec {
     /// over the maps, by a random-effects test).
     #[serde(default)]
     pub require: Require,
+    /// `cells`: a comparison of `algorithm` with `than_algorithm` judged in every sweep point of
+    /// every map (the source states it over a table's cells, e.g. [EP]'s "21 of 24 cells"); the
+    /// (map, cell) verdicts are combined by `require`. Default `maps`: one cell (`at`) per map.
+    #[serde(default, skip_serializing_if = "Across::is_maps")]
+    pub across: Across,
+    /// `time`: a cost claim the source states in time on its own machine. It is judged on the
+    /// timing page (`data/results/<study>/timings.html`, machine-dependent), never on evaluation
+    /// counts, and not in the committed reports or the scoreboard.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub judged_on: Option<JudgedOn>,
     /// Why `require` is not "all": the source's wording that makes the claim one about most maps,
     /// any map, or the average over the maps (required for `most`, `any` and `pooled`).
     #[serde(default, skip_serializing_if = "String::is_empty")]
@@ -261,6 +271,31 @@ impl ClaimKind {
             ClaimKind::Extension => "extension",
         }
     }
+}
+
+/// What a claim's per-map verdicts range over.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Across {
+    /// One cell per map.
+    #[default]
+    Maps,
+    /// Every sweep point of every map.
+    Cells,
+}
+
+impl Across {
+    fn is_maps(&self) -> bool {
+        *self == Across::Maps
+    }
+}
+
+/// Where a claim is judged, when not in the report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JudgedOn {
+    /// On the machine-dependent timing page.
+    Time,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
@@ -1082,6 +1117,31 @@ pub fn parse(path: &Path, text: &str, catalogue: &Arc<Catalogue>) -> Result<Load
                     "a \"Measured:\" cause shows what was measured as placeholders filled from this study's runs; a cause no committed study isolates is \"Suspected:\"".into(),
                 );
             }
+        }
+        if c.across == Across::Cells
+            && (c.than_algorithm.is_none()
+                || !c.at.is_empty()
+                || !c.than.is_empty()
+                || !matches!(
+                    c.test,
+                    ClaimTest::Greater
+                        | ClaimTest::Less
+                        | ClaimTest::NotGreater
+                        | ClaimTest::NotLess
+                ))
+        {
+            err(
+                &key("across"),
+                "`across = \"cells\"` compares `algorithm` with `than_algorithm` in every cell: a greater / less / not_greater / not_less claim with `than_algorithm` and without `at` or `than`".into(),
+            );
+        }
+        if c.judged_on == Some(JudgedOn::Time)
+            && (c.metric != "evals_mean" || c.than_algorithm.is_none())
+        {
+            err(
+                &key("judged_on"),
+                "`judged_on = \"time\"` is for a cost claim: metric `evals_mean`, comparing `algorithm` with `than_algorithm` (the timing page reads it on median time per match)".into(),
+            );
         }
         if c.require != Require::All && c.require_why.trim().is_empty() {
             err(
