@@ -1,20 +1,19 @@
 //! The tests behind slamlab's verdicts: Student t intervals and one-sided p-values of a mean,
 //! Welch's test against a published (mean, variance, n), prediction intervals for a single run,
-//! Stouffer's combination of one-sided p-values, and Spearman's rank correlation.
+//! and Spearman's rank correlation.
 //!
 //! References:
 //! - [S] Student 1908; any textbook t interval, e.g. Casella & Berger, *Statistical Inference*, §9.2.
 //! - [W] Welch 1947, *Biometrika* 34:28–35; Satterthwaite 1946 (effective degrees of freedom).
 //! - [HM] Hahn & Meeker, *Statistical Intervals*, 1991, §4.6 (prediction interval for one future
 //!   observation: x̄ ± t_{n−1} s √(1 + 1/n)).
-//! - [St] Stouffer et al. 1949; Whitlock 2005, *J. Evol. Biol.* 18:1368 (Z = Σ Φ⁻¹(1 − p_i) / √k).
 //! - [Sc] Schuirmann 1987, *J. Pharmacokin. Biopharm.* 15:657 (two one-sided tests, TOST).
 //!
 //! Pure: no IO and no randomness. Non-finite inputs give NaN estimates and p = NaN; callers decide
 //! what an untestable input means.
 
 use super::hypothesis::{mean, sample_variance as variance};
-use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
+use statrs::distribution::{ContinuousCDF, StudentsT};
 use std::collections::BTreeMap;
 
 fn student(df: f64) -> Option<StudentsT> {
@@ -124,28 +123,6 @@ pub fn prediction_interval(x: &[f64], confidence: f64, m: u32) -> (f64, f64) {
         None => f64::NAN,
     };
     (c - half, c + half)
-}
-
-/// The most extreme tail probability a map contributes to Stouffer's sum (|z| ≤ 7.9).
-const STOUFFER_P_MIN: f64 = 1e-15;
-
-/// Stouffer's combination of independent one-sided p-values ([St]): p = 1 − Φ(Σ Φ⁻¹(1 − p_i) / √k).
-/// p-values of exactly 0 or 1 count as the tail probability [`STOUFFER_P_MIN`], a very large |z|
-/// rather than an infinite one. NaN when the list is empty or holds a NaN.
-pub fn stouffer(p: &[f64]) -> f64 {
-    if p.is_empty() || p.iter().any(|v| v.is_nan()) {
-        return f64::NAN;
-    }
-    let n = Normal::new(0.0, 1.0).expect("standard normal");
-    // z_i = Φ⁻¹(1 − p_i), from the nearer tail and bounded there, so p and 1 − p give exactly
-    // opposite z: a decisive map (p = 0, a constant difference) weighs as much as a decisive map
-    // the other way (p = 1), never +∞.
-    let z_of = |pi: f64| {
-        let z = -n.inverse_cdf(pi.min(1.0 - pi).max(STOUFFER_P_MIN));
-        if pi > 0.5 { -z } else { z }
-    };
-    let z: f64 = p.iter().map(|&pi| z_of(pi)).sum::<f64>() / (p.len() as f64).sqrt();
-    n.sf(z)
 }
 
 /// Average ranks (1-based), ties sharing their mean rank.
@@ -268,21 +245,6 @@ mod tests {
             .count();
         let rate = hits as f64 / trials as f64;
         assert!((rate - 0.95).abs() < 0.015, "coverage {rate}");
-    }
-
-    #[test]
-    fn stouffer_combines() {
-        // one map: unchanged
-        assert!((stouffer(&[0.05]) - 0.05).abs() < 1e-9);
-        // two maps at p = 0.05 each: z = 2·1.645/√2 = 2.326 → p ≈ 0.01
-        assert!((stouffer(&[0.05, 0.05]) - 0.0100).abs() < 2e-4);
-        // opposite evidence cancels
-        assert!((stouffer(&[0.05, 0.95]) - 0.5).abs() < 1e-9);
-        // so does opposite decisive evidence (a constant difference gives p = 0 or 1): one
-        // decisive map must not outweigh a decisive map the other way
-        assert!((stouffer(&[0.0, 1.0]) - 0.5).abs() < 1e-9);
-        assert!((stouffer(&[1.0, 0.0]) - 0.5).abs() < 1e-9);
-        assert!(stouffer(&[0.0, 0.5]) < 1e-6 && stouffer(&[1.0, 0.5]) > 1.0 - 1e-6);
     }
 
     #[test]
