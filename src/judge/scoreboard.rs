@@ -62,6 +62,10 @@ pub struct Item {
     pub cells: Option<CellSelector>,
     #[serde(default)]
     pub claims: Vec<String>,
+    /// Claims about the item's shape (an effect's direction), beside `claims` about its levels:
+    /// shape confirmed but levels not is TREND, as for published cells.
+    #[serde(default)]
+    pub shape: Vec<String>,
     #[serde(default)]
     pub missing: Option<String>,
 }
@@ -133,7 +137,7 @@ pub fn parse_items(text: &str) -> Result<Vec<Item>, String> {
     let f: ItemsFile = toml::from_str(text).map_err(|e| e.to_string())?;
     for (i, it) in f.item.iter().enumerate() {
         let answers = it.cells.is_some() as usize
-            + (!it.claims.is_empty()) as usize
+            + (!it.claims.is_empty() || !it.shape.is_empty()) as usize
             + it.missing.is_some() as usize;
         if answers != 1 {
             return Err(format!(
@@ -141,7 +145,9 @@ pub fn parse_items(text: &str) -> Result<Vec<Item>, String> {
                 it.id
             ));
         }
-        if (it.cells.is_some() || !it.claims.is_empty()) && it.study.is_none() {
+        if (it.cells.is_some() || !it.claims.is_empty() || !it.shape.is_empty())
+            && it.study.is_none()
+        {
             return Err(format!(
                 "item[{i}] ({}): `cells` and `claims` need the `study` that answers them",
                 it.id
@@ -451,6 +457,30 @@ fn needed_text(needed: &[Needed], replicates: &BTreeMap<usize, usize>) -> String
     parts.join("; ")
 }
 
+/// Classifies an item answered by claims about its levels (`ids`) and, if any, about its shape
+/// (`shape`): with a shape, MATCH needs both; the shape alone is TREND; otherwise the shape's
+/// class stands.
+fn classify_item_claims(
+    ids: &[String],
+    shape: &[String],
+    claims: &[&ClaimResult],
+) -> (Class, String) {
+    if shape.is_empty() {
+        return classify_claims(ids, claims);
+    }
+    let (shape_class, shape_basis) = classify_claims(shape, claims);
+    if ids.is_empty() {
+        return (shape_class, format!("shape: {shape_basis}"));
+    }
+    let (level_class, level_basis) = classify_claims(ids, claims);
+    let class = match (shape_class, level_class) {
+        (Class::Match, Class::Match) => Class::Match,
+        (Class::Match, _) => Class::Trend,
+        (c, _) => c,
+    };
+    (class, format!("shape: {shape_basis}; levels: {level_basis}"))
+}
+
 /// Classifies an item answered by claims.
 fn classify_claims(ids: &[String], claims: &[&ClaimResult]) -> (Class, String) {
     let found: Vec<&&ClaimResult> =
@@ -518,7 +548,7 @@ pub fn classify(
             } else {
                 let of_study: Vec<&ClaimResult> =
                     claims.iter().filter(|c| c.study == study).collect();
-                classify_claims(&it.claims, &of_study)
+                classify_item_claims(&it.claims, &it.shape, &of_study)
             };
             ItemResult {
                 id: it.id.clone(),
@@ -606,6 +636,23 @@ mod tests {
         assert_eq!(point_in(&points, &base, &row(theta, 0.001224)).as_deref(), Some("rho-base"));
         assert_eq!(point_in(&points, &base, &row(theta, 1e-4)).as_deref(), Some("theta-small"));
         assert_eq!(point_in(&points, &base, &row(theta, 0.5)), None, "no counterpart");
+    }
+
+    /// An item with a shape: the direction reproduced but the levels not is TREND, never MATCH.
+    #[test]
+    fn shape_and_levels() {
+        use Verdict::*;
+        let (g, m) = (claim("grows", Confirmed, Some(true)), claim("size", Refuted, Some(false)));
+        let ids = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let c = |levels: &[&str], shape: &[&str], cs: &[&ClaimResult]| {
+            classify_item_claims(&ids(levels), &ids(shape), cs).0
+        };
+        assert_eq!(c(&["size"], &["grows"], &[&g, &m]), Class::Trend);
+        let m2 = claim("size", Confirmed, Some(true));
+        assert_eq!(c(&["size"], &["grows"], &[&g, &m2]), Class::Match);
+        let g2 = claim("grows", Refuted, Some(false));
+        assert_eq!(c(&["size"], &["grows"], &[&g2, &m2]), Class::Disagree);
+        assert_eq!(c(&[], &["grows"], &[&g]), Class::Match);
     }
 
     /// A series that does not move is "no effect": it agrees with a flat published series and

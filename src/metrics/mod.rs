@@ -325,11 +325,35 @@ pub const METRICS: &[MetricDef] = &[
         description: "the incremental map's sharpness ([EP] Figs 52–59): every return of every matched scan placed at the run's estimate of the scan's pose, RMS of its distance to the nearest wall of the map file (simulated maps only; noise-free scans at the true poses give 0)",
         lower_is_better: true,
     },
+    MetricDef {
+        name: LANDMARK_ERROR_GROWTH,
+        title: "Landmark error growth along the path",
+        unit: "m",
+        description: "derived when a study is read, from its stored final maps, not when it runs (adding it left every cached run valid): the mean distance of a run's estimates of the true point landmarks after the first three, in the map's order (the order the robot meets them), minus that of the first three ([EV] C004-1); point-landmark worlds with known association; the one metric that can be negative",
+        lower_is_better: false,
+    },
 ];
 
 pub const MAP_WALL_RMS: &str = "map_wall_rms_mm";
 
 pub const LANDMARK_ERROR: &str = "landmark_error_m";
+/// Derived when a study is read ([`landmark_error_growth`]), never stored with the runs.
+pub const LANDMARK_ERROR_GROWTH: &str = "landmark_error_growth_m";
+/// The landmarks [`landmark_error_growth`] counts as "the first": [EV]'s Tables 4.1–4.3 give its
+/// first three landmarks, seen before any motion, the 1–4 cm of C004-1.
+pub const GROWTH_FIRST_LANDMARKS: usize = 3;
+
+/// [EV] C004-1's contrast for one run: the mean error of the true landmarks after the first
+/// `first` (in the map's order) minus that of the first `first`, over the landmarks the run
+/// mapped (`errors[i]` is None for a true landmark it did not map). NaN when a group is empty.
+pub fn landmark_error_growth(errors: &[Option<f64>], first: usize) -> f64 {
+    let mean = |s: &[Option<f64>]| {
+        let v: Vec<f64> = s.iter().flatten().copied().collect();
+        if v.is_empty() { f64::NAN } else { v.iter().sum::<f64>() / v.len() as f64 }
+    };
+    let k = first.min(errors.len());
+    mean(&errors[k..]) - mean(&errors[..k])
+}
 pub const MAP_RMSE: &str = "map_rmse_m";
 pub const NEES_MEAN: &str = "nees_mean";
 pub const NEES_IN_BOUNDS: &str = "nees_in_bounds";
@@ -353,7 +377,7 @@ pub fn metric_def(name: &str) -> Option<&'static MetricDef> {
 /// Named metric values of one run, in [`METRICS`] order.
 pub type RunMetrics = Vec<(&'static str, f64)>;
 
-/// The range every metric has: none can be negative (errors, counts, rates and lengths; +∞ is a
+/// The range every stored metric has: none can be negative (errors, counts, rates and lengths; +∞ is a
 /// legitimate value, e.g. f where a match has no pairs, and NaN means "does not apply"). Returns
 /// the first metric outside it.
 pub fn out_of_range<'a>(
@@ -734,6 +758,19 @@ mod tests {
 
     fn get(m: &RunMetrics, name: &str) -> f64 {
         m.iter().find(|(n, _)| *n == name).unwrap().1
+    }
+
+    #[test]
+    fn landmark_error_growth_compares_later_landmarks_with_the_first() {
+        let e = |v: &[f64]| v.iter().map(|x| Some(*x)).collect::<Vec<_>>();
+        // the first three at 2 cm, the later ones at 10 and 20 cm: +13 cm
+        let g = landmark_error_growth(&e(&[0.02, 0.02, 0.02, 0.10, 0.20]), 3);
+        assert!((g - 0.13).abs() < 1e-12);
+        // unmapped landmarks are left out; an empty group gives NaN
+        let mut v = e(&[0.02, 0.04, 0.03, 0.30]);
+        v[3] = None;
+        assert!(landmark_error_growth(&v, 3).is_nan());
+        assert!((landmark_error_growth(&e(&[0.3, 0.1]), 1) + 0.2).abs() < 1e-12, "can be negative");
     }
 
     #[test]

@@ -526,7 +526,65 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
         Ok(text) => reference::parse(&text).map_err(|e| StoreError::format(&reference_path, e))?,
         Err(_) => Vec::new(),
     };
+    let mut runs = runs;
+    derive_metrics(dir, &resolved, &maps, &mut runs)?;
     Ok(StudyData { dir: dir.to_path_buf(), resolved, manifest, runs, maps, reference })
+}
+
+/// Adds the metrics derived from the stored final maps ([`crate::metrics::LANDMARK_ERROR_GROWTH`])
+/// to the successful runs, when the study names one (in a claim or the report's metrics). They
+/// are computed here, from what the runs stored, so adding one leaves every cached run valid.
+fn derive_metrics(
+    dir: &Path,
+    resolved: &ResolvedStudy,
+    maps: &[(String, String)],
+    runs: &mut [RunRow],
+) -> Result<(), StoreError> {
+    use crate::metrics::{GROWTH_FIRST_LANDMARKS, LANDMARK_ERROR_GROWTH, landmark_error_growth};
+    let spec = &resolved.spec;
+    let wanted = spec.claims.iter().any(|c| c.metric == LANDMARK_ERROR_GROWTH)
+        || spec.report.metrics.iter().any(|m| m == LANDMARK_ERROR_GROWTH);
+    if !wanted {
+        return Ok(());
+    }
+    let truths: BTreeMap<&str, Vec<crate::geom::Point2>> = maps
+        .iter()
+        .filter_map(|(name, text)| {
+            crate::world::map::Map::from_toml(text).ok().map(|m| (name.as_str(), m.point_landmarks))
+        })
+        .collect();
+    let ok: std::collections::BTreeSet<String> = runs
+        .iter()
+        .filter(|r| r.status == RunStatus::Ok)
+        .map(|r| r.run_id.clone())
+        .collect();
+    let finals: BTreeMap<String, Vec<LandmarkRow>> = read_landmarks(dir, &|id| ok.contains(id))?
+        .into_iter()
+        .map(|f| (f.run_id, f.landmarks))
+        .collect();
+    for r in runs.iter_mut().filter(|r| r.status == RunStatus::Ok) {
+        let (Some(truth), Some(estimated)) = (truths.get(r.map.as_str()), finals.get(&r.run_id))
+        else {
+            continue;
+        };
+        let errors: Vec<Option<f64>> = truth
+            .iter()
+            .enumerate()
+            .map(|(i, t)| {
+                estimated.iter().find_map(|l| match *l {
+                    LandmarkRow::Point { x_m, y_m, id: Some(id) } if id as usize == i => {
+                        Some((x_m - t.x).hypot(y_m - t.y))
+                    }
+                    _ => None,
+                })
+            })
+            .collect();
+        r.metrics.push((
+            LANDMARK_ERROR_GROWTH.to_string(),
+            landmark_error_growth(&errors, GROWTH_FIRST_LANDMARKS),
+        ));
+    }
+    Ok(())
 }
 
 /// Reads the traces of the runs `keep` accepts.
