@@ -553,11 +553,8 @@ fn derive_metrics(
             crate::world::map::Map::from_toml(text).ok().map(|m| (name.as_str(), m.point_landmarks))
         })
         .collect();
-    let ok: std::collections::BTreeSet<String> = runs
-        .iter()
-        .filter(|r| r.status == RunStatus::Ok)
-        .map(|r| r.run_id.clone())
-        .collect();
+    let ok: std::collections::BTreeSet<String> =
+        runs.iter().filter(|r| r.status == RunStatus::Ok).map(|r| r.run_id.clone()).collect();
     let finals: BTreeMap<String, Vec<LandmarkRow>> = read_landmarks(dir, &|id| ok.contains(id))?
         .into_iter()
         .map(|f| (f.run_id, f.landmarks))
