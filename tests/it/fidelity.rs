@@ -6,6 +6,38 @@ use slamlab::judge::scoreboard::parse_items;
 use slamlab::spec;
 use std::process::Command;
 
+/// Tolerances come from the per-work table (`judge::margins`), not from the cells they judge:
+/// every seed claim with a relative tolerance uses its work's margin, or its `why` says why it
+/// deviates.
+#[test]
+fn relative_tolerances_are_the_works_margins() {
+    let mut checked = 0;
+    for entry in std::fs::read_dir(repo().join("experiments")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|x| x != "toml") {
+            continue;
+        }
+        let loaded = spec::load(&path, &crate::util::catalogue()).unwrap();
+        for c in &loaded.spec.claims {
+            let (Some(rel), Some(work)) = (c.tolerance_rel, slamlab::judge::margins::of(&c.source))
+            else {
+                continue;
+            };
+            checked += 1;
+            assert!(
+                (rel - work.relative).abs() < 1e-12 || c.why.contains("deviat"),
+                "{}: claim {} has tolerance_rel {rel}, [{}]'s margin is {} ({})",
+                path.display(),
+                c.id,
+                work.tag,
+                work.relative,
+                work.why
+            );
+        }
+    }
+    assert!(checked >= 5, "only {checked} relative tolerances found");
+}
+
 #[test]
 fn published_items_name_existing_studies_and_claims() {
     let text =
@@ -20,10 +52,12 @@ fn published_items_name_existing_studies_and_claims() {
         let path = repo().join(format!("experiments/{study}.toml"));
         let loaded = spec::load(&path, &crate::util::catalogue())
             .unwrap_or_else(|e| panic!("{}: study {study}: {e}", it.id));
-        for c in &it.claims {
+        for c in it.claims.iter().chain(&it.shape) {
+            let claim = loaded.spec.claims.iter().find(|x| &x.id == c);
+            assert!(claim.is_some(), "{}: claim {c} is not in {study}", it.id);
             assert!(
-                loaded.spec.claims.iter().any(|x| &x.id == c),
-                "{}: claim {c} is not in {study}",
+                claim.is_some_and(|x| x.judged_on.is_none()),
+                "{}: claim {c} is judged on the timing page, never on the committed scoreboard",
                 it.id
             );
         }
