@@ -98,9 +98,10 @@ enum Command {
         /// the default file is skipped when absent.
         #[arg(long)]
         published: Option<PathBuf>,
-        /// Remove the reports of studies that have neither results nor a kept spec (without it,
-        /// such a replacement is refused and nothing is written).
-        #[arg(long)]
+        /// Remove the reports of studies whose spec was deleted: no results and no spec in
+        /// --specs (which it needs). Without it, such a replacement is refused and nothing is
+        /// written. Each removed report is named.
+        #[arg(long, requires = "specs")]
         prune: bool,
     },
     /// List the algorithms a study can name: the built-ins and the external programs declared in
@@ -222,6 +223,18 @@ struct Dirs {
     max_runs: u64,
 }
 
+/// A usage error found after parsing (a folder that does not exist, a bad value): exit status 2,
+/// like clap's own, and nothing was written.
+#[derive(Debug)]
+struct Usage(String);
+
+impl std::fmt::Display for Usage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+impl std::error::Error for Usage {}
+
 /// Invalid specs or maps: exit status 2, and nothing was written.
 #[derive(Debug)]
 struct InvalidInput(InputErrors);
@@ -244,6 +257,9 @@ pub fn main() -> ExitCode {
             if let Some(invalid) = e.downcast_ref::<InvalidInput>() {
                 eprintln!("error: invalid input, nothing was written:\n{invalid}");
                 ExitCode::from(2)
+            } else if let Some(usage) = e.downcast_ref::<Usage>() {
+                eprintln!("error: {usage}; nothing was written");
+                ExitCode::from(2)
             } else {
                 eprintln!("error: {e:#}");
                 ExitCode::FAILURE
@@ -265,6 +281,12 @@ fn dispatch(command: Command) -> Result<()> {
             cmd_slurm(&specs, &dirs, &resources, &out, &reports, submit)
         }
         Command::Report { results, out, specs, published, prune } => {
+            // a mistyped folder must never be read as "no studies" (and prune every report)
+            for (flag, dir) in [("--results", Some(&results)), ("--specs", specs.as_ref())] {
+                if let Some(dir) = dir.filter(|d| !d.is_dir()) {
+                    return Err(Usage(format!("{flag} {}: no such folder", dir.display())).into());
+                }
+            }
             let keep: Vec<String> = specs.as_deref().map(spec_ids).unwrap_or_default();
             let default = PathBuf::from(DEFAULT_PUBLISHED);
             let published = published.or_else(|| default.is_file().then_some(default));
@@ -284,6 +306,9 @@ fn dispatch(command: Command) -> Result<()> {
             }
             for id in &summary.kept {
                 eprintln!("{id}: no results here; its previous report is kept");
+            }
+            for id in &summary.pruned {
+                eprintln!("pruned {id}: no results and no spec in the --specs folder");
             }
             Ok(())
         }

@@ -162,6 +162,8 @@ pub struct ReportSummary {
     pub studies: Vec<String>,
     /// Studies without results whose previous report was carried over.
     pub kept: Vec<String>,
+    /// Reports removed by `--prune` (no results and no spec).
+    pub pruned: Vec<String>,
 }
 
 /// Renders every study under `results_dir` into `reports_dir` (replaced atomically as a whole),
@@ -391,6 +393,7 @@ pub fn render_all(
     Ok(ReportSummary {
         studies: pages.iter().map(|p| p.view.id.clone()).collect(),
         kept: kept.into_iter().map(|(id, _)| id).collect(),
+        pruned: dropped,
     })
 }
 
@@ -421,7 +424,7 @@ pub fn render_timings(results_dir: &Path) -> Result<Vec<String>, ReportError> {
 }
 
 /// The timing page's file name in a study's results folder.
-pub const TIMINGS: &str = "timings.html";
+pub const TIMINGS: &str = store::TIMINGS;
 
 /// A kept report's index line.
 const ENTRY: &str = "entry.json";

@@ -241,14 +241,6 @@ pub fn run_study(
                 progress.finished(c.row.status, true, multiplicity[run.hash.as_str()], 0.0);
                 computed.insert(run.hash.as_str(), (c, true));
             }
-            store::Lookup::Unsealed(c) => {
-                // written before checksums: trusted once, and sealed now
-                if let Err(e) = cache.put(&run.hash, &c, true) {
-                    progress.warn(&format!("cannot re-cache {}: {e}", run.run_id));
-                }
-                progress.finished(c.row.status, true, multiplicity[run.hash.as_str()], 0.0);
-                computed.insert(run.hash.as_str(), (c, true));
-            }
             store::Lookup::Corrupt(why) => {
                 progress.warn(&format!(
                     "{}: its cache entry failed verification ({why}); recomputing it",

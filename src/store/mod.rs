@@ -488,7 +488,9 @@ impl StudyData {
 }
 
 pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
-    // what this reads (traces and the rest are verified when read)
+    // everything the study holds is there (a reader must never take a missing file for an
+    // optional one), and what this reads is intact (traces and the rest are verified when read)
+    listed_files_present(dir)?;
     for file in ["resolved.toml", "manifest.json", "runs.parquet"] {
         verified(dir, Some(file))?;
     }
@@ -683,9 +685,9 @@ const CACHE_WALL_MS: &str = "cache_wall_ms";
 pub enum Lookup {
     /// Sealed and intact.
     Hit(CachedRun),
-    /// Written before checksums existed: used once and rewritten sealed.
-    Unsealed(CachedRun),
-    /// A file changed since it was written (named): the run is recomputed.
+    /// A file changed since it was written, or the checksum list is missing, incomplete or lists
+    /// less than the entry holds (named): the run is recomputed. Every entry is sealed when it is
+    /// written, so an entry without its full list is never trusted.
     Corrupt(String),
     Absent,
 }
@@ -711,7 +713,10 @@ impl Cache {
         }
         match check_seal(&dir) {
             Ok(Seal::Intact) => self.get(hash).map_or(Lookup::Absent, Lookup::Hit),
-            Ok(Seal::Unsealed) => self.get(hash).map_or(Lookup::Absent, Lookup::Unsealed),
+            Ok(Seal::Unsealed) => Lookup::Corrupt(format!(
+                "{}: missing (every cache entry is sealed when written)",
+                dir.join(CHECKSUMS).display()
+            )),
             Ok(Seal::Broken { path, message }) => {
                 Lookup::Corrupt(format!("{}: {message}", path.display()))
             }
@@ -837,6 +842,13 @@ fn seal(dir: &Path) -> Result<(), StoreError> {
     write_file(&dir.join(CHECKSUMS), text.as_bytes())
 }
 
+/// Files written beside a study's results after they were sealed, which the store never reads:
+/// the machine-dependent timing page of `slamlab report`.
+pub const ADDED_LATER: [&str; 1] = [TIMINGS];
+
+/// The timing page's file name in a study's results folder.
+pub const TIMINGS: &str = "timings.html";
+
 /// What a store directory's checksums say about it.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Seal {
@@ -877,8 +889,21 @@ fn seal_of(dir: &Path, file: Option<&str>) -> Result<Seal, StoreError> {
             message: format!("not listed in {CHECKSUMS}: added after the directory was written"),
         });
     }
-    // Files added beside them later (the timing page of `slamlab report`) are not the store's and
-    // are not read by it.
+    // Every file the directory holds must be listed: a list emptied or missing a line covers
+    // nothing. Files added beside a study's results later (the timing page of `slamlab report`)
+    // are not the store's and are not read by it.
+    if file.is_none() {
+        for (rel, path) in files_under(dir)? {
+            if !recorded.contains_key(&rel) && !ADDED_LATER.contains(&rel.as_str()) {
+                return Ok(Seal::Broken {
+                    path,
+                    message: format!(
+                        "not listed in {CHECKSUMS}: the list is incomplete, or the file was added after the directory was written"
+                    ),
+                });
+            }
+        }
+    }
     for (rel, hash) in recorded.iter().filter(|(rel, _)| file.is_none_or(|f| f == rel.as_str())) {
         let path = dir.join(rel);
         if !path.is_file() {
@@ -897,6 +922,28 @@ fn seal_of(dir: &Path, file: Option<&str>) -> Result<Seal, StoreError> {
         }
     }
     Ok(Seal::Intact)
+}
+
+/// Every file a sealed directory's checksum list names is present (without hashing them): a study
+/// that lost `diagnostics.json`, `matches.parquet` or `reference.csv` is refused, naming the
+/// file, rather than rendered without it.
+fn listed_files_present(dir: &Path) -> Result<(), StoreError> {
+    let list = dir.join(CHECKSUMS);
+    let Ok(text) = std::fs::read_to_string(&list) else {
+        return verified(dir, Some("manifest.json")); // says why (missing, unreadable)
+    };
+    for rel in text.lines().filter_map(|l| l.split_once("  ").map(|(_, rel)| rel)) {
+        let path = dir.join(rel);
+        if !path.is_file() {
+            return Err(StoreError::Integrity {
+                path,
+                message: format!(
+                    "listed in {CHECKSUMS} but missing: the study is incomplete; refusing to use it (rewrite it with `slamlab run`)"
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// A study directory's files (or only `file`, what the caller reads) may be read: intact, or an
@@ -1188,6 +1235,67 @@ mod tests {
         assert_eq!(cache.get("abcdef").unwrap().wall_ms, 12.5);
         cache.put("abcdef", &newer, true).unwrap();
         assert_eq!(cache.get("abcdef").unwrap().wall_ms, 99.0);
+    }
+
+    /// A cache entry's checksum list cannot be bypassed: deleted, emptied or missing a line, the
+    /// entry is corrupt (recomputed), never trusted and resealed over a corrupt file.
+    /// A study folder that lost a file it holds (an optional one such as `reference.csv`) is
+    /// refused, naming it, never read as if the file had never been there.
+    #[test]
+    fn a_study_missing_a_listed_file_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        for f in ["manifest.json", "reference.csv", "diagnostics.json"] {
+            std::fs::write(d.join(f), "x").unwrap();
+        }
+        seal(d).unwrap();
+        assert!(listed_files_present(d).is_ok());
+        std::fs::remove_file(d.join("reference.csv")).unwrap();
+        let err = listed_files_present(d).unwrap_err().to_string();
+        assert!(err.contains("reference.csv") && err.contains("missing"), "{err}");
+        let err = read_study(d).unwrap_err().to_string();
+        assert!(err.contains("reference.csv"), "{err}");
+    }
+
+    #[test]
+    fn a_cache_entry_without_its_full_checksum_list_is_corrupt() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = Cache::new(dir.path());
+        let run = CachedRun {
+            row: row("a", RunStatus::Ok),
+            trace: TraceRows { neff: vec![], ..TraceRows::empty("a") },
+            landmarks: RunLandmarks { run_id: "a".into(), landmarks: Vec::new() },
+            matches: MatchRows::default(),
+            wall_ms: 1.0,
+        };
+        let entry = cache.entry("abcdef");
+        let list = entry.join(CHECKSUMS);
+        let corrupt = |what: &str| {
+            assert!(
+                matches!(cache.lookup("abcdef"), Lookup::Corrupt(_)),
+                "{what}: the entry was trusted"
+            );
+        };
+        let fresh = || cache.put("abcdef", &run, true).unwrap();
+        fresh();
+        assert!(matches!(cache.lookup("abcdef"), Lookup::Hit(_)));
+        std::fs::remove_file(&list).unwrap();
+        corrupt("checksum list deleted");
+        fresh();
+        std::fs::write(&list, "").unwrap();
+        corrupt("checksum list emptied");
+        fresh();
+        let text = std::fs::read_to_string(&list).unwrap();
+        let kept: String = text
+            .lines()
+            .filter(|l| !l.ends_with("trace.parquet"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        std::fs::write(&list, kept).unwrap();
+        corrupt("trace.parquet's line removed");
+        fresh();
+        std::fs::write(entry.join("extra.parquet"), b"x").unwrap();
+        corrupt("an unlisted file in the entry");
     }
 
     #[test]

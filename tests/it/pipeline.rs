@@ -213,7 +213,7 @@ fn report_replaces_only_what_it_may() {
     // a results root with no study (a typo) is an error, and the reports stay as they were
     refused(
         &["report", "--results", s(&work.path().join("resluts")), "--out", s(&out)],
-        "no study results here",
+        "no such folder",
     );
     assert_eq!(crate::util::tree(&out), before);
     // a study report these results would drop is kept unless --prune
@@ -224,7 +224,41 @@ fn report_replaces_only_what_it_may() {
         "would drop (no results and not kept)",
     );
     assert!(out.join("ghost/entry.json").is_file() && out.join("smoke/index.html").is_file());
-    ok(&["report", "--results", s(&results), "--out", s(&out), "--prune"]);
+    let before = crate::util::tree(&out);
+    // a mistyped --results or --specs never prunes anything: usage errors (exit 2), nothing
+    // removed (the review's N31, N32: every report was deleted)
+    let specs = work.path().join("specs");
+    std::fs::create_dir(&specs).unwrap();
+    std::fs::copy("experiments/smoke.toml", specs.join("smoke.toml")).unwrap();
+    let typo = work.path().join("resultz");
+    for args in [
+        vec!["report", "--results", s(&typo), "--out", s(&out), "--specs", s(&specs), "--prune"],
+        vec!["report", "--results", s(&results), "--out", s(&out), "--specs", s(&typo), "--prune"],
+        // a prune removes only reports whose spec was deleted: it needs the spec folder
+        vec!["report", "--results", s(&results), "--out", s(&out), "--prune"],
+    ] {
+        let r = crate::util::slamlab(&args);
+        assert_eq!(r.status.code(), Some(2), "{}", String::from_utf8_lossy(&r.stderr));
+        assert_eq!(
+            crate::util::tree(&out),
+            before,
+            "slamlab {} changed the reports",
+            args.join(" ")
+        );
+    }
+    // with the spec folder, it prunes exactly the reports whose spec is gone, and names them
+    let r = ok(&[
+        "report",
+        "--results",
+        s(&results),
+        "--out",
+        s(&out),
+        "--specs",
+        s(&specs),
+        "--prune",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(err.contains("pruned ghost"), "{err}");
     assert!(!out.join("ghost").exists() && out.join("smoke/index.html").is_file());
 }
 
