@@ -304,8 +304,8 @@ fn dispatch(command: Command) -> Result<()> {
                     timed.join(", ")
                 );
             }
-            for id in &summary.kept {
-                eprintln!("{id}: no results here; its previous report is kept");
+            if !summary.kept.is_empty() {
+                eprintln!("{}", kept_line(&summary.kept));
             }
             for id in &summary.pruned {
                 eprintln!("pruned {id}: no results and no spec in the --specs folder");
@@ -314,7 +314,7 @@ fn dispatch(command: Command) -> Result<()> {
         }
         Command::Diff { base, new, md, alpha, min_effect, all_metrics, report } => {
             if !(alpha > 0.0 && alpha < 1.0) || !(min_effect >= 0.0) {
-                bail!("--alpha must be in (0, 1) and --min-effect ≥ 0");
+                return Err(Usage("--alpha must be in (0, 1) and --min-effect ≥ 0".into()).into());
             }
             let opts = crate::diff::DiffOptions {
                 alpha,
@@ -429,10 +429,11 @@ const MAX_THREADS: usize = 1024;
 
 fn options(dirs: &Dirs, threads: Option<usize>, force: bool, quiet: bool) -> Result<RunOptions> {
     let threads = match threads {
-        Some(0) => bail!("--threads must be at least 1"),
-        Some(n) if n > MAX_THREADS => bail!(
+        Some(0) => return Err(Usage("--threads must be at least 1".into()).into()),
+        Some(n) if n > MAX_THREADS => return Err(Usage(format!(
             "--threads {n} is more than {MAX_THREADS}: each worker is an OS thread with its own stack; use at most the machine's cores (results do not depend on the count)"
-        ),
+        ))
+        .into()),
         Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
@@ -515,6 +516,21 @@ fn cmd_run(
 }
 
 /// The study ids of the `*.toml` specs in `dir` (their file names), sorted.
+/// One line for the reports kept without results (a Quick start that ran one study keeps 44).
+fn kept_line(kept: &[String]) -> String {
+    const NAMED: usize = 5;
+    let names = kept.iter().take(NAMED).cloned().collect::<Vec<_>>().join(", ");
+    let more = kept.len().saturating_sub(NAMED);
+    format!(
+        "{} {} no results here; {} previous report{} kept: {names}{}",
+        kept.len(),
+        if kept.len() == 1 { "study has" } else { "studies have" },
+        if kept.len() == 1 { "its" } else { "their" },
+        if kept.len() == 1 { " is" } else { "s are" },
+        if more > 0 { format!(" and {more} more") } else { String::new() }
+    )
+}
+
 fn spec_ids(dir: &Path) -> Vec<String> {
     let mut ids: Vec<String> = std::fs::read_dir(dir)
         .into_iter()
@@ -530,7 +546,11 @@ fn spec_ids(dir: &Path) -> Vec<String> {
 fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usize>) -> Result<()> {
     if let Some(n) = shards {
         if n == 0 || n > crate::plan::shard::MAX_SHARDS {
-            bail!("--shards must be between 1 and {}", crate::plan::shard::MAX_SHARDS);
+            return Err(Usage(format!(
+                "--shards must be between 1 and {}",
+                crate::plan::shard::MAX_SHARDS
+            ))
+            .into());
         }
     }
     let plans = load_plans(spec_paths, &dirs.maps, &dirs.algorithms, dirs.max_runs)?;
@@ -664,7 +684,7 @@ fn cmd_slurm(
     reports: &Path,
     submit: bool,
 ) -> Result<()> {
-    crate::report::slurm::validate(resources).map_err(anyhow::Error::msg)?;
+    crate::report::slurm::validate(resources).map_err(Usage)?;
     let plans = load_plans(specs, &dirs.maps, &dirs.algorithms, dirs.max_runs)?;
     let opts = options(dirs, Some(1), false, true)?;
     let owner = run::shards(&plans, resources.tasks);

@@ -18,6 +18,8 @@ pub struct LineCol {
 #[derive(Debug, Clone, Default)]
 pub struct Locator {
     line_starts: Vec<usize>,
+    /// The text's lines, to name what a parse error points at (a duplicate key).
+    lines: Vec<String>,
     /// (path, key span, value span), in document order.
     entries: Vec<(String, Range<usize>, Range<usize>)>,
 }
@@ -31,7 +33,7 @@ impl Locator {
         if let Ok(table) = DeTable::parse(text) {
             walk_table(table.get_ref(), "", &mut entries);
         }
-        Self { line_starts, entries }
+        Self { line_starts, entries, lines: text.lines().map(str::to_string).collect() }
     }
 
     pub fn line_col(&self, offset: usize) -> LineCol {
@@ -111,6 +113,19 @@ impl SourceError {
                     }
                 }
                 let lc = loc.line_col(offset);
+                // toml says only "duplicate key": name it, from the line it points at
+                let mut message = message;
+                if message == "duplicate key"
+                    && let Some(name) = loc
+                        .lines
+                        .get(lc.line.saturating_sub(1))
+                        .and_then(|l| l.split('=').next())
+                        .map(|k| k.trim().trim_matches('"').to_string())
+                        .filter(|k| !k.is_empty())
+                {
+                    message = format!("duplicate key `{name}`: it is set twice");
+                    key = join_key(&key, &name);
+                }
                 Self { line: lc.line, column: lc.column, key, message }
             }
             None => Self { line: 0, column: 0, key: String::new(), message },

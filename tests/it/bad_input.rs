@@ -239,3 +239,43 @@ fn plan_names_the_parameters_that_changed() {
         .unwrap_or_else(|| panic!("{text}"));
     assert!(line.contains("(sim.dt_s: 0.1 → 0.2)"), "{line}");
 }
+
+/// Invalid command-line values are usage errors (exit 2), like clap's own, and write nothing.
+#[test]
+fn invalid_command_line_values_exit_2() {
+    let work = tempfile::tempdir().unwrap();
+    let (results, cache) = (work.path().join("results"), work.path().join("cache"));
+    let dirs = ["--results", s(&results), "--cache", s(&cache)];
+    let spec = "experiments/smoke.toml";
+    let out_dir = work.path().join("slurm");
+    for args in [
+        vec!["run", spec, "--threads", "0"],
+        vec!["plan", spec, "--shards", "0"],
+        vec!["slurm", spec, "--tasks", "0", "--out", s(&out_dir)],
+        vec!["slurm", spec, "--mem", "4GB", "--out", s(&out_dir)],
+        vec!["slurm", spec, "--time", "soon", "--out", s(&out_dir)],
+        vec!["diff", "a", "b", "--alpha", "2"],
+        vec!["report", "--results", "no/such/folder", "--out", s(&out_dir)],
+    ] {
+        let mut args = args.clone();
+        if args[0] != "diff" && args[0] != "report" && args[0] != "slurm" {
+            args.extend(dirs);
+        }
+        let out = slamlab(&args);
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "slamlab {}: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(!results.exists() && !cache.exists() && !out_dir.exists(), "{args:?} wrote");
+    }
+}
+
+/// A key set twice is named (toml itself says only "duplicate key").
+#[test]
+fn a_duplicate_key_is_named() {
+    let err = rejected(&GOOD.replace("seed = 1\n", "seed = 1\nseed = 2\n"));
+    assert!(err.contains("duplicate key `seed`"), "{err}");
+}

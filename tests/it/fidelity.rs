@@ -146,7 +146,7 @@ fn rendering_one_study_keeps_the_committed_scoreboard() {
         "--cache",
         crate::util::s(&cache),
     ]);
-    crate::util::ok(&[
+    let out = crate::util::ok(&[
         "report",
         "--results",
         crate::util::s(&results),
@@ -155,6 +155,9 @@ fn rendering_one_study_keeps_the_committed_scoreboard() {
         "--specs",
         "experiments",
     ]);
+    // the kept reports are told in one line, not one each (the review's 42 lines)
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(said.lines().filter(|l| l.contains("no results here")).count(), 1, "{said}");
     for file in ["fidelity/summary.md", "fidelity/fidelity.md", "fidelity/index.html", "index.html"]
     {
         let committed = std::fs::read_to_string(repo().join("reports").join(file)).unwrap();

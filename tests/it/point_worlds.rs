@@ -282,7 +282,7 @@ fn a_study_without_results_keeps_its_report_when_its_spec_remains() {
     let out = ok(&["report", "--results", s(&results), "--out", s(&reports), "--specs", s(&specs)]);
     assert!(
         String::from_utf8_lossy(&out.stderr)
-            .contains("smoke: no results here; its previous report is kept")
+            .contains("1 study has no results here; its previous report is kept: smoke")
     );
     assert_eq!(crate::util::tree(&reports.join("smoke")), before, "kept byte for byte");
     assert_eq!(
