@@ -685,19 +685,51 @@ fn cmd_slurm(
     submit: bool,
 ) -> Result<()> {
     crate::report::slurm::validate(resources).map_err(Usage)?;
+    // Every path goes into a shell or sbatch script: it must be text the script can hold as it
+    // is (no newline or other control character, which would end a comment or an #SBATCH line,
+    // and no invalid UTF-8, which would silently become another folder).
+    let repo = std::env::current_dir().context("reading the working directory")?;
+    let bin = std::env::current_exe().context("finding slamlab's own path")?;
+    let mut paths: Vec<(&str, &Path)> = vec![
+        ("--out", out),
+        ("--reports", reports),
+        ("--maps", &dirs.maps),
+        ("--cache", &dirs.cache),
+        ("--results", &dirs.results),
+        ("the working directory", &repo),
+        ("slamlab's own path", &bin),
+    ];
+    paths.extend(dirs.algorithms.iter().map(|a| ("--algorithms", a.as_path())));
+    paths.extend(specs.iter().map(|s| ("a spec path", s.as_path())));
+    for (what, path) in paths {
+        match path.to_str() {
+            None => {
+                return Err(Usage(format!(
+                    "{what} {}: not valid UTF-8, which a batch script cannot name as it is",
+                    path.display()
+                ))
+                .into());
+            }
+            Some(t) if t.chars().any(char::is_control) => {
+                return Err(Usage(format!(
+                    "{what} {t:?}: holds a newline or another control character, which a batch script cannot hold"
+                ))
+                .into());
+            }
+            Some(_) => {}
+        }
+    }
     let plans = load_plans(specs, &dirs.maps, &dirs.algorithms, dirs.max_runs)?;
     let opts = options(dirs, Some(1), false, true)?;
     let owner = run::shards(&plans, resources.tasks);
     let cache = store::Cache::new(&opts.cache_dir);
     let loads = run::shard_loads(&plans, &owner, resources.tasks, &|h| cache.contains(h));
     let runs: usize = plans.iter().filter(|p| !run::skipped(p)).map(|p| p.runs.len()).sum();
-    let repo = std::env::current_dir().context("reading the working directory")?;
     let absolute = |p: &Path| if p.is_absolute() { p.to_path_buf() } else { repo.join(p) };
     let text = |p: &Path| p.to_string_lossy().into_owned();
     let out = absolute(out);
     let logs = out.join("logs");
     let runs_path = out.join("runs.sbatch");
-    let bin = std::env::current_exe().context("finding slamlab's own path")?;
     // `report --specs`: the specs' folder when they share one (studies without results keep their report)
     let folders: std::collections::BTreeSet<PathBuf> =
         specs.iter().map(|s| s.parent().unwrap_or(Path::new("")).to_path_buf()).collect();

@@ -279,3 +279,28 @@ fn a_duplicate_key_is_named() {
     let err = rejected(&GOOD.replace("seed = 1\n", "seed = 1\nseed = 2\n"));
     assert!(err.contains("duplicate key `seed`"), "{err}");
 }
+
+/// A value rendered into a batch script cannot break out of it: a newline in a path is refused
+/// (the review's `--out $'o\ntouch PWNED #'` wrote a script that ran `touch PWNED`), and so is a
+/// path that is not valid UTF-8 (it silently became another folder).
+#[test]
+fn slurm_refuses_paths_a_script_cannot_hold() {
+    use std::os::unix::ffi::OsStrExt;
+    let work = tempfile::tempdir().unwrap();
+    let newline = work.path().join("o\ntouch PWNED #");
+    let out = slamlab(&["slurm", "experiments/smoke.toml", "--out", s(&newline)]);
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!newline.exists());
+    let bad = work.path().join(std::ffi::OsStr::from_bytes(b"x\xff"));
+    let out_dir = work.path().join("out");
+    let out = crate::util::slamlab_os(&[
+        "slurm".as_ref(),
+        "experiments/smoke.toml".as_ref(),
+        "--cache".as_ref(),
+        bad.as_os_str(),
+        "--out".as_ref(),
+        out_dir.as_os_str(),
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!out_dir.exists() && !bad.exists());
+}

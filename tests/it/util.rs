@@ -11,6 +11,15 @@ pub fn slamlab(args: &[&str]) -> Output {
         .expect("slamlab runs")
 }
 
+/// Runs slamlab with arguments that need not be UTF-8.
+pub fn slamlab_os(args: &[&std::ffi::OsStr]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_slamlab"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("slamlab runs")
+}
+
 /// Runs slamlab and fails the test with its stderr if it does not succeed.
 pub fn ok(args: &[&str]) -> Output {
     let out = slamlab(args);
