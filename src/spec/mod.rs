@@ -696,6 +696,30 @@ pub fn parse(path: &Path, text: &str, catalogue: &Arc<Catalogue>) -> Result<Load
         if spec.maps[..i].contains(m) {
             err(&format!("maps[{i}]"), format!("map `{m}` is listed twice"));
         }
+        // a map is named, not pathed: it is `<name>.toml` in the --maps folder, never elsewhere
+        if m.is_empty() || m.contains(['/', '\\']) || m.starts_with('.') {
+            err(
+                &format!("maps[{i}]"),
+                format!(
+                    "`{m}` is not a map name: name a file of the --maps folder without its `.toml` (no path)"
+                ),
+            );
+        }
+    }
+    if let Some(r) = &spec.report.reference {
+        // published tables live in the repository's data/reference/: a relative path inside the
+        // working folder, never `..` or an absolute path
+        let p = std::path::Path::new(&r.file);
+        if p.is_absolute() || p.components().any(|c| !matches!(c, std::path::Component::Normal(_)))
+        {
+            err(
+                "report.reference.file",
+                format!(
+                    "`{}` leaves the working folder: give a relative path without `..` (e.g. data/reference/fastslam-thesis.csv)",
+                    r.file
+                ),
+            );
+        }
     }
     if spec.algorithms.is_empty() {
         err("algorithms", "list at least one algorithm".into());

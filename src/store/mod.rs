@@ -977,6 +977,17 @@ pub fn write_dir_atomically(
     dir: &Path,
     fill: impl FnOnce(&Path) -> Result<(), StoreError>,
 ) -> Result<(), StoreError> {
+    // A symbolic link (a study folder or `report --out` kept elsewhere) is followed: the folder it
+    // points to is replaced, and the link stays valid. A dangling link is an error.
+    let followed;
+    let dir = if dir.symlink_metadata().is_ok_and(|m| m.file_type().is_symlink()) {
+        followed = std::fs::canonicalize(dir).map_err(|e| {
+            StoreError::io(dir, std::io::Error::new(e.kind(), format!("a link to nowhere: {e}")))
+        })?;
+        followed.as_path()
+    } else {
+        dir
+    };
     let parent = dir.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let name = dir
         .file_name()
@@ -1296,6 +1307,25 @@ mod tests {
         fresh();
         std::fs::write(entry.join("extra.parquet"), b"x").unwrap();
         corrupt("an unlisted file in the entry");
+    }
+
+    /// A symlinked output folder is followed: its target is replaced, the link stays a link.
+    #[test]
+    fn a_symlinked_folder_is_followed_not_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("elsewhere/reports");
+        std::fs::create_dir_all(&target).unwrap();
+        std::fs::write(target.join("old.txt"), "old").unwrap();
+        let link = dir.path().join("reports");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        write_dir_atomically(&link, |tmp| write_file(&tmp.join("new.txt"), b"new")).unwrap();
+        assert!(link.symlink_metadata().unwrap().file_type().is_symlink(), "the link was replaced");
+        assert_eq!(std::fs::read_to_string(target.join("new.txt")).unwrap(), "new");
+        assert!(!target.join("old.txt").exists());
+        // a link to nowhere is refused
+        let dangling = dir.path().join("dangling");
+        std::os::unix::fs::symlink(dir.path().join("nowhere"), &dangling).unwrap();
+        assert!(write_dir_atomically(&dangling, |_| Ok(())).is_err());
     }
 
     #[test]

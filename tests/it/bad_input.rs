@@ -304,3 +304,20 @@ fn slurm_refuses_paths_a_script_cannot_hold() {
     assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(!out_dir.exists() && !bad.exists());
 }
+
+/// A spec reads only inside its folders: a map is a name in --maps, a published table a relative
+/// path without `..` (the review read /etc/passwd and another folder's files).
+#[test]
+fn spec_paths_are_confined() {
+    let err = rejected(
+        &GOOD.replace("maps = [\"recinto_basico\"]", "maps = [\"../../experiments/smoke\"]"),
+    );
+    assert!(err.contains("maps[0]") && err.contains("not a map name"), "{err}");
+    let err = rejected(&format!(
+        "{GOOD}\n[report]\nreference = {{ file = \"../../../../etc/passwd\", experiments = [\"x\"], label = \"[FT]\" }}\n"
+    ));
+    assert!(
+        err.contains("report.reference.file") && err.contains("leaves the working folder"),
+        "{err}"
+    );
+}
