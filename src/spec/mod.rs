@@ -642,9 +642,31 @@ impl From<SpecError> for InputErrors {
     }
 }
 
+/// The largest spec file read (the repository's largest is about 20 KB): `validate /dev/zero`
+/// or a runaway generated spec is refused instead of filling memory.
+pub const MAX_SPEC_BYTES: u64 = 1 << 20;
+
+/// Reads at most [`MAX_SPEC_BYTES`] of a spec file as text.
+fn read_bounded(path: &Path) -> Result<String, SpecError> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_SPEC_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(|e| SpecError::io(path, &e))?;
+    if bytes.len() as u64 > MAX_SPEC_BYTES {
+        let e = std::io::Error::other(format!(
+            "larger than {} bytes, the most a spec may be (sweeps expand a few lines into many runs)",
+            MAX_SPEC_BYTES
+        ));
+        return Err(SpecError::io(path, &e));
+    }
+    String::from_utf8(bytes)
+        .map_err(|e| SpecError::io(path, &std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
+}
+
 /// Reads and validates a spec file.
 pub fn load(path: &Path, catalogue: &Arc<Catalogue>) -> Result<LoadedSpec, SpecError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SpecError::io(path, &e))?;
+    let text = read_bounded(path)?;
     let loaded = parse(path, &text, catalogue)?;
     // `experiments/<id>.toml`: the file says which study it is.
     let stem = path.file_stem().unwrap_or_default().to_string_lossy();

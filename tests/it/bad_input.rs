@@ -321,3 +321,12 @@ fn spec_paths_are_confined() {
         "{err}"
     );
 }
+
+/// A spec file has a size limit: `validate /dev/zero` is refused at once instead of reading
+/// without end (the review reached 17 GB).
+#[test]
+fn an_endless_spec_is_refused() {
+    let out = slamlab(&["validate", "/dev/zero"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("the most a spec may be"));
+}
