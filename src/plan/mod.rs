@@ -389,6 +389,45 @@ fn expand(
         });
         candidates.push((Vec::new(), 0, None));
     }
+    // A design's ranges are checked at their bounds first: an invalid bound is reported once, at
+    // the bound, instead of once per sampled point that happens to fall outside the domain.
+    let mut bound_errors = Vec::new();
+    for block in &spec.sweeps {
+        let Some(d) = &block.design else { continue };
+        for p in &d.params {
+            for (end, u) in [("lower", 0.0), ("upper", 1.0)] {
+                let (value, coord) = design::realise(p, u);
+                if !coord.is_finite() || value.as_float().is_some_and(|v| !v.is_finite()) {
+                    bound_errors.push(spec.error_at(
+                        &p.key,
+                        format!(
+                            "the range's {end} bound gives a design coordinate that is not finite"
+                        ),
+                    ));
+                    continue;
+                }
+                let mut at_bound: Candidate = vec![(p.path.clone(), value.clone(), p.key.clone())];
+                for (path, j) in &d.tied {
+                    if d.params[*j].path == p.path {
+                        at_bound.push((path.clone(), value.clone(), p.key.clone()));
+                    }
+                }
+                if let Err(errs) = resolve(spec, &at_bound, sensors) {
+                    bound_errors.extend(errs.into_iter().map(|e| crate::source::SourceError {
+                        message: format!(
+                            "at the range's {end} bound, {}: {}",
+                            format_value(&value),
+                            e.message
+                        ),
+                        ..e
+                    }));
+                }
+            }
+        }
+    }
+    if !bound_errors.is_empty() {
+        return Err(SpecError::new(&spec.path, bound_errors));
+    }
     for (bi, block) in spec.sweeps.iter().enumerate() {
         if let Some(d) = &block.design {
             let unit = design::unit_rows(

@@ -330,3 +330,17 @@ fn an_endless_spec_is_refused() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("the most a spec may be"));
 }
+
+/// A design range outside its parameter's domain is reported once, at the bound (the review saw
+/// one error per sampled point, with random values, and the bound never named).
+#[test]
+fn a_bad_design_bound_is_reported_once_at_the_bound() {
+    let spec = GOOD
+        .replace("maps = [\"recinto_basico\"]", "maps = [\"bigloop2\"]")
+        .replace("algorithms = [\"odometry\"]", "algorithms = [\"fastslam1\"]")
+        + "\n[[sweeps]]\nkind = \"sobol\"\nsamples = 16\nranges = { \"fastslam.particles\" = [0, 10], \"fastslam.obs_var_rho_m2\" = [-1.0, 1.0] }\n";
+    let err = rejected(&spec);
+    let lines: Vec<&str> = err.lines().filter(|l| l.contains("bad.toml:")).collect();
+    assert_eq!(lines.len(), 2, "{err}");
+    assert!(lines.iter().all(|l| l.contains("lower bound")), "{err}");
+}
