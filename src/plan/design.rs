@@ -42,7 +42,10 @@ pub fn unit_rows(kind: SweepKind, design: &DesignSpec, seed: u64) -> UnitDesign 
     }
 }
 
-/// The value a unit coordinate stands for, and that value's own coordinate.
+/// The value a unit coordinate stands for, and that value's own coordinate. An integer parameter
+/// is rounded to the nearest integer, so each end of its range takes half the weight of an
+/// interior value (the coordinates within half a step of it): the sensitivity indices are those
+/// of that distribution (README, "Global sensitivity").
 pub fn realise(p: &RangedParam, u: f64) -> (toml::Value, f64) {
     let x = if p.log { p.low * (p.high / p.low).powf(u) } else { p.low + u * (p.high - p.low) };
     // keep the ends exact (powf and the sum can miss them by an ulp)
@@ -86,6 +89,22 @@ mod tests {
         let (v, u) = realise(&p, 1.0 / 3.0);
         assert_eq!(v, toml::Value::Integer(23));
         assert!((u - (23.0f64 / 5.0).ln() / 100f64.ln()).abs() < 1e-12 && u < 1.0 / 3.0);
+    }
+
+    /// What the README states: rounding a uniform coordinate gives each end of an integer range
+    /// half the weight of an interior value (Pmin 5–25: 1/40 at 5 and 25, 1/20 between).
+    #[test]
+    fn integer_range_ends_take_half_weight() {
+        let p = param(5.0, 25.0, false, true);
+        let n = 400_000;
+        let mut count = std::collections::BTreeMap::<i64, usize>::new();
+        for k in 0..n {
+            let u = (k as f64 + 0.5) / n as f64;
+            *count.entry(realise(&p, u).0.as_integer().unwrap()).or_default() += 1;
+        }
+        let share = |v: i64| count[&v] as f64 / n as f64;
+        assert!((share(5) - 1.0 / 40.0).abs() < 1e-4 && (share(25) - 1.0 / 40.0).abs() < 1e-4);
+        assert!((share(15) - 1.0 / 20.0).abs() < 1e-4);
     }
 
     #[test]
