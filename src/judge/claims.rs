@@ -669,9 +669,15 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
         .collect()
 }
 
-/// A cause with its placeholders filled from the study's runs (`spec::cause`); a placeholder
-/// that names no cell renders as `⟨…⟩`, which `slamlab report` refuses.
+/// A cause with its placeholders filled from the study's runs (`spec::cause`) and its code spans'
+/// backticks dropped (they mark settings for the literal-number check; the reports print the
+/// settings as text); a placeholder that names no cell renders as `⟨…⟩`, which `slamlab report`
+/// refuses.
 pub fn render_cause(data: &StudyData, algorithm: &str, text: &str) -> String {
+    fill_cause(data, algorithm, text).replace('`', "")
+}
+
+fn fill_cause(data: &StudyData, algorithm: &str, text: &str) -> String {
     match cause::parse(text) {
         Err(e) => format!("⟨{e}⟩"),
         Ok(pieces) => pieces
