@@ -19,7 +19,7 @@
 //!   not resolved below E-PSM's finest orientation step, 0.01° ([EP] L415); Table 3, where claims
 //!   C4–C6 are stated, prints f to 0.01 cm².
 //! - **[PF] 10 %**: [PF] gives no threshold for "not significant"; its claims have used 10 % of
-//!   the level since 2026-11-24 (slamlab's choice), and it has no published cells.
+//!   the level since 2026-11-23 (7f9caaf; slamlab's choice), and it has no published cells.
 //! - **[EV] 20 %**: one real run per experiment and no rerun; slamlab adopts [FT]'s spread as for
 //!   [EP].
 
@@ -56,7 +56,7 @@ pub const WORKS: [WorkMargins; 4] = [
     WorkMargins {
         tag: "PF",
         relative: 0.10,
-        why: "no threshold in [PF]; slamlab's choice, used by its claims since 2026-11-24",
+        why: "no threshold in [PF]; slamlab's choice, used by its claims since 2026-11-23 (7f9caaf)",
         resolutions: &[],
     },
     WorkMargins {

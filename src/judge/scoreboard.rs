@@ -523,8 +523,6 @@ fn classify_claims(ids: &[String], claims: &[&ClaimResult]) -> (Class, String) {
     (class, listed)
 }
 
-/// Classifies every item. `studies` are the studies with runs; `claims` every judged claim
-/// (including those of studies whose report was kept without runs).
 /// Classifies every item: on the studies' results, their claims, and — for a study without
 /// results here whose report is kept — the cell verdicts that report kept (`kept`).
 pub fn classify(

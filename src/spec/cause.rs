@@ -159,38 +159,26 @@ fn bare(text: &str) -> String {
     while i < chars.len() {
         let c = chars[i];
         let close = |open: usize, ch: char| chars[open + 1..].iter().position(|x| *x == ch);
-        match c {
-            '{' => match close(i, '}') {
-                Some(k) => {
-                    i += k + 2;
-                    out.push(' ');
-                    continue;
-                }
-                None => {}
-            },
-            '`' => match close(i, '`') {
-                Some(k) => {
-                    i += k + 2;
-                    out.push(' ');
-                    continue;
-                }
-                None => {}
-            },
-            // a citation: `[` then an uppercase tag (FT, EP, …) then a space, `]` or `:`
+        // the span this character opens, if any: a placeholder, a code span, or a citation (`[`
+        // then an uppercase tag such as FT or EP, then a space, `]` or `:`)
+        let closer = match c {
+            '{' => Some('}'),
+            '`' => Some('`'),
             '[' if chars.get(i + 1).is_some_and(|x| x.is_ascii_uppercase()) => {
                 let tag_end = chars[i + 1..]
                     .iter()
                     .position(|x| !(x.is_ascii_uppercase() || x.is_ascii_digit()))
                     .map(|k| i + 1 + k);
-                let is_tag =
-                    tag_end.is_some_and(|e| e - i >= 3 && matches!(chars[e], ' ' | ']' | ':'));
-                if let (true, Some(k)) = (is_tag, close(i, ']')) {
-                    i += k + 2;
-                    out.push(' ');
-                    continue;
-                }
+                tag_end
+                    .is_some_and(|e| e - i >= 3 && matches!(chars[e], ' ' | ']' | ':'))
+                    .then_some(']')
             }
-            _ => {}
+            _ => None,
+        };
+        if let Some(k) = closer.and_then(|ch| close(i, ch)) {
+            i += k + 2;
+            out.push(' ');
+            continue;
         }
         out.push(c);
         i += 1;
