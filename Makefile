@@ -54,6 +54,7 @@ test-slurm: build
 ## Benchmarks: criterion micro-benchmarks, then the whole pipeline from scratch.
 bench: build
 	$(CARGO) bench --locked --bench world --bench slam --bench landmark_filters --bench scanmatch
+	tests/tools/plan_bench.sh $(BIN)
 	@tmp=$$(mktemp -d); \
 	start=$$(date +%s.%N); \
 	$(BIN) run --quiet --results $$tmp/results --cache $$tmp/cache $(SPECS); \

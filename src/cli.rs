@@ -390,10 +390,10 @@ fn dispatch(command: Command) -> Result<()> {
 
 /// Loads and plans every spec; all errors of all files are reported together.
 /// Plans from this many runs on announce themselves before expanding.
-const LARGE_PLAN: u64 = 10_000;
+const LARGE_PLAN: u64 = 100_000;
 /// Seconds to expand and check one run of a plan, measured on the 2-core reference machine
-/// (`validate` of a 10⁵-point one-at-a-time sweep: 15.4 s).
-const PLAN_S_PER_RUN: f64 = 1.5e-4;
+/// (`validate` of a 1 000 × 1 000 FastSLAM grid, 10⁶ runs: 8.4 s; README, *Benchmarks*).
+const PLAN_S_PER_RUN: f64 = 1e-5;
 
 fn load_plans(
     specs: &[PathBuf],
@@ -415,7 +415,21 @@ fn load_plans(
                     (planned as f64 * PLAN_S_PER_RUN).ceil()
                 );
             }
-            plan::build_limited(s, maps, max_runs)
+            // past a second, a line a second on how far it has got
+            let start = std::time::Instant::now();
+            let shown = std::cell::Cell::new(0u64);
+            let progress = |stage: plan::Stage, done: usize, total: usize| {
+                let secs = start.elapsed().as_secs();
+                if secs >= 1 && secs > shown.get() {
+                    shown.set(secs);
+                    eprintln!(
+                        "{}: {done} of {total} {} ({secs} s)",
+                        path.display(),
+                        stage.as_str()
+                    );
+                }
+            };
+            plan::build_observed(s, maps, max_runs, &progress)
         }) {
             Ok(p) => plans.push(p),
             Err(e) => errors.extend(e.0),

@@ -135,6 +135,107 @@ impl Params {
     }
 }
 
+/// Declares the top-level sections once: their names in declaration order ([`SECTIONS`]) and the
+/// by-name access that resolving a sweep point and hashing a run use instead of serialising the
+/// whole parameter set (a test checks the list against `Params`' own fields).
+macro_rules! sections {
+    ($($field:ident),* $(,)?) => {
+        /// The top-level sections, in declaration order.
+        pub const SECTIONS: &[&str] = &[$(stringify!($field)),*];
+
+        impl Params {
+            /// Moves section `name` of `from` into `self`; false when `name` is not a section.
+            pub fn take_section(&mut self, from: &mut Params, name: &str) -> bool {
+                match name {
+                    $(stringify!($field) => self.$field = std::mem::take(&mut from.$field),)*
+                    _ => return false,
+                }
+                true
+            }
+
+            /// The TOML text of section `name` alone (`[name]` and its keys), serialised
+            /// directly; `None` when `name` is not a section.
+            fn section_table_text(&self, name: &str) -> Option<String> {
+                match name {
+                    $(stringify!($field) => Some(
+                        toml::to_string(&std::collections::BTreeMap::from([(name, &self.$field)]))
+                            .expect("a section serialises to TOML"),
+                    ),)*
+                    _ => None,
+                }
+            }
+
+            /// Copies section `name` of `from` into `self`; false when `name` is not a section.
+            pub fn copy_section(&mut self, from: &Params, name: &str) -> bool {
+                match name {
+                    $(stringify!($field) => self.$field.clone_from(&from.$field),)*
+                    _ => return false,
+                }
+                true
+            }
+
+            /// Section `name` as a TOML value (`None` when `name` is not a section).
+            pub fn section_value(&self, name: &str) -> Option<toml::Value> {
+                match name {
+                    $(stringify!($field) => Some(
+                        toml::Value::try_from(&self.$field).expect("a section serialises to TOML"),
+                    ),)*
+                    _ => None,
+                }
+            }
+        }
+    };
+}
+
+sections!(
+    sim,
+    odometry,
+    laser,
+    landmark_sensor,
+    features,
+    fastslam,
+    motion_model,
+    ekf,
+    scan_matching,
+    psm,
+    epsm,
+    pose_search,
+    brute_force,
+    external,
+);
+
+impl Params {
+    /// `toml::to_string(&self.sections(wanted))`, built from one text per section: a section's
+    /// text is `[name]` and its keys (`section_text`), and the texts of a table of sections are
+    /// those texts joined by a blank line. `text_of` gives a section's text (a caller may
+    /// reuse the texts of sections it knows are unchanged). `None` when `wanted` names a
+    /// sub-table (`external.<name>`), which only `sections` picks.
+    pub fn sections_text<S: AsRef<str>>(
+        wanted: &[String],
+        mut text_of: impl FnMut(&str) -> S,
+    ) -> Option<String> {
+        if wanted.iter().any(|w| w.contains('.')) {
+            return None;
+        }
+        let parts: Vec<S> = SECTIONS
+            .iter()
+            .filter(|s| wanted.iter().any(|w| w == *s))
+            .map(|s| text_of(s))
+            .filter(|t| !t.as_ref().is_empty())
+            .collect();
+        Some(parts.iter().map(AsRef::as_ref).collect::<Vec<&str>>().join("\n"))
+    }
+
+    /// The TOML text of one section, as [`Params::sections_text`] joins them (empty for an empty
+    /// `external`, which `to_table` leaves out).
+    pub fn section_text(&self, name: &str) -> String {
+        if name == "external" && self.external.is_empty() {
+            return String::new();
+        }
+        self.section_table_text(name).unwrap_or_default()
+    }
+}
+
 /// Flattens a TOML tree into dotted leaf paths (`odometry.k`), in written order.
 pub fn flatten(prefix: &str, value: &toml::Value, out: &mut Vec<(String, toml::Value)>) {
     match value {
@@ -151,6 +252,53 @@ pub fn flatten(prefix: &str, value: &toml::Value, out: &mut Vec<(String, toml::V
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The section list is `Params`' own fields, in declaration order, and each is reachable by
+    /// name: a new section cannot be left out of sweep resolution or run hashing.
+    #[test]
+    fn every_section_is_listed_in_declaration_order() {
+        let mut p = Params::default();
+        p.external.insert("x".into(), toml::toml! { gate = 1.0 });
+        let keys: Vec<String> = p.to_table().keys().cloned().collect();
+        assert_eq!(keys, SECTIONS.iter().map(|s| s.to_string()).collect::<Vec<_>>());
+        let mut from = p.clone();
+        let mut to = Params::default();
+        let mut copied = Params::default();
+        for s in SECTIONS {
+            assert!(copied.copy_section(&p, s), "{s}");
+            assert!(to.take_section(&mut from, s), "{s}");
+            assert_eq!(to.section_value(s), p.section_value(s), "{s}");
+        }
+        assert_eq!(to, p);
+        assert_eq!(copied, p);
+        assert!(!to.take_section(&mut from, "nope"));
+        assert!(!to.copy_section(&p, "nope"));
+    }
+
+    /// The text joined from one text per section is the text of the table of those sections,
+    /// for every subset of sections (the run hashes depend on it byte for byte).
+    #[test]
+    fn sections_text_is_the_sections_table_text() {
+        let mut varied = Params::default();
+        varied.odometry = crate::world::odometry::OdometryNoise::None {};
+        varied.sim.dt_s = -0.0;
+        varied.fastslam.neff_threshold = 3.5;
+        for p in [Params::default(), varied] {
+            let names: Vec<&str> = SECTIONS.iter().copied().filter(|s| *s != "external").collect();
+            for mask in 0u32..(1 << names.len()) {
+                let wanted: Vec<String> = names
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| mask & (1 << i) != 0)
+                    .map(|(_, s)| s.to_string())
+                    .collect();
+                let slow = toml::to_string(&p.sections(&wanted)).unwrap();
+                let fast = Params::sections_text(&wanted, |s| p.section_text(s)).unwrap();
+                assert_eq!(fast, slow, "{wanted:?}");
+            }
+        }
+        assert_eq!(Params::sections_text(&["external.a".into()], |_| String::new()), None);
+    }
 
     #[test]
     fn defaults_are_valid() {

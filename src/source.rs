@@ -22,6 +22,9 @@ pub struct Locator {
     lines: Vec<String>,
     /// (path, key span, value span), in document order.
     entries: Vec<(String, Range<usize>, Range<usize>)>,
+    /// Path → its first entry: placing an error is a lookup, not a scan (a sweep of 10⁵ values
+    /// can fail at every value).
+    index: std::collections::HashMap<String, usize>,
 }
 
 impl Locator {
@@ -33,7 +36,11 @@ impl Locator {
         if let Ok(table) = DeTable::parse(text) {
             walk_table(table.get_ref(), "", &mut entries);
         }
-        Self { line_starts, entries, lines: text.lines().map(str::to_string).collect() }
+        let mut index = std::collections::HashMap::with_capacity(entries.len());
+        for (i, (path, ..)) in entries.iter().enumerate() {
+            index.entry(path.clone()).or_insert(i);
+        }
+        Self { line_starts, entries, index, lines: text.lines().map(str::to_string).collect() }
     }
 
     pub fn line_col(&self, offset: usize) -> LineCol {
@@ -43,7 +50,7 @@ impl Locator {
 
     /// Where `path` is written (its key, or for array elements the element itself).
     pub fn key_span(&self, path: &str) -> Option<Range<usize>> {
-        self.entries.iter().find(|(p, ..)| p == path).map(|(_, k, _)| k.clone())
+        self.index.get(path).map(|&i| self.entries[i].1.clone())
     }
 
     /// Where `path` or its nearest written ancestor is (a defaulted key has no position of its

@@ -85,8 +85,8 @@ pub struct RunSpec {
     pub filter_seed: u64,
     /// Hash of the inputs (parameters read, map bytes, seeds).
     pub params_hash: String,
-    /// Versions of the code that computes the run.
-    pub code_version: String,
+    /// Versions of the code that computes the run (shared by the runs of one map and algorithm).
+    pub code_version: std::sync::Arc<str>,
     /// Content hash of everything the run reads: the cache key.
     pub hash: String,
 }
@@ -180,6 +180,41 @@ pub fn build_limited(
     maps_dir: &Path,
     max_runs: u64,
 ) -> Result<ExperimentPlan, InputErrors> {
+    build_observed(spec, maps_dir, max_runs, &|_, _, _| {})
+}
+
+/// What expansion is doing, for [`build_observed`]'s progress calls.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Resolving and checking sweep points.
+    Points,
+    /// Naming and hashing runs.
+    Runs,
+}
+
+impl Stage {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Stage::Points => "sweep points resolved and checked",
+            Stage::Runs => "runs named and hashed",
+        }
+    }
+}
+
+/// The most sweep-point errors a spec reports one by one (the rest are counted).
+const MAX_POINT_ERRORS: usize = 20;
+
+/// Items between two progress calls.
+const PROGRESS_EVERY: usize = 4096;
+
+/// [`build_limited`], calling `progress(stage, done, total)` every few thousand points and runs
+/// (the caller decides what to show, and when).
+pub fn build_observed(
+    spec: LoadedSpec,
+    maps_dir: &Path,
+    max_runs: u64,
+    progress: &dyn Fn(Stage, usize, usize),
+) -> Result<ExperimentPlan, InputErrors> {
     let planned = planned_runs(&spec);
     if planned > max_runs {
         let key = if spec.sweeps.is_empty() { "replicates" } else { "sweeps" };
@@ -223,11 +258,11 @@ pub fn build_limited(
     if !base_errors.is_empty() {
         errors.push(SpecError::new(&spec.path, base_errors));
     }
-    let (groups, points) = match expand(&spec, sensors) {
+    let (groups, points, texts) = match expand(&spec, sensors, progress) {
         Ok(x) => x,
         Err(e) => {
             errors.push(e);
-            (Vec::new(), Vec::new())
+            (Vec::new(), Vec::new(), SweptTexts::of(&spec))
         }
     };
     // Walls given in bitmap pixels need each laser map's bitmap scale (else every run would fail).
@@ -269,7 +304,7 @@ pub fn build_limited(
             }
         }
     }
-    let runs = runs(&spec, &maps, &points);
+    let runs = runs(&spec, &maps, &points, &texts, progress);
     let mut ids: Vec<&str> = runs.iter().map(|r| r.run_id.as_str()).collect();
     ids.sort_unstable();
     if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
@@ -371,10 +406,75 @@ pub fn available_maps(dir: &Path) -> Vec<String> {
 }
 
 /// Sweep blocks → groups and deduplicated points (in first-appearance order).
+/// The TOML text of the sections the sweeps set, per sweep point: the points' deduplication key,
+/// and (with the base's texts of the other sections) the text their runs hash. Each distinct
+/// section state's text is held once; a point holds an index per swept section.
+struct SweptTexts {
+    /// The sections any sweep sets, in declaration order: every other section is the base's in
+    /// every point.
+    sections: Vec<&'static str>,
+    /// The section texts (the base's first, one per swept section).
+    texts: Vec<String>,
+    /// Per text, a hash of it with −0 written as 0 (−0 and 0 are equal parameters).
+    keys: Vec<u64>,
+    /// Per point, `sections.len()` indices into `texts`.
+    ids: Vec<u32>,
+}
+
+impl SweptTexts {
+    fn of(spec: &LoadedSpec) -> Self {
+        let mut paths: Vec<&str> = Vec::new();
+        for block in &spec.sweeps {
+            paths.extend(block.params.iter().map(|p| p.path.as_str()));
+            if let Some(d) = &block.design {
+                paths.extend(d.params.iter().map(|p| p.path.as_str()));
+                paths.extend(d.tied.iter().map(|(p, _)| p.as_str()));
+            }
+        }
+        let sections: Vec<&'static str> = crate::params::SECTIONS
+            .iter()
+            .copied()
+            .filter(|s| paths.iter().any(|p| p.split('.').next() == Some(*s)))
+            .collect();
+        let mut texts =
+            Self { sections: Vec::new(), texts: Vec::new(), keys: Vec::new(), ids: Vec::new() };
+        for s in &sections {
+            texts.add(spec.spec.base.section_text(s));
+        }
+        texts.sections = sections;
+        texts
+    }
+
+    /// Holds `text`; its index.
+    fn add(&mut self, text: String) -> u32 {
+        let normalised = text.replace("= -0.0\n", "= 0.0\n");
+        let hash = blake3::hash(normalised.as_bytes());
+        self.keys.push(u64::from_le_bytes(hash.as_bytes()[..8].try_into().expect("8 bytes")));
+        self.texts.push(text);
+        u32::try_from(self.texts.len() - 1).expect("fewer than 2³² section states")
+    }
+
+    /// The deduplication key of a point with these text indices: equal parameters, equal keys
+    /// (the parameters themselves are compared on a match).
+    fn key(&self, ids: &[u32]) -> u64 {
+        let mut h = blake3::Hasher::new();
+        for &i in ids {
+            h.update(&self.keys[i as usize].to_le_bytes());
+        }
+        u64::from_le_bytes(h.finalize().as_bytes()[..8].try_into().expect("8 bytes"))
+    }
+
+    /// The text of point `point`'s swept section number `i`.
+    fn text(&self, point: usize, i: usize) -> &str {
+        &self.texts[self.ids[point * self.sections.len() + i] as usize]
+    }
+}
+
 fn expand(
     spec: &LoadedSpec,
     sensors: crate::world::Sensors,
-) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>), SpecError> {
+    progress: &dyn Fn(Stage, usize, usize),
+) -> Result<(Vec<SweepGroup>, Vec<SweepPoint>, SweptTexts), SpecError> {
     // Each candidate: assignments with, for error placement, the key of each value.
     type Candidate = Vec<(String, toml::Value, String)>;
     let mut groups = Vec::new();
@@ -391,6 +491,7 @@ fn expand(
     }
     // A design's ranges are checked at their bounds first: an invalid bound is reported once, at
     // the bound, instead of once per sampled point that happens to fall outside the domain.
+    let mut resolver = Resolver::new(spec, sensors);
     let mut bound_errors = Vec::new();
     for block in &spec.sweeps {
         let Some(d) = &block.design else { continue };
@@ -412,7 +513,7 @@ fn expand(
                         at_bound.push((path.clone(), value.clone(), p.key.clone()));
                     }
                 }
-                if let Err(errs) = resolve(spec, &at_bound, sensors) {
+                if let Err(errs) = resolver.resolve(&at_bound) {
                     bound_errors.extend(errs.into_iter().map(|e| crate::source::SourceError {
                         message: format!(
                             "at the range's {end} bound, {}: {}",
@@ -525,11 +626,17 @@ fn expand(
     }
 
     let mut points: Vec<SweepPoint> = Vec::new();
-    // resolved parameters (serialised) → index in `points`: one lookup per candidate
-    let mut seen: std::collections::HashMap<String, Vec<usize>> = std::collections::HashMap::new();
+    let mut texts = SweptTexts::of(spec);
+    // resolved parameters (a hash of the swept sections' texts) → indices in `points`: one lookup
+    // per candidate
+    let mut seen: std::collections::HashMap<u64, Vec<usize>> = std::collections::HashMap::new();
     let mut errors = Vec::new();
-    for (assignments, group, name) in candidates {
-        let params = match resolve(spec, &assignments, sensors) {
+    let total = candidates.len();
+    for (done, (assignments, group, name)) in candidates.into_iter().enumerate() {
+        if done % PROGRESS_EVERY == 0 {
+            progress(Stage::Points, done, total);
+        }
+        let (params, ids) = match resolver.resolve_point(&assignments, &mut texts) {
             Ok(p) => p,
             Err(e) => {
                 errors.extend(e);
@@ -537,11 +644,9 @@ fn expand(
             }
         };
         // TOML spells ±inf and NaN apart (JSON would not); equal texts are equal parameters,
-        // checked anyway
-        // (−0 and 0 are equal parameters: one key)
-        let key = toml::to_string(&params)
-            .unwrap_or_else(|_| format!("{params:?}"))
-            .replace("= -0.0\n", "= 0.0\n");
+        // checked anyway (−0 and 0 are equal parameters: one key). Only the swept sections can
+        // differ from the base.
+        let key = texts.key(&ids);
         let same =
             seen.get(&key).into_iter().flatten().copied().find(|&i| points[i].params == params);
         if let Some(i) = same {
@@ -558,16 +663,27 @@ fn expand(
             d.rows.push(name.clone().expect("design rows are named"));
         }
         seen.entry(key).or_default().push(points.len());
+        texts.ids.extend(ids);
         let label = if let Some(name) = name {
             name
         } else if assignments.is_empty() {
             "base".to_string()
         } else {
-            assignments
-                .iter()
-                .map(|(p, v, _)| format!("{p}={}", format_value(v)))
-                .collect::<Vec<_>>()
-                .join(",")
+            // one allocation, sized up front (growing strings is what a plan of 10⁶ points
+            // spends its time on)
+            let mut label = String::with_capacity(
+                assignments.iter().map(|(p, ..)| p.len() + 2 + LABEL_VALUE_CHARS).sum(),
+            );
+            for (i, (p, v, _)) in assignments.iter().enumerate() {
+                use std::fmt::Write as _;
+                let sep = if i == 0 { "" } else { "," };
+                match v {
+                    toml::Value::String(t) => write!(label, "{sep}{p}={t}"),
+                    other => write!(label, "{sep}{p}={}", FormattedValue(other)),
+                }
+                .expect("writing to a String");
+            }
+            label
         };
         points.push(SweepPoint {
             label,
@@ -578,86 +694,259 @@ fn expand(
     }
     if !errors.is_empty() {
         // The same bad value can make several points invalid: report it once.
-        let mut unique: Vec<crate::source::SourceError> = Vec::new();
-        for e in errors {
-            if !unique.contains(&e) {
-                unique.push(e);
-            }
+        let mut reported = std::collections::HashSet::new();
+        let mut unique: Vec<crate::source::SourceError> = errors
+            .into_iter()
+            .filter(|e| reported.insert((e.line, e.column, e.key.clone(), e.message.clone())))
+            .collect();
+        // A long sweep can fail at every value: the first few say what is wrong, and the count
+        // says how often.
+        if unique.len() > MAX_POINT_ERRORS {
+            let more = unique.len() - MAX_POINT_ERRORS;
+            unique.truncate(MAX_POINT_ERRORS);
+            let last = unique.last().expect("errors were reported").clone();
+            unique.push(crate::source::SourceError {
+                message: format!(
+                    "and {more} more errors in this spec's sweep values (the first {MAX_POINT_ERRORS} are shown)"
+                ),
+                ..last
+            });
         }
         return Err(SpecError::new(&spec.path, unique));
     }
-    Ok((groups, points))
+    Ok((groups, points, texts))
 }
 
 /// `[base]` with the assignments applied, deserialised and validated; errors point at the
 /// sweep value responsible.
-fn resolve(
-    spec: &LoadedSpec,
-    assignments: &[(String, toml::Value, String)],
+/// Resolves sweep points: the base parameters with a point's assignments. Only the sections the
+/// assignments touch are rebuilt from TOML (from the base's own sections, serialised once), so a
+/// point costs its sections, not the whole parameter set.
+struct Resolver<'s> {
+    spec: &'s LoadedSpec,
     sensors: crate::world::Sensors,
-) -> Result<Params, Vec<crate::source::SourceError>> {
-    if assignments.is_empty() {
-        return Ok(spec.spec.base.clone());
-    }
-    // Start from the resolved base (every default written out), so `odometry.k` can be swept
-    // when `[base.odometry]` was left to its defaults.
-    let mut table = spec.spec.base.to_table();
-    // Switching a tagged section's `model` starts that section afresh: the other variant's
-    // fields would not apply. Its new fields come from the other assignments.
-    for (path, value, _) in assignments {
-        if let Some(section) = path.strip_suffix(".model")
-            && get_path(&table, path) != Some(value)
-        {
-            let mut fresh = toml::Table::new();
-            fresh.insert("model".into(), value.clone());
-            set_path(&mut table, section, toml::Value::Table(fresh));
+    /// The resolved base as a table (every default written out), so `odometry.k` can be swept
+    /// when `[base.odometry]` was left to its defaults.
+    base: toml::Table,
+    /// Sections already resolved, by section and the assignments that set it: that section (in
+    /// otherwise default parameters) and its text's index in [`SweptTexts`]. A grid over
+    /// parameters of different sections resolves each section state once, not once per point.
+    memo: std::collections::HashMap<Vec<u8>, (Params, u32)>,
+}
+
+/// The most section states a [`Resolver`] keeps (a grid within one section has one per point).
+const MEMO_LIMIT: usize = 1 << 16;
+
+impl<'s> Resolver<'s> {
+    fn new(spec: &'s LoadedSpec, sensors: crate::world::Sensors) -> Self {
+        Self {
+            spec,
+            sensors,
+            base: spec.spec.base.to_table(),
+            memo: std::collections::HashMap::new(),
         }
     }
-    for (path, value, _) in assignments {
-        set_path(&mut table, path, value.clone());
-    }
-    let params: Params = toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| {
-        // Blame the values that fail on their own; if only the combination fails, blame all.
-        let alone: Vec<&(String, toml::Value, String)> = assignments
-            .iter()
-            .filter(|a| {
-                assignments.len() > 1 && resolve(spec, std::slice::from_ref(*a), sensors).is_err()
-            })
-            .collect();
-        let culprits: Vec<&(String, toml::Value, String)> =
-            if alone.is_empty() { assignments.iter().collect() } else { alone };
-        let names: Vec<&str> = assignments.iter().map(|(p, ..)| p.as_str()).collect();
-        culprits
-            .iter()
-            .map(|(_, _, key)| {
-                spec.error_at(
-                    key,
-                    format!(
-                        "with {} set here, [base] does not deserialise: {}",
-                        names.join(", "),
-                        e.message().trim()
-                    ),
-                )
-            })
-            .collect::<Vec<_>>()
-    })?;
-    let violations = params.validate(sensors);
-    if violations.is_empty() {
-        return Ok(params);
-    }
-    Err(violations
-        .into_iter()
-        .map(|v| {
-            // Place the error at the sweep value that set the key, else at the first assignment.
-            let key = assignments
+
+    /// [`Resolver::resolve`], and the index of each swept section's text in `texts`, each section
+    /// state resolved once.
+    fn resolve_point(
+        &mut self,
+        assignments: &[(String, toml::Value, String)],
+        texts: &mut SweptTexts,
+    ) -> Result<(Params, Vec<u32>), Vec<crate::source::SourceError>> {
+        let mut params = self.spec.spec.base.clone();
+        // the base's texts come first
+        let mut ids: Vec<u32> = (0..texts.sections.len() as u32).collect();
+        let mut sections: Vec<&str> = Vec::new();
+        for (path, ..) in assignments {
+            let section = path.split('.').next().unwrap_or(path);
+            if !sections.contains(&section) {
+                sections.push(section);
+            }
+        }
+        for section in sections {
+            let mine: Vec<&(String, toml::Value, String)> = assignments
                 .iter()
-                .find(|(p, ..)| *p == v.key)
-                .or(assignments.first())
-                .map(|(_, _, k)| k.as_str())
-                .unwrap_or("sweeps");
-            spec.error_at(key, format!("`{}` {}", v.key, v.message))
-        })
-        .collect())
+                .filter(|(p, ..)| p.split('.').next() == Some(section))
+                .collect();
+            let key = state_key(section, &mine);
+            if !self.memo.contains_key(&key) {
+                let owned: Vec<_> = mine.iter().map(|a| (*a).clone()).collect();
+                let Ok(alone) = self.resolve_sections(&owned) else {
+                    // the whole point's resolution names the culprits
+                    return self.resolve(assignments).map(|p| {
+                        let ids = texts.sections.clone();
+                        let ids = ids.iter().map(|s| texts.add(p.section_text(s))).collect();
+                        (p, ids)
+                    });
+                };
+                let text = texts.add(alone.section_text(section));
+                if self.memo.len() >= MEMO_LIMIT {
+                    self.memo.clear();
+                }
+                self.memo.insert(key.clone(), (alone, text));
+            }
+            let (alone, text) = &self.memo[&key];
+            let known = params.copy_section(alone, section);
+            debug_assert!(known, "an unknown section does not deserialise");
+            if let Some(i) = texts.sections.iter().position(|s| *s == section) {
+                ids[i] = *text;
+            }
+        }
+        let violations = params.validate(self.sensors);
+        if violations.is_empty() {
+            return Ok((params, ids));
+        }
+        Err(self.placed(assignments, violations))
+    }
+
+    /// The sections `assignments` touch, rebuilt from the base's with the assignments applied (in
+    /// otherwise default parameters).
+    fn resolve_sections(
+        &self,
+        assignments: &[(String, toml::Value, String)],
+    ) -> Result<Params, toml::de::Error> {
+        let mut table = toml::Table::new();
+        for (path, ..) in assignments {
+            let section = path.split('.').next().unwrap_or(path);
+            if let Some(v) = self.base.get(section)
+                && !table.contains_key(section)
+            {
+                table.insert(section.to_string(), v.clone());
+            }
+        }
+        // Switching a tagged section's `model` starts that section afresh: the other variant's
+        // fields would not apply. Its new fields come from the other assignments.
+        for (path, value, _) in assignments {
+            if let Some(section) = path.strip_suffix(".model")
+                && get_path(&table, path) != Some(value)
+            {
+                let mut fresh = toml::Table::new();
+                fresh.insert("model".into(), value.clone());
+                set_path(&mut table, section, toml::Value::Table(fresh));
+            }
+        }
+        for (path, value, _) in assignments {
+            set_path(&mut table, path, value.clone());
+        }
+        toml::Value::Table(table).try_into()
+    }
+
+    /// Range violations placed at the sweep value that set the key, else at the first assignment.
+    fn placed(
+        &self,
+        assignments: &[(String, toml::Value, String)],
+        violations: Vec<crate::config::Violation>,
+    ) -> Vec<crate::source::SourceError> {
+        violations
+            .into_iter()
+            .map(|v| {
+                let key = assignments
+                    .iter()
+                    .find(|(p, ..)| *p == v.key)
+                    .or(assignments.first())
+                    .map(|(_, _, k)| k.as_str())
+                    .unwrap_or("sweeps");
+                self.spec.error_at(key, format!("`{}` {}", v.key, v.message))
+            })
+            .collect()
+    }
+
+    fn resolve(
+        &self,
+        assignments: &[(String, toml::Value, String)],
+    ) -> Result<Params, Vec<crate::source::SourceError>> {
+        let spec = self.spec;
+        if assignments.is_empty() {
+            return Ok(spec.spec.base.clone());
+        }
+        let mut touched: Vec<&str> = Vec::new();
+        for (path, ..) in assignments {
+            let section = path.split('.').next().unwrap_or(path);
+            if !touched.contains(&section) {
+                touched.push(section);
+            }
+        }
+        // The touched sections alone (the others keep their defaults there) …
+        let params = self
+            .resolve_sections(assignments)
+            .map(|mut partial| {
+                // … moved into the base
+                let mut params = spec.spec.base.clone();
+                for section in &touched {
+                    let known = params.take_section(&mut partial, section);
+                    debug_assert!(known, "an unknown section does not deserialise");
+                }
+                params
+            })
+            .map_err(|e: toml::de::Error| {
+                // Blame the values that fail on their own; if only the combination fails, blame
+                // all.
+                let alone: Vec<&(String, toml::Value, String)> = assignments
+                    .iter()
+                    .filter(|a| {
+                        assignments.len() > 1 && self.resolve(std::slice::from_ref(*a)).is_err()
+                    })
+                    .collect();
+                let culprits: Vec<&(String, toml::Value, String)> =
+                    if alone.is_empty() { assignments.iter().collect() } else { alone };
+                let names: Vec<&str> = assignments.iter().map(|(p, ..)| p.as_str()).collect();
+                culprits
+                    .iter()
+                    .map(|(_, _, key)| {
+                        spec.error_at(
+                            key,
+                            format!(
+                                "with {} set here, [base] does not deserialise: {}",
+                                names.join(", "),
+                                e.message().trim()
+                            ),
+                        )
+                    })
+                    .collect::<Vec<_>>()
+            })?;
+        let violations = params.validate(self.sensors);
+        if violations.is_empty() {
+            return Ok(params);
+        }
+        Err(self.placed(assignments, violations))
+    }
+}
+
+/// Identifies a section state: the section and the assignments that set it (path, and the value's
+/// bits or length-prefixed text: two values are one state only when equal, `-0.0` and `0.0`
+/// apart).
+fn state_key(section: &str, assignments: &[&(String, toml::Value, String)]) -> Vec<u8> {
+    let mut key = Vec::with_capacity(128);
+    key.extend_from_slice(section.as_bytes());
+    for (path, value, _) in assignments {
+        key.push(0);
+        key.extend_from_slice(path.as_bytes());
+        key.push(b'=');
+        match value {
+            toml::Value::Float(f) => {
+                key.push(b'f');
+                key.extend_from_slice(&f.to_bits().to_le_bytes());
+            }
+            toml::Value::Integer(i) => {
+                key.push(b'i');
+                key.extend_from_slice(&i.to_le_bytes());
+            }
+            toml::Value::Boolean(b) => key.extend_from_slice(if *b { b"T" } else { b"F" }),
+            toml::Value::String(t) => {
+                key.push(b's');
+                key.extend_from_slice(&t.len().to_le_bytes());
+                key.extend_from_slice(t.as_bytes());
+            }
+            other => {
+                let text = other.to_string();
+                key.push(b'v');
+                key.extend_from_slice(&text.len().to_le_bytes());
+                key.extend_from_slice(text.as_bytes());
+            }
+        }
+    }
+    key
 }
 
 fn get_path<'a>(table: &'a toml::Table, path: &str) -> Option<&'a toml::Value> {
@@ -681,7 +970,8 @@ fn find_point(
     let assignments: Vec<(String, toml::Value, String)> =
         leaves.into_iter().map(|(p, v)| (p.clone(), v, crate::source::join_key(key, &p))).collect();
     // only to find the point: the points themselves were checked with the study's sensors
-    let params = resolve(spec, &assignments, crate::world::Sensors::default())
+    let params = Resolver::new(spec, crate::world::Sensors::default())
+        .resolve(&assignments)
         .map_err(|mut e| e.remove(0))?;
     points.iter().position(|p| p.params == params).ok_or_else(|| {
         spec.error_at(key, "no sweep point of this study has these parameters (the others at base)")
@@ -810,12 +1100,24 @@ fn set_path(table: &mut toml::Table, path: &str, value: toml::Value) {
 
 /// A sweep value as shown in labels and reports: numbers in shortest round-trip form, strings bare.
 pub fn format_value(v: &toml::Value) -> String {
-    match v {
-        toml::Value::Float(f) => format!("{f}"),
-        toml::Value::Integer(i) => format!("{i}"),
-        toml::Value::String(s) => s.clone(),
-        toml::Value::Boolean(b) => format!("{b}"),
-        other => other.to_string(),
+    FormattedValue(v).to_string()
+}
+
+/// Room for a value's text when sizing a label (a shortest round-trip f64 has at most 24).
+const LABEL_VALUE_CHARS: usize = 24;
+
+/// [`format_value`] as a `Display`, written without an intermediate string.
+struct FormattedValue<'v>(&'v toml::Value);
+
+impl std::fmt::Display for FormattedValue<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            toml::Value::Float(x) => write!(f, "{x}"),
+            toml::Value::Integer(i) => write!(f, "{i}"),
+            toml::Value::String(s) => f.write_str(s),
+            toml::Value::Boolean(b) => write!(f, "{b}"),
+            other => write!(f, "{other}"),
+        }
     }
 }
 
@@ -827,11 +1129,32 @@ fn sanitize(label: &str) -> String {
         .collect()
 }
 
-fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunSpec> {
+fn runs(
+    spec: &LoadedSpec,
+    maps: &[MapEntry],
+    points: &[SweepPoint],
+    texts: &SweptTexts,
+    progress: &dyn Fn(Stage, usize, usize),
+) -> Vec<RunSpec> {
     let s = &spec.spec;
     let width = (s.replicates.saturating_sub(1)).to_string().len().max(2);
-    let mut runs = Vec::new();
+    let total = maps.len() * s.algorithms.len() * points.len() * s.replicates as usize;
+    let mut runs = Vec::with_capacity(total);
+    // the base's text of each section (the sections no sweep sets)
+    let base_texts: Vec<String> =
+        crate::params::SECTIONS.iter().map(|n| s.base.section_text(n)).collect();
+    let labels: Vec<String> = points.iter().map(|p| sanitize(&p.label)).collect();
     for (mi, map) in maps.iter().enumerate() {
+        // (world, filter) seed of each replicate: from the study seed, map and replicate only
+        let seeds: Vec<(u64, u64)> = (0..s.replicates)
+            .map(|replicate| {
+                let world = if s.fixed_world { 0 } else { replicate };
+                (
+                    derive_seed(s.seed, &map.name, world, "world"),
+                    derive_seed(s.seed, &map.name, replicate, "filter"),
+                )
+            })
+            .collect();
         for id in &s.algorithms {
             let algorithm = spec.catalogue.algorithm(id);
             // The world's parts this run reads: the point sensor's and the dataset loaders'
@@ -853,18 +1176,31 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
                     crate::world::point_sensor::POINT_SENSOR_CODE_VERSION
                 ));
             }
-            for (pi, point) in points.iter().enumerate() {
-                let sections = point.params.sections(&algorithm.sections_read(map.world_kind()));
+            let wanted = algorithm.sections_read(map.world_kind());
+            let code_version: std::sync::Arc<str> = code_version.into();
+            // one point's runs: independent of every other point's, so computed in parallel
+            // (collected in point order: the plan does not depend on the thread count)
+            let of_point = |pi: usize| {
+                let point = &points[pi];
+                // The sections the algorithm reads, as TOML text (not JSON: it keeps `inf`,
+                // e.g. fastslam.neff_threshold, distinct): the swept ones from the point, the
+                // others from the base.
+                let params = crate::params::Params::sections_text(&wanted, |name| {
+                    match texts.sections.iter().position(|t| *t == name) {
+                        Some(i) => texts.text(pi, i),
+                        None => {
+                            let i = crate::params::SECTIONS.iter().position(|t| *t == name);
+                            base_texts[i.expect("a listed section")].as_str()
+                        }
+                    }
+                })
+                .unwrap_or_else(|| {
+                    toml::to_string(&point.params.sections(&wanted))
+                        .expect("parameters serialise to TOML")
+                });
+                let mut out = Vec::with_capacity(s.replicates as usize);
                 for replicate in 0..s.replicates {
-                    let world_seed = derive_seed(
-                        s.seed,
-                        &map.name,
-                        if s.fixed_world { 0 } else { replicate },
-                        "world",
-                    );
-                    let filter_seed = derive_seed(s.seed, &map.name, replicate, "filter");
-                    // TOML text, not JSON: it keeps `inf` (e.g. fastslam.neff_threshold) distinct.
-                    let params = toml::to_string(&sections).expect("parameters serialise to TOML");
+                    let (world_seed, filter_seed) = seeds[replicate as usize];
                     let inputs = format!(
                         "map_blake3 = {:?}\nworld_seed = {world_seed}\nfilter_seed = {filter_seed}\n{params}",
                         map.hash
@@ -873,12 +1209,12 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
                     let hash = blake3::hash(format!("{code_version}\n{params_hash}").as_bytes())
                         .to_hex()
                         .to_string();
-                    runs.push(RunSpec {
+                    out.push(RunSpec {
                         run_id: format!(
                             "{}--{}--{}--r{:0width$}",
                             map.name,
                             algorithm.name(),
-                            sanitize(&point.label),
+                            labels[pi],
                             replicate
                         ),
                         map: mi,
@@ -892,6 +1228,13 @@ fn runs(spec: &LoadedSpec, maps: &[MapEntry], points: &[SweepPoint]) -> Vec<RunS
                         hash,
                     });
                 }
+                out
+            };
+            use rayon::prelude::*;
+            for chunk in (0..points.len()).collect::<Vec<_>>().chunks(PROGRESS_EVERY) {
+                progress(Stage::Runs, runs.len(), total);
+                let batch: Vec<Vec<RunSpec>> = chunk.par_iter().map(|&pi| of_point(pi)).collect();
+                runs.extend(batch.into_iter().flatten());
             }
         }
     }
@@ -918,6 +1261,82 @@ mod tests {
 
     /// `[[report.contrasts]]` pairs name sweep points: a named zip cell or a plan label; an unknown
     /// one is an error at the pair's key.
+    /// Every point of every committed study resolves to what resolving it alone gives, and every
+    /// run hashes the text of the whole `sections` table: the section-at-a-time expansion (memo,
+    /// shared texts, parallel hashing) changes no plan.
+    #[test]
+    fn fast_expansion_equals_resolving_each_point_alone() {
+        let catalogue = crate::spec::algorithms::catalogue(&[PathBuf::from("data/algorithms")])
+            .expect("the committed algorithms");
+        let mut specs: Vec<PathBuf> = std::fs::read_dir("experiments")
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+            .collect();
+        specs.sort();
+        assert!(specs.len() > 40);
+        for path in specs {
+            let spec = crate::spec::load(&path, &catalogue).unwrap();
+            let plan = build(spec, Path::new("data/maps")).unwrap();
+            let sensors = crate::world::Sensors { laser: true, landmarks: true };
+            let resolver = Resolver::new(&plan.spec, sensors);
+            for point in &plan.points {
+                let assignments: Vec<_> = point
+                    .assignments
+                    .iter()
+                    .map(|(p, v)| (p.clone(), v.clone(), "sweeps".to_string()))
+                    .collect();
+                // (the study's own sensors may accept what these reject: compare when both do)
+                if let Ok(alone) = resolver.resolve(&assignments) {
+                    assert_eq!(alone, point.params, "{}: {}", path.display(), point.label);
+                }
+            }
+            for run in &plan.runs {
+                let map = &plan.maps[run.map];
+                let wanted = plan.algorithm(run).sections_read(map.world_kind());
+                let params = toml::to_string(&plan.points[run.point].params.sections(&wanted))
+                    .unwrap();
+                let inputs = format!(
+                    "map_blake3 = {:?}\nworld_seed = {}\nfilter_seed = {}\n{params}",
+                    map.hash, run.world_seed, run.filter_seed
+                );
+                assert_eq!(
+                    run.params_hash,
+                    blake3::hash(inputs.as_bytes()).to_hex().to_string(),
+                    "{}: {}",
+                    path.display(),
+                    run.run_id
+                );
+            }
+        }
+    }
+
+    /// A grid over two sections resolves each section state once, and its points are those of
+    /// resolving each alone — a `model` switch (which starts its section afresh) and a value equal
+    /// to the base (one point with the base) included.
+    #[test]
+    fn grid_points_are_resolved_section_by_section() {
+        let spec = format!(
+            "{HEAD}[base.odometry]\nmodel = \"proportional\"\nk = 0.1\nk_is = \"std\"\n[base.sim]\ndt_s = 0.1\n[[sweeps]]\nkind = \"grid\"\nvalues = {{ \"odometry.k\" = [0.1, 0.2, 0.3], \"sim.dt_s\" = [0.1, 0.2] }}\n[[sweeps]]\nkind = \"zip\"\nvalues = {{ \"odometry.model\" = [\"proportional\", \"none\"] }}\n"
+        );
+        let plan = plan_of(&spec).unwrap();
+        let resolver = Resolver::new(&plan.spec, crate::world::Sensors::default());
+        for p in &plan.points {
+            let a: Vec<_> =
+                p.assignments.iter().map(|(x, v)| (x.clone(), v.clone(), String::new())).collect();
+            assert_eq!(resolver.resolve(&a).unwrap(), p.params, "{}", p.label);
+        }
+        // 6 grid points; the zip's `proportional` is the grid's first point (k = 0.1, dt = 0.1)
+        assert_eq!(plan.points.len(), 7, "{:?}", plan.points.iter().map(|p| &p.label).collect::<Vec<_>>());
+        let none = plan.points.iter().find(|p| p.label == "odometry.model=none").unwrap();
+        assert_eq!(none.params.odometry, crate::world::odometry::OdometryNoise::None {});
+        // distinct parameters, distinct hashes
+        let mut hashes: Vec<&str> = plan.runs.iter().map(|r| r.params_hash.as_str()).collect();
+        hashes.sort_unstable();
+        hashes.dedup();
+        assert_eq!(hashes.len(), plan.runs.len());
+    }
+
     #[test]
     fn contrast_pairs_must_name_sweep_points() {
         let spec = format!(
@@ -1061,6 +1480,23 @@ mod tests {
         assert_eq!(e.key, "sweeps[0].values.\"odometry.k\"[1]");
         assert_eq!(e.line, 9);
         assert!(e.message.contains("≥ 0"), "{}", e.message);
+    }
+
+    /// A sweep that fails at every one of its values reports the first few, each at its value,
+    /// and counts the rest (10⁵ failing values once printed 10⁵ lines in 15 s).
+    #[test]
+    fn a_sweep_failing_everywhere_reports_the_first_errors_and_counts_the_rest() {
+        let values: Vec<String> = (1..=30).map(|i| format!("-{i}.0")).collect();
+        let text = format!(
+            "{HEAD}[[sweeps]]\nkind = \"one_at_a_time\"\nvalues = {{ \"odometry.k\" = [{}] }}\n",
+            values.join(", ")
+        );
+        let err = plan_of(&text).unwrap_err();
+        let errors = &err.0[0].errors;
+        assert_eq!(errors.len(), MAX_POINT_ERRORS + 1);
+        assert_eq!(errors[0].key, "sweeps[0].values.\"odometry.k\"[0]");
+        assert_eq!(errors[19].key, "sweeps[0].values.\"odometry.k\"[19]");
+        assert!(errors[20].message.starts_with("and 10 more errors"), "{}", errors[20].message);
     }
 
     #[test]

@@ -99,7 +99,7 @@ pub fn explain(
                 None => Reason::New,
                 Some(prev) => match (
                     prev.params_hash != run.params_hash,
-                    prev.code_version != run.code_version,
+                    *prev.code_version != *run.code_version,
                 ) {
                     (true, true) => Reason::ParametersAndCodeVersionChanged,
                     (true, false) => Reason::ParametersChanged,
@@ -742,7 +742,7 @@ fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
         error: None,
         run_hash: run.hash.clone(),
         params_hash: run.params_hash.clone(),
-        code_version: run.code_version.clone(),
+        code_version: run.code_version.to_string(),
         params: leaves.iter().map(|(k, v)| (k.clone(), ParamValue::from_toml(v))).collect(),
         metrics: Vec::new(),
     }
