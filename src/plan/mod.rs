@@ -765,10 +765,8 @@ impl<'s> Resolver<'s> {
             }
         }
         for section in sections {
-            let mine: Vec<&(String, toml::Value, String)> = assignments
-                .iter()
-                .filter(|(p, ..)| p.split('.').next() == Some(section))
-                .collect();
+            let mine: Vec<&(String, toml::Value, String)> =
+                assignments.iter().filter(|(p, ..)| p.split('.').next() == Some(section)).collect();
             let key = state_key(section, &mine);
             if !self.memo.contains_key(&key) {
                 let owned: Vec<_> = mine.iter().map(|a| (*a).clone()).collect();
@@ -1294,8 +1292,8 @@ mod tests {
             for run in &plan.runs {
                 let map = &plan.maps[run.map];
                 let wanted = plan.algorithm(run).sections_read(map.world_kind());
-                let params = toml::to_string(&plan.points[run.point].params.sections(&wanted))
-                    .unwrap();
+                let params =
+                    toml::to_string(&plan.points[run.point].params.sections(&wanted)).unwrap();
                 let inputs = format!(
                     "map_blake3 = {:?}\nworld_seed = {}\nfilter_seed = {}\n{params}",
                     map.hash, run.world_seed, run.filter_seed
@@ -1327,7 +1325,12 @@ mod tests {
             assert_eq!(resolver.resolve(&a).unwrap(), p.params, "{}", p.label);
         }
         // 6 grid points; the zip's `proportional` is the grid's first point (k = 0.1, dt = 0.1)
-        assert_eq!(plan.points.len(), 7, "{:?}", plan.points.iter().map(|p| &p.label).collect::<Vec<_>>());
+        assert_eq!(
+            plan.points.len(),
+            7,
+            "{:?}",
+            plan.points.iter().map(|p| &p.label).collect::<Vec<_>>()
+        );
         let none = plan.points.iter().find(|p| p.label == "odometry.model=none").unwrap();
         assert_eq!(none.params.odometry, crate::world::odometry::OdometryNoise::None {});
         // distinct parameters, distinct hashes
