@@ -1176,8 +1176,7 @@ fn runs(
             }
             let wanted = algorithm.sections_read(map.world_kind());
             let code_version: std::sync::Arc<str> = code_version.into();
-            // one point's runs: independent of every other point's, so computed in parallel
-            // (collected in point order: the plan does not depend on the thread count)
+            // one point's runs
             let of_point = |pi: usize| {
                 let point = &points[pi];
                 // The sections the algorithm reads, as TOML text (not JSON: it keeps `inf`,
@@ -1228,11 +1227,11 @@ fn runs(
                 }
                 out
             };
-            use rayon::prelude::*;
-            for chunk in (0..points.len()).collect::<Vec<_>>().chunks(PROGRESS_EVERY) {
-                progress(Stage::Runs, runs.len(), total);
-                let batch: Vec<Vec<RunSpec>> = chunk.par_iter().map(|&pi| of_point(pi)).collect();
-                runs.extend(batch.into_iter().flatten());
+            for pi in 0..points.len() {
+                if pi % PROGRESS_EVERY == 0 {
+                    progress(Stage::Runs, runs.len(), total);
+                }
+                runs.extend(of_point(pi));
             }
         }
     }

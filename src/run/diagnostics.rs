@@ -22,8 +22,7 @@ pub fn build(
     plan: &ExperimentPlan,
     resolved: &crate::store::ResolvedStudy,
     rows: &[RunRow],
-    traces: &[TraceRows],
-    matches: &[MatchRows],
+    load: &dyn Fn(&str) -> Option<crate::store::RunParts>,
 ) -> Result<Option<Diagnostics>, String> {
     let spec = &plan.spec.spec;
     let catalogue = &plan.spec.catalogue;
@@ -58,6 +57,9 @@ pub fn build(
             })
         })
         .collect();
+    // the traces and matches of the shown cell's runs (the only ones diagnosed), read once
+    let (traces, matches): (Vec<TraceRows>, Vec<MatchRows>) =
+        cell.iter().filter_map(|r| load(&r.run_id)).map(|p| (p.trace, p.matches)).unzip();
     let matches_of = |run: &RunRow| {
         matches.iter().find(|m| m.run_id == run.run_id).map_or(&[][..], |m| m.matches.as_slice())
     };

@@ -225,21 +225,27 @@ pub fn run_study(
         Progress::new(plan.id(), plan.runs.len(), to_compute, to_compute_cost, opts.progress);
     // Cache IO (Parquet, through polars' own thread pool) stays on this thread: a worker of ours
     // waiting on polars would run further jobs of ours meanwhile, nesting without bound. So cached
-    // runs are read first, and computed runs are cached here as the workers send them.
-    let mut computed: BTreeMap<&str, (CachedRun, bool)> = BTreeMap::new();
+    // runs are looked up first, and computed runs are cached here as the workers send them.
+    // What is kept of each run is its row, compute time and trace length ([`Done`]): its trace,
+    // landmarks and matches are read back from the cache when the study is written, a batch at a
+    // time, so a study's memory does not grow with its runs' results.
+    let mut done: BTreeMap<&str, Done> = BTreeMap::new();
     let mut missing: Vec<usize> = Vec::new();
     let mut corrupt = 0usize;
     for &i in &unique {
         let run = &plan.runs[i];
         let lookup = if reasons[i] == Reason::Cached {
-            cache.lookup(&run.hash)
+            cache.lookup_summary(&run.hash)
         } else {
             store::Lookup::Absent
         };
         match lookup {
             store::Lookup::Hit(c) => {
                 progress.finished(c.row.status, true, multiplicity[run.hash.as_str()], 0.0);
-                computed.insert(run.hash.as_str(), (c, true));
+                done.insert(
+                    run.hash.as_str(),
+                    Done::of(c.row, c.wall_ms, c.trace_rows, true, None),
+                );
             }
             store::Lookup::Corrupt(why) => {
                 progress.warn(&format!(
@@ -255,52 +261,77 @@ pub fn run_study(
     compute(plan, &missing, &|i| planned_cost[plan.runs[i].hash.as_str()], &pool, |i, c| {
         let run = &plan.runs[i];
         // Replace whatever is there: forced, or an entry that could not be read. A cache that
-        // cannot be written only costs a recomputation next time.
-        if let Err(e) = cache.put(&run.hash, &c, true) {
-            progress.warn(&format!("cannot cache {}: {e}", run.run_id));
-        }
+        // cannot be written only costs a recomputation next time; until the study is written,
+        // the run's results are then held here.
+        let held = match cache.put(&run.hash, &c, true) {
+            Ok(()) => None,
+            Err(e) => {
+                progress.warn(&format!("cannot cache {}: {e}", run.run_id));
+                Some(store::RunParts {
+                    trace: c.trace.clone(),
+                    landmarks: c.landmarks.clone(),
+                    matches: c.matches.clone(),
+                })
+            }
+        };
         progress.finished(
             c.row.status,
             false,
             multiplicity[run.hash.as_str()],
             planned_cost[run.hash.as_str()],
         );
-        computed.insert(run.hash.as_str(), (c, false));
+        let trace_rows = c.trace.truth.len();
+        done.insert(run.hash.as_str(), Done::of(c.row, c.wall_ms, trace_rows, false, held));
     });
-    let outcomes: Vec<(CachedRun, bool)> = plan
-        .runs
-        .iter()
-        .map(|run| {
-            let (c, from_cache) = &computed[run.hash.as_str()];
-            let mut c = c.clone();
-            relabel(&mut c, plan, run);
-            (c, *from_cache)
-        })
-        .collect();
     progress.done();
 
-    let mut outcomes = outcomes;
-    outcomes.sort_by(|a, b| a.0.row.run_id.cmp(&b.0.row.run_id));
-    let rows: Vec<RunRow> = outcomes.iter().map(|(o, _)| o.row.clone()).collect();
-    let timings: Vec<Timing> = outcomes
+    let mut order: Vec<&RunSpec> = plan.runs.iter().collect();
+    order.sort_by(|a, b| a.run_id.cmp(&b.run_id));
+    let rows: Vec<RunRow> =
+        order.iter().map(|run| done[run.hash.as_str()].row(plan, run)).collect();
+    let timings: Vec<Timing> = order
         .iter()
-        .map(|(o, cached)| Timing {
-            run_id: o.row.run_id.clone(),
-            wall_ms: o.wall_ms,
-            steps: o.trace.truth.len().saturating_sub(1) as u32,
-            cached: *cached,
+        .map(|run| {
+            let d = &done[run.hash.as_str()];
+            Timing {
+                run_id: run.run_id.clone(),
+                wall_ms: d.wall_ms,
+                steps: d.trace_rows.saturating_sub(1) as u32,
+                cached: d.cached,
+            }
         })
         .collect();
-    let landmarks: Vec<RunLandmarks> = outcomes.iter().map(|(o, _)| o.landmarks.clone()).collect();
-    let matches: Vec<MatchRows> = outcomes.iter().map(|(o, _)| o.matches.clone()).collect();
-    let traces: Vec<TraceRows> = outcomes.into_iter().map(|(o, _)| o.trace).collect();
+    // a run's trace, landmarks and matches, labelled with its run id
+    let parts_of = |run: &RunSpec| -> Result<store::RunParts, StoreError> {
+        let d = &done[run.hash.as_str()];
+        let mut parts = match &d.held {
+            Some(p) => p.clone(),
+            None => cache.parts(&run.hash, &run.run_id).ok_or_else(|| {
+                StoreError::format(
+                    &opts.cache_dir,
+                    format!(
+                        "the cache entry of {} ({}) vanished while the study ran",
+                        run.run_id, run.hash
+                    ),
+                )
+            })?,
+        };
+        parts.trace.run_id.clone_from(&run.run_id);
+        parts.landmarks.run_id.clone_from(&run.run_id);
+        parts.matches.run_id.clone_from(&run.run_id);
+        Ok(parts)
+    };
     let failed = rows.iter().filter(|r| r.status == RunStatus::Failed).count();
     let diverged = rows.iter().filter(|r| r.status == RunStatus::Diverged).count();
 
     // Diagnostics are an addition to the results: when they cannot be made, say why and go on.
     let diagnosed = plan.has_scan_matcher();
+    let load = |run_id: &str| {
+        let run = plan.runs.iter().find(|r| r.run_id == run_id)?;
+        parts_of(run).ok()
+    };
     let diagnostics = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        diagnostics::build(plan, &resolved, &rows, &traces, &matches)
+        diagnostics::build(plan, &resolved, &rows, &load)
     })) {
         Ok(Ok(d)) => d,
         Ok(Err(why)) => {
@@ -320,9 +351,6 @@ pub fn run_study(
         &dir,
         &StudyOutput {
             runs: &rows,
-            traces: &traces,
-            landmarks: &landmarks,
-            matches: &matches,
             timings: &timings,
             resolved: &resolved,
             manifest: &manifest,
@@ -330,6 +358,7 @@ pub fn run_study(
             reference: plan.reference.as_deref(),
             diagnostics: diagnosed.then_some(diagnostics.as_ref()),
         },
+        &mut |k| parts_of(order[k]),
     )?;
     Ok(StudySummary {
         study: plan.id().to_string(),
@@ -359,7 +388,10 @@ fn compute(
     let order = schedule(plan, todo, cost);
     let worlds = worlds::Worlds::new(plan, todo);
     let next = std::sync::atomic::AtomicUsize::new(0);
-    let (sender, results) = std::sync::mpsc::channel();
+    // Bounded: a worker waits when this thread (caching each result, with an fsync) falls behind,
+    // so results in flight stay a few per worker instead of piling up (fast runs outpace the
+    // cache writes; unbounded, 4 000 quick runs held 1.4 GB).
+    let (sender, results) = std::sync::mpsc::sync_channel(2 * pool.current_num_threads());
     std::thread::scope(|scope| {
         let (order, next, worlds) = (&order, &next, &worlds);
         scope.spawn(move || {
@@ -750,17 +782,43 @@ fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
 
 /// A cache entry may come from another study or run id with identical inputs: give it this
 /// run's identity.
-fn relabel(cached: &mut CachedRun, plan: &ExperimentPlan, run: &RunSpec) {
-    let fresh = base_row(plan, run);
-    cached.row = RunRow {
-        status: cached.row.status,
-        error: cached.row.error.take(),
-        metrics: std::mem::take(&mut cached.row.metrics),
-        ..fresh
-    };
-    cached.trace.run_id = run.run_id.clone();
-    cached.landmarks.run_id = run.run_id.clone();
-    cached.matches.run_id = run.run_id.clone();
+/// A run as a study keeps it until its results are written: what its row takes from the
+/// computation (the rest of the row is the study's own, from the plan).
+struct Done {
+    status: RunStatus,
+    error: Option<String>,
+    metrics: Vec<(String, f64)>,
+    wall_ms: f64,
+    trace_rows: usize,
+    /// Taken from the cache this time.
+    cached: bool,
+    /// Its trace, landmarks and matches when they could not be cached (else read back from the
+    /// cache when the study is written).
+    held: Option<store::RunParts>,
+}
+
+impl Done {
+    fn of(
+        row: RunRow,
+        wall_ms: f64,
+        trace_rows: usize,
+        cached: bool,
+        held: Option<store::RunParts>,
+    ) -> Self {
+        let RunRow { status, error, metrics, .. } = row;
+        Self { status, error, metrics, wall_ms, trace_rows, cached, held }
+    }
+
+    /// The row of `run` of this study: its own id, point, seeds and parameters; the computed (or
+    /// cached) status, error and metrics.
+    fn row(&self, plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
+        RunRow {
+            status: self.status,
+            error: self.error.clone(),
+            metrics: self.metrics.clone(),
+            ..base_row(plan, run)
+        }
+    }
 }
 
 fn manifest(plan: &ExperimentPlan, p: &Provenance, runs: usize, failed: usize) -> Manifest {

@@ -38,7 +38,7 @@ impl StoreError {
     fn io(path: &Path, source: std::io::Error) -> Self {
         StoreError::Io { path: path.to_path_buf(), source }
     }
-    fn format(path: &Path, message: impl ToString) -> Self {
+    pub(crate) fn format(path: &Path, message: impl ToString) -> Self {
         StoreError::Format { path: path.to_path_buf(), message: message.to_string() }
     }
 }
@@ -144,7 +144,7 @@ impl RunRow {
 }
 
 /// Per-step truth and estimate of one run (step k at t = k·Δt).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct TraceRows {
     pub run_id: String,
     pub dt_s: f64,
@@ -314,10 +314,9 @@ impl ResolvedStudy {
 
 /// Everything `write_study` puts in a study directory.
 pub struct StudyOutput<'a> {
+    /// Every run's row, sorted by run id.
     pub runs: &'a [RunRow],
-    pub traces: &'a [TraceRows],
-    pub landmarks: &'a [RunLandmarks],
-    pub matches: &'a [MatchRows],
+    /// Their timings, in the same order.
     pub timings: &'a [Timing],
     pub resolved: &'a ResolvedStudy,
     pub manifest: &'a Manifest,
@@ -330,20 +329,66 @@ pub struct StudyOutput<'a> {
     pub diagnostics: Option<Option<&'a crate::scanmatch::diagnose::Diagnostics>>,
 }
 
-/// Writes a study directory atomically (rows must already be sorted by run id).
-pub fn write_study(dir: &Path, out: &StudyOutput<'_>) -> Result<(), StoreError> {
+/// The bulk of one run's results: what a study's results hold of it besides its row.
+#[derive(Debug, Clone, Default)]
+pub struct RunParts {
+    pub trace: TraceRows,
+    pub landmarks: RunLandmarks,
+    pub matches: MatchRows,
+}
+
+/// Trace rows a study writes at a time (one row group of `traces.parquet`, with the landmarks and
+/// matches of the same runs): polars' own row-group size. A study's memory holds one such batch,
+/// not every run's results; a study smaller than this is written in one batch, exactly as a
+/// single write would write it.
+const BATCH_TRACE_ROWS: usize = 512 * 512;
+
+/// Writes a study directory atomically (rows must already be sorted by run id). `parts(k)` gives
+/// the trace, landmarks and matches of run `k` of `out.runs`; they are asked for in order and
+/// written a batch at a time.
+pub fn write_study(
+    dir: &Path,
+    out: &StudyOutput<'_>,
+    parts: &mut dyn FnMut(usize) -> Result<RunParts, StoreError>,
+) -> Result<(), StoreError> {
     write_dir_atomically(dir, |tmp| {
         let mut runs = parquet::runs_frame(out.runs).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("runs.parquet"), &mut runs)?;
-        let mut traces =
-            parquet::traces_frame(out.traces).map_err(|e| StoreError::format(dir, e))?;
-        parquet::write(&tmp.join("traces.parquet"), &mut traces)?;
-        let mut landmarks =
-            parquet::landmarks_frame(out.landmarks).map_err(|e| StoreError::format(dir, e))?;
-        parquet::write(&tmp.join("landmarks.parquet"), &mut landmarks)?;
-        let mut matches =
-            parquet::matches_frame(out.matches).map_err(|e| StoreError::format(dir, e))?;
-        parquet::write(&tmp.join("matches.parquet"), &mut matches)?;
+        let mut traces = parquet::Batched::new(&tmp.join("traces.parquet"));
+        let mut landmarks = parquet::Batched::new(&tmp.join("landmarks.parquet"));
+        let mut matches = parquet::Batched::new(&tmp.join("matches.parquet"));
+        let mut batch: Vec<RunParts> = Vec::new();
+        let mut rows = 0;
+        let mut flush = |batch: &mut Vec<RunParts>| -> Result<(), StoreError> {
+            let t: Vec<TraceRows> =
+                batch.iter_mut().map(|p| std::mem::take(&mut p.trace)).collect();
+            traces.write(&parquet::traces_frame(&t).map_err(|e| StoreError::format(dir, e))?)?;
+            let l: Vec<RunLandmarks> =
+                batch.iter_mut().map(|p| std::mem::take(&mut p.landmarks)).collect();
+            landmarks
+                .write(&parquet::landmarks_frame(&l).map_err(|e| StoreError::format(dir, e))?)?;
+            let m: Vec<MatchRows> =
+                batch.iter_mut().map(|p| std::mem::take(&mut p.matches)).collect();
+            matches.write(&parquet::matches_frame(&m).map_err(|e| StoreError::format(dir, e))?)?;
+            batch.clear();
+            Ok(())
+        };
+        for k in 0..out.runs.len() {
+            let p = parts(k)?;
+            rows += p.trace.truth.len();
+            batch.push(p);
+            if rows >= BATCH_TRACE_ROWS {
+                flush(&mut batch)?;
+                rows = 0;
+            }
+        }
+        if !batch.is_empty() {
+            flush(&mut batch)?;
+        }
+        drop(flush);
+        traces.finish(|| parquet::traces_frame(&[]))?;
+        landmarks.finish(|| parquet::landmarks_frame(&[]))?;
+        matches.finish(|| parquet::matches_frame(&[]))?;
         let mut timings =
             parquet::timings_frame(out.timings).map_err(|e| StoreError::format(dir, e))?;
         parquet::write(&tmp.join("timings.parquet"), &mut timings)?;
@@ -680,11 +725,21 @@ pub struct CachedRun {
 /// Column under which a cache entry keeps the run's compute time (never in study results).
 const CACHE_WALL_MS: &str = "cache_wall_ms";
 
+/// What a study keeps of a cached run while it writes its results: the row, its compute time
+/// and its trace's length; the rest is read again when written ([`Cache::parts`]).
+#[derive(Debug, Clone)]
+pub struct CachedSummary {
+    pub row: RunRow,
+    pub wall_ms: f64,
+    /// Rows of its trace.
+    pub trace_rows: usize,
+}
+
 /// A cache lookup.
 #[derive(Debug, Clone)]
-pub enum Lookup {
+pub enum Lookup<T = CachedRun> {
     /// Sealed and intact.
-    Hit(CachedRun),
+    Hit(T),
     /// A file changed since it was written, or the checksum list is missing, incomplete or lists
     /// less than the entry holds (named): the run is recomputed. Every entry is sealed when it is
     /// written, so an entry without its full list is never trusted.
@@ -707,12 +762,21 @@ impl Cache {
 
     /// The cached run and whether it is sealed (see [`Lookup`]).
     pub fn lookup(&self, hash: &str) -> Lookup {
+        match self.lookup_with(hash, |c| c.get(hash)) {
+            Lookup::Hit(Some(c)) => Lookup::Hit(c),
+            Lookup::Hit(None) | Lookup::Absent => Lookup::Absent,
+            Lookup::Corrupt(why) => Lookup::Corrupt(why),
+        }
+    }
+
+    /// Checks an entry's seal, then reads what `read` reads of it.
+    fn lookup_with<T>(&self, hash: &str, read: impl FnOnce(&Self) -> T) -> Lookup<T> {
         let dir = self.entry(hash);
         if !self.contains(hash) {
             return Lookup::Absent;
         }
         match check_seal(&dir) {
-            Ok(Seal::Intact) => self.get(hash).map_or(Lookup::Absent, Lookup::Hit),
+            Ok(Seal::Intact) => Lookup::Hit(read(self)),
             Ok(Seal::Unsealed) => Lookup::Corrupt(format!(
                 "{}: missing (every cache entry is sealed when written)",
                 dir.join(CHECKSUMS).display()
@@ -724,22 +788,52 @@ impl Cache {
         }
     }
 
-    /// The cached run, or `None` when absent or unreadable (then it is simply recomputed). Does
-    /// not check the checksums: [`Cache::lookup`] does.
-    pub fn get(&self, hash: &str) -> Option<CachedRun> {
+    /// [`Cache::lookup`], keeping only the row, compute time and trace length of a hit (the
+    /// checksums of every file are checked all the same).
+    pub fn lookup_summary(&self, hash: &str) -> Lookup<CachedSummary> {
+        match self.lookup_with(hash, |c| c.summary(hash)) {
+            Lookup::Hit(Some(s)) => Lookup::Hit(s),
+            Lookup::Hit(None) | Lookup::Absent => Lookup::Absent,
+            Lookup::Corrupt(why) => Lookup::Corrupt(why),
+        }
+    }
+
+    fn summary(&self, hash: &str) -> Option<CachedSummary> {
+        let dir = self.entry(hash);
+        let (row, wall_ms) = self.row(hash)?;
+        let trace_rows = parquet::count_rows(&dir.join("trace.parquet")).ok()?;
+        Some(CachedSummary { row, wall_ms, trace_rows })
+    }
+
+    fn row(&self, hash: &str) -> Option<(RunRow, f64)> {
         let dir = self.entry(hash);
         let mut rows = parquet::read_runs(&dir.join("run.parquet")).ok()?;
         let mut row = rows.pop()?;
         let wall_ms = row.metric(CACHE_WALL_MS).unwrap_or(f64::NAN);
         row.metrics.retain(|(k, _)| k != CACHE_WALL_MS);
+        Some((row, wall_ms))
+    }
+
+    /// The cached run, or `None` when absent or unreadable (then it is simply recomputed). Does
+    /// not check the checksums: [`Cache::lookup`] does.
+    pub fn get(&self, hash: &str) -> Option<CachedRun> {
+        let (row, wall_ms) = self.row(hash)?;
+        let RunParts { trace, landmarks, matches } = self.parts(hash, &row.run_id)?;
+        Some(CachedRun { row, trace, landmarks, matches, wall_ms })
+    }
+
+    /// The trace, landmarks and matches of a cached run (labelled `run_id`), or `None` when
+    /// absent or unreadable. Does not check the checksums: [`Cache::lookup`] does.
+    pub fn parts(&self, hash: &str, run_id: &str) -> Option<RunParts> {
+        let dir = self.entry(hash);
         let trace = parquet::read_traces(&dir.join("trace.parquet"), &|_| true)
             .ok()?
             .pop()
-            .unwrap_or_else(|| TraceRows::empty(&row.run_id));
+            .unwrap_or_else(|| TraceRows::empty(run_id));
         let landmarks = parquet::read_landmarks(&dir.join("landmarks.parquet"), &|_| true)
             .ok()?
             .pop()
-            .unwrap_or_else(|| RunLandmarks { run_id: row.run_id.clone(), landmarks: Vec::new() });
+            .unwrap_or_else(|| RunLandmarks { run_id: run_id.to_string(), landmarks: Vec::new() });
         // Entries written before scan matching existed have no matches file: no matches.
         let matches = match dir.join("matches.parquet") {
             p if p.is_file() => {
@@ -747,8 +841,11 @@ impl Cache {
             }
             _ => MatchRows::default(),
         };
-        let matches = MatchRows { run_id: row.run_id.clone(), ..matches };
-        Some(CachedRun { row, trace, landmarks, matches, wall_ms })
+        Some(RunParts {
+            trace: TraceRows { run_id: run_id.to_string(), ..trace },
+            landmarks: RunLandmarks { run_id: run_id.to_string(), ..landmarks },
+            matches: MatchRows { run_id: run_id.to_string(), ..matches },
+        })
     }
 
     /// Stores a run. An existing entry is kept unless `replace` (a forced recomputation, or an
@@ -828,9 +925,13 @@ fn files_under(root: &Path) -> Result<Vec<(String, PathBuf)>, StoreError> {
     Ok(out)
 }
 
+/// The blake3 of a file, read in pieces (a study's traces can be larger than the memory it may
+/// use).
 fn file_hash(path: &Path) -> Result<String, StoreError> {
-    let bytes = std::fs::read(path).map_err(|e| StoreError::io(path, e))?;
-    Ok(blake3::hash(&bytes).to_hex().to_string())
+    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let mut hasher = blake3::Hasher::new();
+    hasher.update_reader(file).map_err(|e| StoreError::io(path, e))?;
+    Ok(hasher.finalize().to_hex().to_string())
 }
 
 /// Records the checksum of every file of a directory being written (the last step of a fill).

@@ -55,6 +55,80 @@ pub(super) fn write(path: &Path, df: &mut DataFrame) -> Result<(), StoreError> {
     w.get_ref().sync_all().map_err(|e| StoreError::io(path, e))
 }
 
+/// A Parquet file written a batch of rows at a time, each batch its own row group, with
+/// [`write`]'s settings: a file of one batch is byte for byte the file [`write`] gives for the
+/// same rows (fewer than polars' 512² rows a row group). A study's results are written this way,
+/// so that only one batch of runs is in memory at a time.
+pub(super) struct Batched {
+    path: std::path::PathBuf,
+    writer: Option<(BatchedWriter<Sink>, Sink)>,
+}
+
+/// The buffered file a [`Batched`] writes to, shared with it so that the buffer can be flushed
+/// (and its errors seen) once polars has written the footer.
+#[derive(Clone)]
+struct Sink(std::sync::Arc<std::sync::Mutex<std::io::BufWriter<std::fs::File>>>);
+
+impl std::io::Write for Sink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.lock().expect("one writer").write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.lock().expect("one writer").flush()
+    }
+}
+
+impl Batched {
+    pub(super) fn new(path: &Path) -> Self {
+        Self { path: path.to_path_buf(), writer: None }
+    }
+
+    /// Appends `df` (one chunk per column, as the frame builders here make them); the first
+    /// batch fixes the schema.
+    pub(super) fn write(&mut self, df: &DataFrame) -> Result<(), StoreError> {
+        assert_off_worker_pool(&self.path);
+        let path = &self.path;
+        if self.writer.is_none() {
+            let file = std::fs::File::create(path).map_err(|e| StoreError::io(path, e))?;
+            let sink =
+                Sink(std::sync::Arc::new(std::sync::Mutex::new(std::io::BufWriter::new(file))));
+            let writer = ParquetWriter::new(sink.clone())
+                .with_compression(ParquetCompression::Zstd(None))
+                .set_parallel(false)
+                .batched(df.schema())
+                .map_err(|e| err(path, e))?;
+            self.writer = Some((writer, sink));
+        }
+        let (writer, _) = self.writer.as_mut().expect("created above");
+        writer.write_batch(df).map_err(|e| err(path, e))
+    }
+
+    /// Closes the file; `empty` gives the (zero-row) frame written when no batch came.
+    pub(super) fn finish(
+        self,
+        empty: impl FnOnce() -> PolarsResult<DataFrame>,
+    ) -> Result<(), StoreError> {
+        let path = &self.path;
+        let Some((writer, sink)) = self.writer else {
+            let mut df = empty().map_err(|e| err(path, e))?;
+            return write(path, &mut df);
+        };
+        writer.finish().map_err(|e| err(path, e))?;
+        drop(writer);
+        let mut file = sink.0.lock().expect("one writer");
+        std::io::Write::flush(&mut *file).map_err(|e| StoreError::io(path, e))?;
+        file.get_ref().sync_all().map_err(|e| StoreError::io(path, e))
+    }
+}
+
+/// Rows of a Parquet file, from its footer (nothing else is read).
+pub(super) fn count_rows(path: &Path) -> Result<usize, StoreError> {
+    assert_off_worker_pool(path);
+    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+    ParquetReader::new(file).num_rows().map_err(|e| err(path, e))
+}
+
 pub(super) fn read(path: &Path) -> Result<DataFrame, StoreError> {
     assert_off_worker_pool(path);
     let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;

@@ -10,6 +10,7 @@ mod fastslam;
 mod fidelity;
 mod ft_maps;
 mod layering;
+mod memory;
 mod nlopt_threads;
 mod pipeline;
 mod point_worlds;
