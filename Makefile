@@ -55,6 +55,7 @@ test-slurm: build
 bench: build
 	$(CARGO) bench --locked --bench world --bench slam --bench landmark_filters --bench scanmatch
 	tests/tools/plan_bench.sh $(BIN)
+	tests/tools/memory_bench.sh $(BIN)
 	@tmp=$$(mktemp -d); \
 	start=$$(date +%s.%N); \
 	$(BIN) run --quiet --results $$tmp/results --cache $$tmp/cache $(SPECS); \
