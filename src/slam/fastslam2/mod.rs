@@ -75,7 +75,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use std::f64::consts::PI;
 
-pub const CODE_VERSION: &str = "fastslam2-3";
+pub const CODE_VERSION: &str = "fastslam2-4";
 
 /// ln(2π), the normalising constant of a bivariate Gaussian's log density.
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
@@ -197,6 +197,50 @@ fn refine(mu: &mut Pose2, sigma: &mut Matrix3<f64>, o: &Observation, l: &Landmar
     *mu = Pose2::new(mu.x + step[0], mu.y + step[1], wrap_angle(mu.theta + step[2]));
     *sigma = next;
     Some(m.log_likelihood)
+}
+
+/// [`refine`] for several readings of one landmark, stacked into one observation: innovations
+/// ν = (ν₁ … ν_n), H_x stacked, and Z = H_m P H_mᵀ + blockdiag(R_i), whose off-diagonal blocks
+/// H_mi P H_mjᵀ are the landmark error the readings share. Returns the readings' joint factor
+/// ln N(ν; 0, H_x Σx H_xᵀ + Z).
+fn refine_stacked(
+    mu: &mut Pose2,
+    sigma: &mut Matrix3<f64>,
+    readings: &[&Observation],
+    l: &Landmark,
+) -> Option<f64> {
+    use nalgebra::{DMatrix, DVector};
+    let n = 2 * readings.len();
+    let (mut hx, mut hm) = (DMatrix::<f64>::zeros(n, 3), DMatrix::<f64>::zeros(n, 2));
+    let (mut r, mut nu) = (DMatrix::<f64>::zeros(n, n), DVector::<f64>::zeros(n));
+    for (i, o) in readings.iter().enumerate() {
+        let full = o.model.predict_full(&l.mean, mu);
+        hx.view_mut((2 * i, 0), (2, 3)).copy_from(&full.h_pose);
+        hm.view_mut((2 * i, 0), (2, 2)).copy_from(&full.h_landmark);
+        r.view_mut((2 * i, 2 * i), (2, 2)).copy_from(&o.r);
+        nu.rows_mut(2 * i, 2).copy_from(&o.model.innovation(&o.z, &full.z));
+    }
+    let p = DMatrix::from_iterator(2, 2, l.cov.iter().copied());
+    let z_cov = &hm * p * hm.transpose() + r;
+    let sx = DMatrix::from_iterator(3, 3, sigma.iter().copied());
+    let s = &hx * &sx * hx.transpose() + &z_cov;
+    let s_inv = s.clone().try_inverse()?;
+    let k = &sx * hx.transpose() * &s_inv;
+    let i_kh = DMatrix::<f64>::identity(3, 3) - &k * &hx;
+    let next = &i_kh * &sx * i_kh.transpose() + &k * &z_cov * k.transpose();
+    let next = Matrix3::from_iterator((0.5 * (&next + next.transpose())).iter().copied());
+    let step = &k * &nu;
+    let log_likelihood = -0.5 * (nu.transpose() * &s_inv * &nu)[0]
+        - 0.5 * (n as f64 * (2.0 * PI).ln() + s.determinant().ln());
+    if !(next.iter().all(|v| v.is_finite())
+        && step.iter().all(|v| v.is_finite())
+        && log_likelihood.is_finite())
+    {
+        return None;
+    }
+    *mu = Pose2::new(mu.x + step[0], mu.y + step[1], wrap_angle(mu.theta + step[2]));
+    *sigma = next;
+    Some(log_likelihood)
 }
 
 /// Lower-triangular L with L Lᵀ = A for a symmetric positive semi-definite 3 × 3 A (Cholesky–
@@ -437,15 +481,41 @@ impl<'a> FastSlam2<'a> {
         let map = &self.particles[i].map;
         let (mut mu, mut sigma) = (predicted, q);
         let mut refined = 0;
-        for (o, d) in z.iter().zip(decisions.iter_mut()) {
-            if let Association::Known { landmark, log_likelihood } = d {
-                match refine(&mut mu, &mut sigma, o, &map.of(o.model)[*landmark]) {
-                    Some(factor) => {
-                        *log_likelihood = factor;
-                        refined += 1;
+        // A landmark that several observations picked (maximum-likelihood association without
+        // the shared-landmark rule) is folded once, with its readings stacked: they share the
+        // landmark's error, which folding each against the unchanged landmark would count once
+        // per reading. The group's factor goes to its first reading.
+        let mut folded = vec![false; z.len()];
+        for k in 0..z.len() {
+            let Association::Known { landmark, .. } = decisions[k] else { continue };
+            if folded[k] {
+                continue;
+            }
+            let o = &z[k];
+            let group: Vec<usize> = (k..z.len())
+                .filter(|&g| {
+                    z[g].model == o.model
+                        && matches!(decisions[g], Association::Known { landmark: j, .. } if j == landmark)
+                })
+                .collect();
+            let l = &map.of(o.model)[landmark];
+            let factor = if group.len() == 1 {
+                refine(&mut mu, &mut sigma, o, l)
+            } else {
+                let readings: Vec<&Observation> = group.iter().map(|&g| &z[g]).collect();
+                refine_stacked(&mut mu, &mut sigma, &readings, l)
+            };
+            match factor {
+                Some(factor) => {
+                    for (n, &g) in group.iter().enumerate() {
+                        folded[g] = true;
+                        if let Association::Known { log_likelihood, .. } = &mut decisions[g] {
+                            *log_likelihood = if n == 0 { factor } else { 0.0 };
+                        }
                     }
-                    None => self.numerical_failures += 1,
+                    refined += 1;
                 }
+                None => self.numerical_failures += 1,
             }
         }
         if refined == 0 {

@@ -786,3 +786,67 @@ fn one_landmark_read_twice_weighs_by_the_joint_density() {
     );
     assert_eq!(f.particles[0].map.corners.len(), 1);
 }
+
+/// Two features of one scan that maximum-likelihood association sends to the same landmark
+/// (`ambiguity = "none"`: nothing stops it). Their joint density has the landmark's error shared
+/// between them (the cross term H_m P H_mᵀ); the proposal folds the second reading against the
+/// landmark as the first corrected it, so the chain-rule factors give that joint density. Folding
+/// both against the unchanged landmark, as it once did, counts the landmark's uncertainty twice.
+#[test]
+fn two_features_on_one_landmark_fold_into_the_proposal_once_each() {
+    let motion = MotionModel::Pose { sigma_x_m: 0.08, sigma_y_m: 0.08, sigma_theta_rad: 0.03 };
+    let u = Pose2::new(0.3, 0.02, 0.05);
+    let r = Matrix2::new(1e-4, 0.0, 0.0, 1e-5);
+    let truth = Pose2::new(0.55, 0.12, 0.47);
+    let p = FastSlamParams {
+        ambiguity: crate::slam::fastslam::association::Ambiguity::None,
+        p0: 1e-30,
+        ..params(1, DataAssociation::MaximumLikelihood)
+    };
+    let (mut f, l) = one_particle(&p, &motion);
+    let loose = Landmark { cov: Matrix2::new(0.04, 0.0, 0.0, 0.04), id: None, ..l };
+    f.particles[0].map_mut().corners[0] = loose;
+    let reading = |dz: f64| Observation {
+        model: Model::Point,
+        z: Model::Point.predict(&loose.mean, &truth).z + Vector2::new(dz, -dz / 10.0),
+        r,
+        landmark: None,
+    };
+    let (z1, z2) = (reading(0.004), reading(-0.003));
+    let previous = f.particles[0].pose;
+    f.advance(0, Some(&u), &[z1, z2], &mut ChaCha8Rng::seed_from_u64(1));
+    assert_eq!(f.numerical_failures, 0);
+    assert_eq!(f.particles[0].map.corners.len(), 1, "both readings went to the one landmark");
+
+    let predicted = previous.compose(u);
+    let q = motion.covariance(&previous, &u);
+    let a = Model::Point.predict_full(&loose.mean, &predicted);
+    let mut hx = nalgebra::Matrix4x3::zeros();
+    let mut hm = nalgebra::Matrix4x2::zeros();
+    for k in 0..2 {
+        hx.fixed_view_mut::<2, 3>(2 * k, 0).copy_from(&a.h_pose);
+        hm.fixed_view_mut::<2, 2>(2 * k, 0).copy_from(&a.h_landmark);
+    }
+    let mut s = hx * q * hx.transpose() + hm * loose.cov * hm.transpose();
+    for k in 0..2 {
+        for i in 0..2 {
+            for j in 0..2 {
+                s[(2 * k + i, 2 * k + j)] += r[(i, j)];
+            }
+        }
+    }
+    let (n1, n2) = (Model::Point.innovation(&z1.z, &a.z), Model::Point.innovation(&z2.z, &a.z));
+    let nu = nalgebra::Vector4::new(n1[0], n1[1], n2[0], n2[1]);
+    let joint = -0.5 * (nu.transpose() * s.try_inverse().unwrap() * nu)[0]
+        - 0.5 * (TAU.powi(4) * s.determinant()).ln();
+    // both folded against the unchanged landmark: the chain factors without the cross term
+    let (mut mu, mut sigma) = (predicted, q);
+    let stale: f64 =
+        [&z1, &z2].iter().map(|o| refine(&mut mu, &mut sigma, o, &loose).unwrap()).sum();
+    assert!((stale - joint).abs() > 1.0, "the test must tell the two apart: {stale} vs {joint}");
+    let w = f.particles[0].log_weight;
+    assert!(
+        (w - joint).abs() < 0.05 * joint.abs().max(1.0),
+        "log weight {w}, joint density {joint}, both against the unchanged landmark {stale}"
+    );
+}
