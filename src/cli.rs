@@ -296,12 +296,17 @@ fn dispatch(command: Command) -> Result<()> {
             eprintln!("rendered {} studies into {}", summary.studies.len(), out.display());
             let timed =
                 crate::report::render_timings(&results).context("writing the timing pages")?;
-            if !timed.is_empty() {
+            if !timed.written.is_empty() {
                 eprintln!(
                     "timing pages (machine-dependent, not in the reports): {}/<study>/{} for {}",
                     results.display(),
                     crate::report::TIMINGS,
-                    timed.join(", ")
+                    timed.written.join(", ")
+                );
+            }
+            for (study, why) in &timed.unwritable {
+                eprintln!(
+                    "warning: no timing page for {study} (its results folder is read-only?): {why}"
                 );
             }
             if !summary.kept.is_empty() {

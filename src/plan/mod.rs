@@ -326,8 +326,23 @@ fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) ->
     let mut out = Vec::new();
     for (i, name) in spec.spec.maps.iter().enumerate() {
         let path = maps_dir.join(format!("{name}.toml"));
-        let text = match std::fs::read_to_string(&path) {
+        let read = crate::spec::read_text_bounded(
+            &path,
+            crate::spec::MAX_MAP_BYTES,
+            "the most a map file may be",
+        );
+        let text = match read {
             Ok(t) => t,
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                errors.push(SpecError::new(
+                    &spec.path,
+                    vec![spec.error_at(
+                        &format!("maps[{i}]"),
+                        format!("map `{name}`: cannot read {}: {e}", path.display()),
+                    )],
+                ));
+                continue;
+            }
             Err(_) => {
                 let available = available_maps(maps_dir);
                 let msg = format!(
@@ -493,7 +508,10 @@ fn expand(
     // the bound, instead of once per sampled point that happens to fall outside the domain.
     let mut resolver = Resolver::new(spec, sensors);
     let mut bound_errors = Vec::new();
-    for block in &spec.sweeps {
+    // a tied parameter's values are blamed on its own `tied` entry
+    let tied_key =
+        |bi: usize, path: &str| crate::source::join_key(&format!("sweeps[{bi}].tied"), path);
+    for (bi, block) in spec.sweeps.iter().enumerate() {
         let Some(d) = &block.design else { continue };
         for p in &d.params {
             for (end, u) in [("lower", 0.0), ("upper", 1.0)] {
@@ -510,7 +528,7 @@ fn expand(
                 let mut at_bound: Candidate = vec![(p.path.clone(), value.clone(), p.key.clone())];
                 for (path, j) in &d.tied {
                     if d.params[*j].path == p.path {
-                        at_bound.push((path.clone(), value.clone(), p.key.clone()));
+                        at_bound.push((path.clone(), value.clone(), tied_key(bi, path)));
                     }
                 }
                 if let Err(errs) = resolver.resolve(&at_bound) {
@@ -548,7 +566,7 @@ fn expand(
                     .map(|(p, v)| (p.path.clone(), v.clone(), p.key.clone()))
                     .collect();
                 for (path, j) in &d.tied {
-                    assignments.push((path.clone(), values[*j].clone(), d.params[*j].key.clone()));
+                    assignments.push((path.clone(), values[*j].clone(), tied_key(bi, path)));
                 }
                 candidates.push((assignments, groups.len(), Some(format!("{kind}{bi}-{row:04}"))));
                 realised.push(coords);
@@ -1499,6 +1517,44 @@ mod tests {
         assert_eq!(errors[0].key, "sweeps[0].values.\"odometry.k\"[0]");
         assert_eq!(errors[19].key, "sweeps[0].values.\"odometry.k\"[19]");
         assert!(errors[20].message.starts_with("and 10 more errors"), "{}", errors[20].message);
+    }
+
+    /// An integer parameter tied to a float range fails at its `tied` entry, not at the range
+    /// it follows (which is valid on its own).
+    #[test]
+    fn a_tied_parameter_is_blamed_at_its_tied_entry() {
+        let head = HEAD.replace("[\"odometry\"]", "[\"fastslam1\"]");
+        let text = format!(
+            "{head}[[sweeps]]\nkind = \"sobol\"\nsamples = 8\nranges = {{ \"fastslam.p0\" = [0.001, 0.01], \"fastslam.motion_x\" = [0.001, 0.02] }}\ntied = {{ \"fastslam.particles\" = \"fastslam.motion_x\" }}\n"
+        );
+        let err = plan_of(&text).unwrap_err();
+        let keys: Vec<&str> = err.0[0].errors.iter().map(|e| e.key.as_str()).collect();
+        assert!(!keys.is_empty());
+        assert!(
+            keys.iter().all(|k| *k == "sweeps[0].tied.\"fastslam.particles\""),
+            "{:?}",
+            err.0[0].errors
+        );
+    }
+
+    /// A map file is read up to a limit (a link to /dev/zero once grew to 4 GB and was then
+    /// called missing): a larger one is refused at the spec's `maps` entry, and it is not called
+    /// missing.
+    #[test]
+    fn a_map_file_beyond_the_size_limit_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let comment = format!("# {}\n", "x".repeat(crate::spec::MAX_MAP_BYTES as usize));
+        std::fs::write(dir.path().join("huge.toml"), comment).unwrap();
+        let text = HEAD.replace("[\"box\"]", "[\"huge\"]");
+        let spec = crate::spec::parse(Path::new("s.toml"), &text, &Default::default()).unwrap();
+        let err = build(spec, dir.path()).unwrap_err();
+        let e = &err.0[0].errors[0];
+        assert_eq!(e.key, "maps[0]");
+        assert!(
+            e.message.contains("larger than") && !e.message.contains("does not exist"),
+            "{}",
+            e.message
+        );
     }
 
     #[test]

@@ -397,11 +397,19 @@ pub fn render_all(
     })
 }
 
+/// The timing pages `render_timings` wrote, and the studies whose results folder it could not
+/// write into (study, why): a page is an addition, so a read-only results folder skips it.
+#[derive(Debug, Default)]
+pub struct TimingPages {
+    pub written: Vec<String>,
+    pub unwritable: Vec<(String, String)>,
+}
+
 /// Writes `timings.html` into every scan-matching study's results folder under `results_dir`
-/// (see [`timings`]); returns the studies written. Machine-dependent, so never into `reports/`.
-pub fn render_timings(results_dir: &Path) -> Result<Vec<String>, ReportError> {
+/// (see [`timings`]). Machine-dependent, so never into `reports/`.
+pub fn render_timings(results_dir: &Path) -> Result<TimingPages, ReportError> {
     let env = environment();
-    let mut written = Vec::new();
+    let mut pages = TimingPages::default();
     for dir in store::list_studies(results_dir)? {
         if !matches!(store::check_seal(&dir), Ok(store::Seal::Intact)) {
             continue; // `render_all` has said what is wrong with it, or kept its report
@@ -415,12 +423,16 @@ pub fn render_timings(results_dir: &Path) -> Result<Vec<String>, ReportError> {
         let Some(page) = timings::build(&data, &matches) else { continue };
         let html = render(&env, "timings.html", minijinja::context! { page => page })?;
         let (path, tmp) = (dir.join(TIMINGS), dir.join(format!(".{TIMINGS}.tmp")));
-        std::fs::write(&tmp, html).map_err(|e| StoreError::Io { path: tmp.clone(), source: e })?;
-        std::fs::rename(&tmp, &path)
-            .map_err(|e| StoreError::Io { path: path.clone(), source: e })?;
-        written.push(data.resolved.spec.id.clone());
+        let id = data.resolved.spec.id.clone();
+        match std::fs::write(&tmp, html).and_then(|()| std::fs::rename(&tmp, &path)) {
+            Ok(()) => pages.written.push(id),
+            Err(e) => {
+                let _ = std::fs::remove_file(&tmp);
+                pages.unwritable.push((id, format!("cannot write {}: {e}", path.display())));
+            }
+        }
     }
-    Ok(written)
+    Ok(pages)
 }
 
 /// The timing page's file name in a study's results folder.

@@ -258,6 +258,7 @@ pub fn run_study(
             store::Lookup::Absent => missing.push(i),
         }
     }
+    progress.computing();
     compute(plan, &missing, &|i| planned_cost[plan.runs[i].hash.as_str()], &pool, |i, c| {
         let run = &plan.runs[i];
         // Replace whatever is there: forced, or an entry that could not be read. A cache that

@@ -31,7 +31,8 @@ struct Counts {
     cached: AtomicUsize,
     failed: AtomicUsize,
     /// When the first run began computing.
-    start: Instant,
+    /// When computing began (the ETA's pace is measured from here, not from the setup).
+    start: Mutex<Instant>,
     last_line: Mutex<Instant>,
 }
 
@@ -48,7 +49,7 @@ impl Counts {
             self.cached.load(Ordering::Relaxed),
             self.failed.load(Ordering::Relaxed),
             eta(
-                self.start.elapsed(),
+                self.start.lock().expect("progress lock").elapsed(),
                 self.cost_done.load(Ordering::Relaxed),
                 self.cost_total as usize
             )
@@ -108,7 +109,7 @@ impl Progress {
             cost_done: AtomicUsize::new(0),
             cached: AtomicUsize::new(0),
             failed: AtomicUsize::new(0),
-            start: Instant::now(),
+            start: Mutex::new(Instant::now()),
             last_line: Mutex::new(Instant::now()),
         });
         let bar = (enabled && tty).then(|| {
@@ -142,6 +143,12 @@ impl Progress {
 
     /// `runs` runs finished (a content hash shared by several runs of the plan counts for each);
     /// `cost`: the planned cost [ms] of what was computed (0 when cached).
+    /// Computing begins now: the ETA's pace is measured from here (looking up a large plan's
+    /// cache entries takes a while and is no run's time).
+    pub fn computing(&self) {
+        *self.counts.start.lock().expect("progress lock") = Instant::now();
+    }
+
     pub fn finished(&self, status: RunStatus, cached: bool, runs: usize, cost: f64) {
         let c = &self.counts;
         let done = c.done.fetch_add(runs, Ordering::Relaxed) + runs;
@@ -160,8 +167,12 @@ impl Progress {
                 "({} cached, {} failed{})",
                 c.cached.load(Ordering::Relaxed),
                 c.failed.load(Ordering::Relaxed),
-                eta(c.start.elapsed(), computed, c.cost_total as usize)
-                    .map_or(String::new(), |e| format!("; about {e} left"))
+                eta(
+                    c.start.lock().expect("progress lock").elapsed(),
+                    computed,
+                    c.cost_total as usize,
+                )
+                .map_or(String::new(), |e| format!("; about {e} left"))
             ));
             bar.inc(runs as u64);
         }

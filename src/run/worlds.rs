@@ -39,7 +39,7 @@ impl SharedWorld {
             self.extracted
                 .lock()
                 .unwrap_or_else(|e| e.into_inner())
-                .entry(json(params))
+                .entry(serde_json::to_string(params).expect("parameters serialise"))
                 .or_default(),
         );
         Ok(Arc::clone(cell.get_or_init(|| {
@@ -72,20 +72,28 @@ pub struct Worlds<'p> {
 pub fn key(plan: &ExperimentPlan, run: &RunSpec) -> String {
     let params = &plan.points[run.point].params;
     let sensors = plan.algorithm(run).sensors(plan.maps[run.map].world_kind());
-    format!(
-        "{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}\u{1f}{}",
-        run.map,
-        run.world_seed,
-        json(&params.sim),
-        json(&params.odometry),
-        if sensors.laser { json(&params.laser) } else { String::new() },
-        if sensors.landmarks { json(&params.landmark_sensor) } else { String::new() },
-    )
+    // one buffer, sized once (a plan of 10⁵ runs keys every run twice before the first starts)
+    let mut key = Vec::with_capacity(1024);
+    key.extend_from_slice(format!("{}\u{1f}{}", run.map, run.world_seed).as_bytes());
+    json(&mut key, &params.sim);
+    json(&mut key, &params.odometry);
+    if sensors.laser {
+        json(&mut key, &params.laser);
+    } else {
+        key.push(0x1f);
+    }
+    if sensors.landmarks {
+        json(&mut key, &params.landmark_sensor);
+    } else {
+        key.push(0x1f);
+    }
+    String::from_utf8(key).expect("JSON is UTF-8")
 }
 
-/// A parameter section as JSON (part of a key).
-fn json(section: &impl serde::Serialize) -> String {
-    serde_json::to_string(section).expect("parameters serialise")
+/// Appends a separator and a parameter section as JSON (part of a key).
+fn json(key: &mut Vec<u8>, section: &impl serde::Serialize) {
+    key.push(0x1f);
+    serde_json::to_writer(&mut *key, section).expect("parameters serialise");
 }
 
 impl<'p> Worlds<'p> {

@@ -648,20 +648,28 @@ pub const MAX_SPEC_BYTES: u64 = 1 << 20;
 
 /// Reads at most [`MAX_SPEC_BYTES`] of a spec file as text.
 fn read_bounded(path: &Path) -> Result<String, SpecError> {
+    read_text_bounded(
+        path,
+        MAX_SPEC_BYTES,
+        "the most a spec may be (sweeps expand a few lines into many runs)",
+    )
+    .map_err(|e| SpecError::io(path, &e))
+}
+
+/// The largest map file read (the repository's largest is about 4 KB; walls are listed by
+/// their corners).
+pub const MAX_MAP_BYTES: u64 = 1 << 20;
+
+/// Reads a text file of at most `limit` bytes (`/dev/zero` or a runaway file is refused, not
+/// read into memory); `why` ends the error for a larger one.
+pub fn read_text_bounded(path: &Path, limit: u64, why: &str) -> std::io::Result<String> {
     use std::io::Read;
     let mut bytes = Vec::new();
-    std::fs::File::open(path)
-        .and_then(|f| f.take(MAX_SPEC_BYTES + 1).read_to_end(&mut bytes))
-        .map_err(|e| SpecError::io(path, &e))?;
-    if bytes.len() as u64 > MAX_SPEC_BYTES {
-        let e = std::io::Error::other(format!(
-            "larger than {} bytes, the most a spec may be (sweeps expand a few lines into many runs)",
-            MAX_SPEC_BYTES
-        ));
-        return Err(SpecError::io(path, &e));
+    std::fs::File::open(path)?.take(limit + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > limit {
+        return Err(std::io::Error::other(format!("larger than {limit} bytes, {why}")));
     }
-    String::from_utf8(bytes)
-        .map_err(|e| SpecError::io(path, &std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
+    String::from_utf8(bytes).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
 }
 
 /// Reads and validates a spec file.

@@ -137,7 +137,9 @@ impl Map {
                     Point2::new(pair[0][0], pair[0][1]),
                     Point2::new(pair[1][0], pair[1][1]),
                 );
-                if !(s.length() > GEOMETRY_EPS_M) {
+                let finite = pair.iter().flatten().all(|v| v.is_finite());
+                // (a point that is not a number is named as such below, not as a repeat)
+                if finite && !(s.length() > GEOMETRY_EPS_M) {
                     err(
                         &format!("walls[{i}].points[{}]", j + 1),
                         "repeats the previous point (zero-length wall)".into(),
@@ -455,6 +457,11 @@ waypoints = [[18, 0], [0, 0]]
         assert!(errs[0].message.contains("finite"), "{}", errs[0].message);
         let bad = BOX.replace("[19, 9], [-1, 9]", "[19, inf], [-1, 9]");
         assert_eq!(Map::from_toml(&bad).unwrap_err()[0].key, "walls[0].points[2]");
+        // a NaN is not a repeated point: one error, that it is not a number
+        let bad = BOX.replace("[19, 9], [-1, 9]", "[19, nan], [-1, 9]");
+        let errs = Map::from_toml(&bad).unwrap_err();
+        assert_eq!(errs.len(), 1, "{errs:?}");
+        assert!(errs[0].message.contains("finite"), "{}", errs[0].message);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! [EP] metrics, per-cell tables beside the published ones — and, with NLopt's stochastic
 //! optimisers inside, give byte-identical reports for 1 and 2 threads.
 
-use crate::util::{run_and_report, tree};
+use crate::util::{run_and_report, s, slamlab, tree};
 use slamlab::store;
 
 const SPEC: &str = r#"
@@ -127,4 +127,22 @@ fn scan_matching_study_end_to_end_and_thread_independent() {
     for ((name, x), (_, y)) in ra.iter().zip(&rb) {
         assert!(x == y, "{name} differs between 1 and 2 threads");
     }
+
+    // A results folder the timing page cannot be written into (read-only for the user; here a
+    // folder in the page's place, which root cannot write through either): the reports are
+    // rendered, the page is skipped with a warning, and `report` succeeds.
+    let b_dir = b.path().join("results/scan-smoke");
+    std::fs::remove_file(b_dir.join("timings.html")).unwrap();
+    std::fs::create_dir(b_dir.join("timings.html")).unwrap();
+    let out = slamlab(&[
+        "report",
+        "--results",
+        s(&b.path().join("results")),
+        "--out",
+        s(&b.path().join("reports2")),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("warning: no timing page for scan-smoke"), "{stderr}");
+    assert!(b.path().join("reports2/scan-smoke/index.html").is_file());
 }
