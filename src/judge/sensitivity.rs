@@ -2,11 +2,18 @@
 //! design rows' outputs are gathered from the runs and handed to [`crate::stats::sensitivity`].
 //! What the report shows and index claims test.
 //!
-//! - **The output of a design row** is the mean of its point's successful replicates (of ln of
-//!   each value for a metric in `[report] sensitivity_log`; a value ≤ 0 then counts as missing) (replicate
-//!   k of every point saw the same world: common random numbers). A row whose point has no
-//!   finite value drops its whole Saltelli sample (A, B and every ABᵢ of that sample) or, in a
-//!   Morris trajectory, the effects of the steps that touch it; the counts are reported.
+//! - **The output of a design row** is the mean of its point's values (of ln of each value for a
+//!   metric in `[report] sensitivity_log`; a value ≤ 0 then counts as missing) over the
+//!   replicates that every point of its Saltelli sample (A, B, every ABᵢ) or Morris trajectory
+//!   has: replicate k of every point saw the same world (common random numbers), so a
+//!   difference cancels that world only when both ends average the same replicates. A sample or
+//!   trajectory with no replicate in common is dropped; the counts are reported.
+//! - **Each parameter's noise term**: what run-to-run noise adds to its ST (or μ*), measured from
+//!   the spread, across the common replicates, of the per-replicate differences its index is
+//!   built from: mean over samples of var(d)/|C| / 2V for Jansen's ST (for two replicates,
+//!   mean((d₀ − d₁)²)/(4·R·V)), E|noise|/Δ for μ*. Under common random numbers it is zero where
+//!   a parameter changes nothing. Index claims and the report's findings clear this term, and
+//!   ST − S1 too (noise raises ST, not S1); the noise floor below only scales S1 and ST.
 //! - **Where the variance comes from**: a two-way ANOVA of the design's distinct points ×
 //!   replicates splits it into the parameters, the world (replicate seed) and the residual.
 //! - **Noise floor**: run-to-run noise that is independent between points adds to every
@@ -54,8 +61,16 @@ pub struct Analysis {
     /// None when too few rows are usable (`note` says why).
     pub indices: Option<Indices>,
     pub shares: Option<VarianceShares>,
-    /// ST's (sobol) or μ*'s (morris) expected value for a parameter without effect.
+    /// ST's (sobol) or μ*'s (morris) expected value for a parameter without effect, were the
+    /// noise independent between points (σ² / (R·V)); shown beside the indices.
     pub noise_floor: Option<f64>,
+    /// Per parameter, what the noise adds to its ST (sobol) or μ* (morris) estimate, measured
+    /// from its own differences across the replicates (common random numbers cancel the noise
+    /// where a parameter changes nothing): what index claims and the report's findings clear.
+    /// `None` with one replicate per point (nothing to measure it from).
+    pub noise: Option<Vec<f64>>,
+    /// Replicates per point.
+    pub replicates: usize,
     /// Sobol: samples used of N; Morris: trajectories complete of r.
     pub used: usize,
     pub size: usize,
@@ -123,7 +138,7 @@ pub fn analyse(data: &StudyData, metrics: &[String]) -> Vec<Analysis> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn one<'a, 'r: 'a>(
+pub(super) fn one<'a, 'r: 'a>(
     gi: usize,
     kind: SweepKind,
     params: &[String],
@@ -164,16 +179,57 @@ fn one<'a, 'r: 'a>(
         }
         points.insert(label, reps);
     }
-    // a row's output: the mean of its point's values (NaN: none)
-    let y: Vec<f64> = design
-        .rows
-        .iter()
-        .map(|l| {
-            let (sum, n) =
-                points[l.as_str()].iter().flatten().fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
-            if n == 0 { f64::NAN } else { sum / n as f64 }
-        })
-        .collect();
+    // A row's output is the mean of its point's values over the replicates that every point of
+    // its Saltelli sample (or Morris trajectory) has: replicate k of every point saw the same
+    // world, so a difference of two outputs cancels that world's noise only when both ends
+    // average the same replicates (a failed replicate at one end drops it at the other).
+    let per = match kind {
+        SweepKind::Sobol => 0, // a sample's rows are strided: k, n + k, …, (d + 1)·n + k
+        _ => d + 1,
+    };
+    let n = design.size;
+    let group_rows = |g: usize| -> Vec<usize> {
+        if per == 0 {
+            (0..d + 2).map(|b| b * n + g).collect()
+        } else {
+            (g * per..(g + 1) * per).collect()
+        }
+    };
+    let groups = if per == 0 { n } else { design.rows.len() / per.max(1) };
+    let reps_of = |row: usize| &points[design.rows[row].as_str()];
+    let mut y = vec![f64::NAN; design.rows.len()];
+    // per group: the replicates common to its rows
+    let mut common: Vec<Vec<usize>> = Vec::with_capacity(groups);
+    for g in 0..groups {
+        let rows = group_rows(g);
+        let shared: Vec<usize> = (0..replicates)
+            .filter(|&k| rows.iter().all(|&row| reps_of(row)[k].is_some()))
+            .collect();
+        if !shared.is_empty() {
+            for &row in &rows {
+                let vals = reps_of(row);
+                y[row] = shared.iter().map(|&k| vals[k].expect("shared")).sum::<f64>()
+                    / shared.len() as f64;
+            }
+        }
+        common.push(shared);
+    }
+    // The noise in the difference of two averaged outputs of group g, rows `from` → `to`, as a
+    // variance: the spread over the common replicates of the per-replicate differences, over their
+    // number (None with fewer than two). Under common random numbers it is zero where the
+    // change leaves every run unchanged.
+    let noise_of = |g: usize, from: usize, to: usize| -> Option<f64> {
+        let shared = &common[g];
+        if shared.len() < 2 {
+            return None;
+        }
+        let (a, b) = (reps_of(from), reps_of(to));
+        let diffs: Vec<f64> =
+            shared.iter().map(|&k| b[k].expect("shared") - a[k].expect("shared")).collect();
+        let m = diffs.iter().sum::<f64>() / diffs.len() as f64;
+        let var = diffs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (diffs.len() - 1) as f64;
+        Some(var / diffs.len() as f64)
+    };
     let complete: Vec<Vec<f64>> = points
         .values()
         .filter(|r| r.iter().all(Option::is_some))
@@ -191,6 +247,8 @@ fn one<'a, 'r: 'a>(
         indices: None,
         shares,
         noise_floor: None,
+        noise: None,
+        replicates,
         used: 0,
         size: design.size,
         runs,
@@ -202,7 +260,6 @@ fn one<'a, 'r: 'a>(
     let y = &a.rows;
     match kind {
         SweepKind::Sobol => {
-            let n = design.size;
             let keep: Vec<usize> =
                 (0..n).filter(|&k| (0..d + 2).all(|block| y[block * n + k].is_finite())).collect();
             a.used = keep.len();
@@ -227,10 +284,20 @@ fn one<'a, 'r: 'a>(
             }
             let idx = sobol_indices(&fa, &fb, &fab, RESAMPLES, seed);
             a.noise_floor = shares.filter(|_| replicates >= 2).map(|s| s.residual_var / r / v);
+            // Jansen's ST_i = mean (f_A − f_ABi)² / 2V is raised by the noise of that difference:
+            // its mean variance over the samples, / 2V
+            a.noise = (0..d)
+                .map(|i| {
+                    let terms: Vec<f64> =
+                        keep.iter().filter_map(|&k| noise_of(k, k, (2 + i) * n + k)).collect();
+                    // (over the samples with two or more replicates in common)
+                    (!terms.is_empty())
+                        .then(|| terms.iter().sum::<f64>() / terms.len() as f64 / (2.0 * v))
+                })
+                .collect();
             a.indices = Some(Indices::Sobol(idx));
         }
         SweepKind::Morris => {
-            let per = d + 1;
             let trajectories: Vec<Vec<Vec<f64>>> =
                 design.unit.chunks(per).map(<[Vec<f64>]>::to_vec).collect();
             let f: Vec<Vec<f64>> = y.chunks(per).map(<[f64]>::to_vec).collect();
@@ -244,6 +311,22 @@ fn one<'a, 'r: 'a>(
             a.noise_floor = shares.filter(|_| replicates >= 2).map(|s| {
                 (2.0 * s.residual_var / r).sqrt() * (2.0 / std::f64::consts::PI).sqrt() / delta
             });
+            // μ*_i is raised by E|noise| of its steps' differences, √(2 var / π), over the step
+            a.noise = (0..d)
+                .map(|i| {
+                    let mut terms = Vec::new();
+                    for (t, order) in design.moved.iter().enumerate() {
+                        for (k, &j) in order.iter().enumerate().filter(|(_, j)| **j == i) {
+                            let step = (trajectories[t][k + 1][j] - trajectories[t][k][j]).abs();
+                            if step > 0.0 && f[t][k].is_finite() && f[t][k + 1].is_finite() {
+                                let var = noise_of(t, t * per + k, t * per + k + 1)?;
+                                terms.push((2.0 * var / std::f64::consts::PI).sqrt() / step);
+                            }
+                        }
+                    }
+                    (!terms.is_empty()).then(|| terms.iter().sum::<f64>() / terms.len() as f64)
+                })
+                .collect();
             a.indices = Some(Indices::Morris(s));
         }
         _ => unreachable!("only design groups are analysed"),
@@ -335,5 +418,78 @@ mod tests {
             shares.world > 0.0 && shares.residual < 1e-12,
             "additive replicate offsets are the world's share: {shares:?}"
         );
+    }
+
+    /// Replicate k of every point sees the same world, here an offset of 10·k. A failed run at one
+    /// end of a difference must not leave the two ends averaging different replicates: b has no
+    /// effect, and one failed replicate of one of its AB rows once gave it an ST of about 0.15
+    /// (the offset leaking into one difference); both ends now average the replicates they
+    /// share. The per-parameter noise terms are zero: the world's noise cancels in every
+    /// difference.
+    #[test]
+    fn a_failed_replicate_drops_it_at_both_ends_of_a_difference() {
+        use crate::store::RunRow;
+        let n = 64;
+        let unit = crate::stats::sensitivity::Saltelli::new(n, 2, 9);
+        let rows: Vec<Vec<f64>> =
+            unit.a.iter().chain(&unit.b).chain(unit.ab.iter().flatten()).cloned().collect();
+        let labels: Vec<String> = (0..rows.len()).map(|i| format!("p{i}")).collect();
+        let design = DesignRecord {
+            size: n,
+            rows: labels.clone(),
+            moved: Vec::new(),
+            unit: Vec::new(),
+            delta: None,
+        };
+        let broken = 3 * n + 5; // sample 5's AB_b row
+        let mut runs = Vec::new();
+        for (i, x) in rows.iter().enumerate() {
+            for rep in 0..2u32 {
+                let failed = i == broken && rep == 0;
+                runs.push(RunRow {
+                    study: "s".into(),
+                    run_id: format!("{i}-{rep}"),
+                    map: "m".into(),
+                    algorithm: "odometry".into(),
+                    point: labels[i].clone(),
+                    replicate: rep,
+                    world_seed: 0,
+                    filter_seed: 0,
+                    status: if failed { RunStatus::Failed } else { RunStatus::Ok },
+                    error: None,
+                    run_hash: String::new(),
+                    params_hash: String::new(),
+                    code_version: String::new(),
+                    params: Vec::new(),
+                    metrics: if failed {
+                        Vec::new()
+                    } else {
+                        vec![("y".into(), 4.0 * x[0] + 10.0 * rep as f64)]
+                    },
+                });
+            }
+        }
+        let cells: HashMap<String, Vec<&RunRow>> = labels
+            .iter()
+            .map(|l| (l.clone(), runs.iter().filter(|r| &r.point == l).collect()))
+            .collect();
+        let a = one(
+            0,
+            SweepKind::Sobol,
+            &["a".into(), "b".into()],
+            &design,
+            |p| cells.get(p).map(Vec::as_slice).unwrap_or_default(),
+            "m",
+            "odometry",
+            "y",
+            false,
+            2,
+            1,
+        );
+        let Some(Indices::Sobol(x)) = &a.indices else { panic!("{}", a.note) };
+        assert!(x.st[1].value.abs() < 1e-12, "b has no effect: ST {:?}", x.st[1]);
+        assert_eq!(a.used, n, "the sample keeps the replicate all its points have");
+        let noise = a.noise.expect("two replicates");
+        assert!(noise.iter().all(|t| t.abs() < 1e-12), "{noise:?}");
     }
 }

@@ -234,7 +234,18 @@ fn block(
     let floor_text = |f: Option<f64>| {
         f.map_or("unknown (one replicate: no residual)".to_string(), |f| sig(f, 2))
     };
-    let clears = |low: f64| floor.is_none_or(|f| low > f);
+    // each parameter's own noise term (measured across the replicates; under common random
+    // numbers it vanishes where a parameter changes nothing), else the independence floor
+    let term = |i: usize| a.noise.as_ref().map(|n| n[i]).or(floor);
+    let clears = |i: usize, low: f64| term(i).is_none_or(|f| low > f);
+    let terms_text = |short: &[String]| -> String {
+        a.noise.as_ref().map_or(String::new(), |n| {
+            format!(
+                " Each parameter's own noise term (what the noise adds to its index, measured from its differences across the replicates): {}.",
+                short.iter().zip(n).map(|(p, t)| format!("{p} {}", sig(*t, 2))).collect::<Vec<_>>().join(", ")
+            )
+        })
+    };
     let (table, figure) = match indices {
         Indices::Sobol(x) => {
             let (s1, st) = (&x.s1, &x.st);
@@ -249,16 +260,23 @@ fn block(
             let ranked: Vec<String> =
                 order.iter().map(|&i| format!("{} {}", short[i], sig(st[i].value, 2))).collect();
             findings.push(format!("Ranking by ST: {}.", ranked.join(" > ")));
-            let above: Vec<&str> =
-                order.iter().filter(|&&i| clears(st[i].low)).map(|&i| short[i].as_str()).collect();
-            let below: Vec<&str> =
-                order.iter().filter(|&&i| !clears(st[i].low)).map(|&i| short[i].as_str()).collect();
+            let above: Vec<&str> = order
+                .iter()
+                .filter(|&&i| clears(i, st[i].low))
+                .map(|&i| short[i].as_str())
+                .collect();
+            let below: Vec<&str> = order
+                .iter()
+                .filter(|&&i| !clears(i, st[i].low))
+                .map(|&i| short[i].as_str())
+                .collect();
             findings.push(match floor {
                 None => format!("Noise floor of ST: {}: which indices exceed the simulation's noise cannot be told.", floor_text(floor)),
                 Some(_) => format!(
-                    "Noise floor of ST: {}. {}{}",
+                    "Noise floor of ST (were the noise independent between points): {}.{} {}{}",
                     floor_text(floor),
-                    if above.is_empty() { "No parameter's ST interval clears it.".to_string() } else { format!("ST clears it for {}.", above.join(", ")) },
+                    terms_text(&short),
+                    if above.is_empty() { "No parameter's ST interval clears its noise.".to_string() } else { format!("ST clears its noise for {}.", above.join(", ")) },
                     if below.is_empty() { String::new() } else { format!(" Not distinguishable from noise: {}.", below.join(", ")) }
                 ),
             });
@@ -282,7 +300,10 @@ fn block(
             let interacting: Vec<String> = order
                 .iter()
                 .filter(|&&i| {
-                    inter[i].value > INTERACTION && inter[i].low > 0.0 && clears(st[i].low)
+                    // noise raises ST and not S1: ST − S1 must clear the parameter's term
+                    inter[i].value > INTERACTION
+                        && inter[i].low > term(i).unwrap_or(0.0)
+                        && clears(i, st[i].low)
                 })
                 .map(|&i| {
                     format!(
@@ -295,9 +316,9 @@ fn block(
                 })
                 .collect();
             if interacting.is_empty() {
-                findings.push(format!("No parameter acts measurably through interactions (ST − S1 above {INTERACTION} with an interval above 0)."));
+                findings.push(format!("No parameter acts measurably through interactions (ST − S1 above {INTERACTION} with an interval above the parameter's noise term)."));
             } else {
-                findings.push(format!("Acting through interactions (ST − S1 above {INTERACTION}, interval above 0): {}.", interacting.join("; ")));
+                findings.push(format!("Acting through interactions (ST − S1 above {INTERACTION}, interval above the parameter's noise term): {}.", interacting.join("; ")));
             }
             let rows = order
                 .iter()
@@ -357,20 +378,21 @@ fn block(
                 .push(format!("Ranking by μ* [{unit} per full range]: {}.", ranked.join(" > ")));
             let below: Vec<&str> = order
                 .iter()
-                .filter(|&&i| !clears(s[i].mu_star.low))
+                .filter(|&&i| !clears(i, s[i].mu_star.low))
                 .map(|&i| short[i].as_str())
                 .collect();
             findings.push(match floor {
                 None => format!("Noise floor of μ*: {}: which effects exceed the simulation's noise cannot be told.", floor_text(floor)),
                 Some(_) => format!(
-                    "Noise floor of μ*: {}.{}",
+                    "Noise floor of μ* (were the noise independent between points): {}.{}{}",
                     floor_text(floor),
+                    terms_text(&short),
                     if below.is_empty() { " Every parameter's μ* interval clears it.".to_string() } else { format!(" Not distinguishable from noise: {}.", below.join(", ")) }
                 ),
             });
             let curved: Vec<String> = order
                 .iter()
-                .filter(|&&i| s[i].sigma > s[i].mu_star.value && clears(s[i].mu_star.low))
+                .filter(|&&i| s[i].sigma > s[i].mu_star.value && clears(i, s[i].mu_star.low))
                 .map(|&i| {
                     format!("{} (σ/μ* = {})", short[i], sig(s[i].sigma / s[i].mu_star.value, 2))
                 })
