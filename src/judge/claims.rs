@@ -1311,55 +1311,21 @@ mod tests {
     /// before (threshold + one independence-based floor σ²/(R·V)) confirmed it in most.
     #[test]
     fn a_true_st_of_a_tenth_is_rarely_confirmed_below_five_hundredths() {
-        use crate::store::{DesignRecord, RunRow, RunStatus};
         use rand::{Rng, SeedableRng};
         let claim: ClaimSpec = toml::from_str("id = \"c\"\nsource = \"s\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"y\"\nindex = \"st\"\nparameter = \"c\"\ntest = \"below\"\nvalue = 0.05\n").unwrap();
         let (designs, n, replicates, sigma) = (40, 64, 2u32, 1.0);
         let (mut now, mut before) = (0, 0);
         for d in 0..designs {
-            let unit = crate::stats::sensitivity::Saltelli::new(n, 2, 100 + d);
-            let rows: Vec<Vec<f64>> =
-                unit.a.iter().chain(&unit.b).chain(unit.ab.iter().flatten()).cloned().collect();
-            let labels: Vec<String> = (0..rows.len()).map(|i| format!("p{i}")).collect();
-            let design = DesignRecord {
-                size: n,
-                rows: labels.clone(),
-                moved: Vec::new(),
-                unit: Vec::new(),
-                delta: None,
-            };
-            let mut runs = Vec::new();
-            for (i, x) in rows.iter().enumerate() {
-                for k in 0..replicates {
+            let (design, runs) =
+                super::super::sensitivity::saltelli_runs(n, 100 + d, replicates, |x, k, _| {
                     // the world of replicate k at this a: the same wherever a is the same
                     let mut world = rand_chacha::ChaCha8Rng::seed_from_u64(
                         x[0].to_bits() ^ (u64::from(k) << 56) ^ d,
                     );
                     let z: f64 = world.sample(rand_distr::StandardNormal);
-                    runs.push(RunRow {
-                        study: "s".into(),
-                        run_id: format!("{i}-{k}"),
-                        map: "m".into(),
-                        algorithm: "fastslam1".into(),
-                        point: labels[i].clone(),
-                        replicate: k,
-                        world_seed: 0,
-                        filter_seed: 0,
-                        status: RunStatus::Ok,
-                        error: None,
-                        run_hash: String::new(),
-                        params_hash: String::new(),
-                        code_version: String::new(),
-                        params: Vec::new(),
-                        metrics: vec![("y".into(), 3.0 * x[0] + x[1] + sigma * z)],
-                    });
-                }
-            }
-            let by_point: std::collections::HashMap<&str, Vec<&RunRow>> =
-                runs.iter().fold(Default::default(), |mut m, r| {
-                    m.entry(r.point.as_str()).or_default().push(r);
-                    m
+                    Some(3.0 * x[0] + x[1] + sigma * z)
                 });
+            let by_point = super::super::sensitivity::by_point(&runs);
             let a = super::super::sensitivity::one(
                 0,
                 crate::spec::SweepKind::Sobol,
@@ -1367,7 +1333,7 @@ mod tests {
                 &design,
                 |p| by_point.get(p).map(Vec::as_slice).unwrap_or_default(),
                 "m",
-                "fastslam1",
+                "odometry",
                 "y",
                 false,
                 replicates as usize,

@@ -334,6 +334,57 @@ pub(super) fn one<'a, 'r: 'a>(
     a
 }
 
+/// A Saltelli design over the unit square (d = 2) and its runs: `y(x, replicate, row)` is a run's
+/// metric `y`, `None` for a failed run. For the tests here and in `claims`.
+#[cfg(test)]
+pub(super) fn saltelli_runs(
+    n: usize,
+    seed: u64,
+    replicates: u32,
+    y: impl Fn(&[f64], u32, usize) -> Option<f64>,
+) -> (DesignRecord, Vec<crate::store::RunRow>) {
+    let unit = crate::stats::sensitivity::Saltelli::new(n, 2, seed);
+    let rows: Vec<Vec<f64>> =
+        unit.a.iter().chain(&unit.b).chain(unit.ab.iter().flatten()).cloned().collect();
+    let labels: Vec<String> = (0..rows.len()).map(|i| format!("p{i}")).collect();
+    let mut runs = Vec::new();
+    for (i, x) in rows.iter().enumerate() {
+        for rep in 0..replicates {
+            let value = y(x, rep, i);
+            runs.push(crate::store::RunRow {
+                study: "s".into(),
+                run_id: format!("{i}-{rep}"),
+                map: "m".into(),
+                algorithm: "odometry".into(),
+                point: labels[i].clone(),
+                replicate: rep,
+                world_seed: 0,
+                filter_seed: 0,
+                status: if value.is_some() { RunStatus::Ok } else { RunStatus::Failed },
+                error: None,
+                run_hash: String::new(),
+                params_hash: String::new(),
+                code_version: String::new(),
+                params: Vec::new(),
+                metrics: value.map(|v| vec![("y".into(), v)]).unwrap_or_default(),
+            });
+        }
+    }
+    let design =
+        DesignRecord { size: n, rows: labels, moved: Vec::new(), unit: Vec::new(), delta: None };
+    (design, runs)
+}
+
+/// `runs` by sweep point.
+#[cfg(test)]
+pub(super) fn by_point(runs: &[crate::store::RunRow]) -> HashMap<&str, Vec<&crate::store::RunRow>> {
+    let mut m: HashMap<&str, Vec<&crate::store::RunRow>> = HashMap::new();
+    for r in runs {
+        m.entry(r.point.as_str()).or_default().push(r);
+    }
+    m
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -343,51 +394,12 @@ mod tests {
     /// failed run drops exactly its sample.
     #[test]
     fn sobol_group_from_runs() {
-        use crate::store::RunRow;
         let n = 64;
-        let unit = crate::stats::sensitivity::Saltelli::new(n, 2, 9);
-        let rows: Vec<Vec<f64>> =
-            unit.a.iter().chain(&unit.b).chain(unit.ab.iter().flatten()).cloned().collect();
-        let labels: Vec<String> = (0..rows.len()).map(|i| format!("p{i}")).collect();
-        let design = DesignRecord {
-            size: n,
-            rows: labels.clone(),
-            moved: Vec::new(),
-            unit: Vec::new(),
-            delta: None,
-        };
-        let mut runs = Vec::new();
-        for (i, x) in rows.iter().enumerate() {
-            for rep in 0..3u32 {
-                let failed = i == 5 && rep == 0;
-                runs.push(RunRow {
-                    study: "s".into(),
-                    run_id: format!("{i}-{rep}"),
-                    map: "m".into(),
-                    algorithm: "odometry".into(),
-                    point: labels[i].clone(),
-                    replicate: rep,
-                    world_seed: 0,
-                    filter_seed: 0,
-                    status: if failed { RunStatus::Failed } else { RunStatus::Ok },
-                    error: None,
-                    run_hash: String::new(),
-                    params_hash: String::new(),
-                    code_version: String::new(),
-                    params: Vec::new(),
-                    metrics: if failed {
-                        Vec::new()
-                    } else {
-                        vec![("y".into(), 4.0 * x[0] + x[1] + 0.1 * rep as f64)]
-                    },
-                });
-            }
-        }
-        let refs: Vec<&RunRow> = runs.iter().collect();
-        let by_point =
-            |p: &str| -> Vec<&RunRow> { refs.iter().copied().filter(|r| r.point == p).collect() };
-        let cells: HashMap<String, Vec<&RunRow>> =
-            labels.iter().map(|l| (l.clone(), by_point(l))).collect();
+        let (design, runs) = saltelli_runs(n, 9, 3, |x, rep, i| {
+            (!(i == 5 && rep == 0)).then(|| 4.0 * x[0] + x[1] + 0.1 * f64::from(rep))
+        });
+        let rows = design.rows.len();
+        let cells = by_point(&runs);
         let a = one(
             0,
             SweepKind::Sobol,
@@ -410,7 +422,7 @@ mod tests {
         assert!((st[1].value - 1.0 / 17.0).abs() < 0.02, "{st:?}");
         assert_eq!(
             (a.runs, a.failed, a.used),
-            (rows.len() * 3, 1, n),
+            (rows * 3, 1, n),
             "a failed replicate leaves its point averaged over the other two"
         );
         let shares = a.shares.unwrap();
@@ -428,51 +440,12 @@ mod tests {
     /// difference.
     #[test]
     fn a_failed_replicate_drops_it_at_both_ends_of_a_difference() {
-        use crate::store::RunRow;
         let n = 64;
-        let unit = crate::stats::sensitivity::Saltelli::new(n, 2, 9);
-        let rows: Vec<Vec<f64>> =
-            unit.a.iter().chain(&unit.b).chain(unit.ab.iter().flatten()).cloned().collect();
-        let labels: Vec<String> = (0..rows.len()).map(|i| format!("p{i}")).collect();
-        let design = DesignRecord {
-            size: n,
-            rows: labels.clone(),
-            moved: Vec::new(),
-            unit: Vec::new(),
-            delta: None,
-        };
         let broken = 3 * n + 5; // sample 5's AB_b row
-        let mut runs = Vec::new();
-        for (i, x) in rows.iter().enumerate() {
-            for rep in 0..2u32 {
-                let failed = i == broken && rep == 0;
-                runs.push(RunRow {
-                    study: "s".into(),
-                    run_id: format!("{i}-{rep}"),
-                    map: "m".into(),
-                    algorithm: "odometry".into(),
-                    point: labels[i].clone(),
-                    replicate: rep,
-                    world_seed: 0,
-                    filter_seed: 0,
-                    status: if failed { RunStatus::Failed } else { RunStatus::Ok },
-                    error: None,
-                    run_hash: String::new(),
-                    params_hash: String::new(),
-                    code_version: String::new(),
-                    params: Vec::new(),
-                    metrics: if failed {
-                        Vec::new()
-                    } else {
-                        vec![("y".into(), 4.0 * x[0] + 10.0 * rep as f64)]
-                    },
-                });
-            }
-        }
-        let cells: HashMap<String, Vec<&RunRow>> = labels
-            .iter()
-            .map(|l| (l.clone(), runs.iter().filter(|r| &r.point == l).collect()))
-            .collect();
+        let (design, runs) = saltelli_runs(n, 9, 2, |x, rep, i| {
+            (!(i == broken && rep == 0)).then(|| 4.0 * x[0] + 10.0 * f64::from(rep))
+        });
+        let cells = by_point(&runs);
         let a = one(
             0,
             SweepKind::Sobol,
