@@ -143,6 +143,13 @@ pub fn run_study(
         .num_threads(opts.threads)
         .build()
         .map_err(|e| RunError::Threads { threads: opts.threads, message: e.to_string() })?;
+    if opts.progress && plan.runs.len() >= LARGE_STUDY {
+        eprintln!(
+            "{}: looking up {} runs in the cache and scheduling them",
+            plan.id(),
+            plan.runs.len()
+        );
+    }
     let reasons = reasons(plan, opts);
     let to_compute = reasons.iter().filter(|r| **r != Reason::Cached).count();
     let dir = opts.results_dir.join(plan.id());
@@ -258,32 +265,39 @@ pub fn run_study(
             store::Lookup::Absent => missing.push(i),
         }
     }
-    progress.computing();
-    compute(plan, &missing, &|i| planned_cost[plan.runs[i].hash.as_str()], &pool, |i, c| {
-        let run = &plan.runs[i];
-        // Replace whatever is there: forced, or an entry that could not be read. A cache that
-        // cannot be written only costs a recomputation next time; until the study is written,
-        // the run's results are then held here.
-        let held = match cache.put(&run.hash, &c, true) {
-            Ok(()) => None,
-            Err(e) => {
-                progress.warn(&format!("cannot cache {}: {e}", run.run_id));
-                Some(store::RunParts {
-                    trace: c.trace.clone(),
-                    landmarks: c.landmarks.clone(),
-                    matches: c.matches.clone(),
-                })
-            }
-        };
-        progress.finished(
-            c.row.status,
-            false,
-            multiplicity[run.hash.as_str()],
-            planned_cost[run.hash.as_str()],
-        );
-        let trace_rows = c.trace.truth.len();
-        done.insert(run.hash.as_str(), Done::of(c.row, c.wall_ms, trace_rows, false, held));
-    });
+    let started = || progress.computing();
+    compute(
+        plan,
+        &missing,
+        &|i| planned_cost[plan.runs[i].hash.as_str()],
+        &pool,
+        &started,
+        |i, c| {
+            let run = &plan.runs[i];
+            // Replace whatever is there: forced, or an entry that could not be read. A cache that
+            // cannot be written only costs a recomputation next time; until the study is written,
+            // the run's results are then held here.
+            let held = match cache.put(&run.hash, &c, true) {
+                Ok(()) => None,
+                Err(e) => {
+                    progress.warn(&format!("cannot cache {}: {e}", run.run_id));
+                    Some(store::RunParts {
+                        trace: c.trace.clone(),
+                        landmarks: c.landmarks.clone(),
+                        matches: c.matches.clone(),
+                    })
+                }
+            };
+            progress.finished(
+                c.row.status,
+                false,
+                multiplicity[run.hash.as_str()],
+                planned_cost[run.hash.as_str()],
+            );
+            let trace_rows = c.trace.truth.len();
+            done.insert(run.hash.as_str(), Done::of(c.row, c.wall_ms, trace_rows, false, held));
+        },
+    );
     progress.done();
 
     let mut order: Vec<&RunSpec> = plan.runs.iter().collect();
@@ -384,10 +398,12 @@ fn compute(
     todo: &[usize],
     cost: &dyn Fn(usize) -> f64,
     pool: &rayon::ThreadPool,
+    started: &dyn Fn(),
     mut done: impl FnMut(usize, CachedRun),
 ) {
     let order = schedule(plan, todo, cost);
     let worlds = worlds::Worlds::new(plan, todo);
+    started(); // the set-up is done: the runs start now
     let next = std::sync::atomic::AtomicUsize::new(0);
     // Bounded: a worker waits when this thread (caching each result, with an fsync) falls behind,
     // so results in flight stay a few per worker instead of piling up (fast runs outpace the
@@ -423,7 +439,12 @@ pub fn schedule(plan: &ExperimentPlan, todo: &[usize], cost: &dyn Fn(usize) -> f
     for &i in todo {
         groups.entry(worlds::key(plan, &plan.runs[i])).or_default().push(i);
     }
-    let by_cost = |a: &usize, b: &usize| cost(*b).total_cmp(&cost(*a)).then(a.cmp(b));
+    // each run's cost asked once (the sort compares many times; `cost` may be a map lookup)
+    let mut costs = vec![f64::NAN; plan.runs.len()];
+    for &i in todo {
+        costs[i] = cost(i);
+    }
+    let by_cost = |a: &usize, b: &usize| costs[*b].total_cmp(&costs[*a]).then(a.cmp(b));
     let mut groups: Vec<Vec<usize>> = groups.into_values().collect();
     for g in &mut groups {
         g.sort_by(by_cost);
@@ -541,6 +562,7 @@ pub fn run_shard(
             &todo,
             &|i| crate::plan::cost::expected_s(plan, &plan.runs[i]),
             &pool,
+            &|| progress.computing(),
             |i, c| {
                 let run = &plan.runs[i];
                 if let Err(e) = cache.put(&run.hash, &c, true) {
@@ -783,6 +805,10 @@ fn base_row(plan: &ExperimentPlan, run: &RunSpec) -> RunRow {
 
 /// A cache entry may come from another study or run id with identical inputs: give it this
 /// run's identity.
+/// Studies from this many runs say what they do before their first run starts (looking up and
+/// scheduling 10⁶ runs takes seconds).
+const LARGE_STUDY: usize = 100_000;
+
 /// A run as a study keeps it until its results are written: what its row takes from the
 /// computation (the rest of the row is the study's own, from the plan).
 struct Done {

@@ -64,6 +64,11 @@ pub fn eta(elapsed: Duration, computed: usize, to_compute: usize) -> Option<Stri
     if computed == 0 || computed >= to_compute {
         return None;
     }
+    // A pace from the first few of very many runs is noise (one run of 10⁶ once said 6 828 h):
+    // none before 1 % is done or ten seconds have passed.
+    if computed.saturating_mul(100) < to_compute && elapsed < Duration::from_secs(10) {
+        return None;
+    }
     let left = elapsed.as_secs_f64() / computed as f64 * (to_compute - computed) as f64;
     let s = left.round() as u64;
     Some(if s >= 3600 {
@@ -221,6 +226,9 @@ mod tests {
         assert_eq!(eta(Duration::from_secs(90), 3, 5).as_deref(), Some("1m00s"));
         // nothing computed yet, or nothing left: no estimate
         assert_eq!(eta(Duration::from_secs(5), 0, 10), None);
+        // the first runs of a large plan give no pace yet
+        assert_eq!(eta(Duration::from_millis(50), 1, 1_000_000), None);
+        assert!(eta(Duration::from_secs(12), 1_000, 1_000_000).is_some());
         assert_eq!(eta(Duration::from_secs(5), 10, 10), None);
         assert!(clock().ends_with('Z') && clock().len() == 9);
     }
