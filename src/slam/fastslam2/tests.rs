@@ -717,6 +717,33 @@ fn two_matched_observations_weigh_by_their_joint_density() {
     );
 }
 
+/// ln of the joint density of two readings `z` of landmark `l` (shared pose error H_x Q H_xᵀ and
+/// shared landmark error H_m P H_mᵀ, each reading's own R), linearised at `predicted`.
+fn read_twice_joint(
+    l: &Landmark,
+    predicted: &Pose2,
+    q: &Matrix3<f64>,
+    r: Matrix2<f64>,
+    z: [&Observation; 2],
+) -> f64 {
+    let a = Model::Point.predict_full(&l.mean, predicted);
+    let mut hx = nalgebra::Matrix4x3::zeros();
+    let mut hm = nalgebra::Matrix4x2::zeros();
+    for k in 0..2 {
+        hx.fixed_view_mut::<2, 3>(2 * k, 0).copy_from(&a.h_pose);
+        hm.fixed_view_mut::<2, 2>(2 * k, 0).copy_from(&a.h_landmark);
+    }
+    let mut s = hx * q * hx.transpose() + hm * l.cov * hm.transpose();
+    for k in 0..2 {
+        let mut block = s.fixed_view_mut::<2, 2>(2 * k, 2 * k);
+        block += r;
+    }
+    let (n1, n2) = (Model::Point.innovation(&z[0].z, &a.z), Model::Point.innovation(&z[1].z, &a.z));
+    let nu = nalgebra::Vector4::new(n1[0], n1[1], n2[0], n2[1]);
+    -0.5 * (nu.transpose() * s.try_inverse().unwrap() * nu)[0]
+        - 0.5 * (TAU.powi(4) * s.determinant()).ln()
+}
+
 /// One landmark read twice in a step (known association): its readings share the landmark's
 /// error as well as the pose's, so the joint density has the cross term H_m P H_mᵀ between them.
 /// The filter reads them fused (`Cursor`), and its weight is that joint density up to the factor
@@ -749,25 +776,7 @@ fn one_landmark_read_twice_weighs_by_the_joint_density() {
 
     let predicted = previous.compose(u);
     let q = motion.covariance(&previous, &u);
-    let a = Model::Point.predict_full(&loose.mean, &predicted);
-    let mut hx = nalgebra::Matrix4x3::zeros();
-    let mut hm = nalgebra::Matrix4x2::zeros();
-    for k in 0..2 {
-        hx.fixed_view_mut::<2, 3>(2 * k, 0).copy_from(&a.h_pose);
-        hm.fixed_view_mut::<2, 2>(2 * k, 0).copy_from(&a.h_landmark);
-    }
-    let mut s = hx * q * hx.transpose() + hm * loose.cov * hm.transpose();
-    for k in 0..2 {
-        for i in 0..2 {
-            for j in 0..2 {
-                s[(2 * k + i, 2 * k + j)] += r[(i, j)];
-            }
-        }
-    }
-    let (n1, n2) = (Model::Point.innovation(&z1.z, &a.z), Model::Point.innovation(&z2.z, &a.z));
-    let nu = nalgebra::Vector4::new(n1[0], n1[1], n2[0], n2[1]);
-    let joint = -0.5 * (nu.transpose() * s.try_inverse().unwrap() * nu)[0]
-        - 0.5 * (TAU.powi(4) * s.determinant()).ln();
+    let joint = read_twice_joint(&loose, &predicted, &q, r, [&z1, &z2]);
     let d = Model::Point.innovation(&z2.z, &z1.z);
     let common = -0.5 * (d.transpose() * (2.0 * r).try_inverse().unwrap() * d)[0]
         - 0.5 * (TAU.powi(2) * (2.0 * r).determinant()).ln();
@@ -820,25 +829,7 @@ fn two_features_on_one_landmark_fold_into_the_proposal_once_each() {
 
     let predicted = previous.compose(u);
     let q = motion.covariance(&previous, &u);
-    let a = Model::Point.predict_full(&loose.mean, &predicted);
-    let mut hx = nalgebra::Matrix4x3::zeros();
-    let mut hm = nalgebra::Matrix4x2::zeros();
-    for k in 0..2 {
-        hx.fixed_view_mut::<2, 3>(2 * k, 0).copy_from(&a.h_pose);
-        hm.fixed_view_mut::<2, 2>(2 * k, 0).copy_from(&a.h_landmark);
-    }
-    let mut s = hx * q * hx.transpose() + hm * loose.cov * hm.transpose();
-    for k in 0..2 {
-        for i in 0..2 {
-            for j in 0..2 {
-                s[(2 * k + i, 2 * k + j)] += r[(i, j)];
-            }
-        }
-    }
-    let (n1, n2) = (Model::Point.innovation(&z1.z, &a.z), Model::Point.innovation(&z2.z, &a.z));
-    let nu = nalgebra::Vector4::new(n1[0], n1[1], n2[0], n2[1]);
-    let joint = -0.5 * (nu.transpose() * s.try_inverse().unwrap() * nu)[0]
-        - 0.5 * (TAU.powi(4) * s.determinant()).ln();
+    let joint = read_twice_joint(&loose, &predicted, &q, r, [&z1, &z2]);
     // both folded against the unchanged landmark: the chain factors without the cross term
     let (mut mu, mut sigma) = (predicted, q);
     let stale: f64 =
