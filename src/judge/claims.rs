@@ -1357,4 +1357,48 @@ mod tests {
             "the rule before confirmed it in only {before} of {designs}: the toy must tell them apart"
         );
     }
+
+    /// Noise raises ST and not S1, so ST − S1 carries the parameter's noise term: an interaction
+    /// claim must clear it. ST − S1 = 0.2 [0.15, 0.25] is "above 0.1" without noise, and not with
+    /// a term of 0.2 (0.1 × (1 − 0.2) + 0.2 = 0.28). Before, interactions were tested against 0.1
+    /// alone and this was confirmed.
+    #[test]
+    fn an_interaction_must_clear_its_noise_term() {
+        use super::super::sensitivity::{Analysis, Indices};
+        use crate::stats::sensitivity::{Indices as Sobol, percentile_interval};
+        let boot_s1: Vec<f64> = (0..200).map(|k| 0.1 + 0.02 * (k as f64 / 199.0 - 0.5)).collect();
+        let boot_st: Vec<f64> =
+            boot_s1.iter().zip(0..).map(|(s, k)| s + 0.15 + 0.1 * k as f64 / 199.0).collect();
+        let s1 = vec![percentile_interval(0.1, &boot_s1)];
+        let st = vec![percentile_interval(0.3, &boot_st)];
+        let analysis = |term: f64| Analysis {
+            group: 0,
+            kind: crate::spec::SweepKind::Sobol,
+            map: "m".into(),
+            algorithm: "fastslam1".into(),
+            metric: "ate_rmse_m".into(),
+            log: false,
+            params: vec!["a".into()],
+            indices: Some(Indices::Sobol(Sobol {
+                s1: s1.clone(),
+                st: st.clone(),
+                boot_s1: vec![boot_s1.clone()],
+                boot_st: vec![boot_st.clone()],
+            })),
+            shares: None,
+            noise_floor: Some(term),
+            noise: Some(vec![term]),
+            replicates: 2,
+            used: 32,
+            size: 32,
+            runs: 0,
+            failed: 0,
+            rows: Vec::new(),
+            note: String::new(),
+        };
+        let claim: ClaimSpec = toml::from_str("id = \"c\"\nsource = \"s\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"interaction\"\nparameter = \"a\"\ntest = \"above\"\nvalue = 0.1\n").unwrap();
+        let verdict = |term: f64| index_on_map(&[analysis(term)], &claim, "m", "fastslam1");
+        assert_eq!(verdict(0.0).verdict, Verdict::Confirmed, "{}", verdict(0.0).text);
+        assert_eq!(verdict(0.2).verdict, Verdict::Refuted, "{}", verdict(0.2).text);
+    }
 }
