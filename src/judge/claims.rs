@@ -1224,34 +1224,26 @@ mod tests {
         assert_eq!(decide_margin(&[0.06; 8], 0.05, true), Verdict::Confirmed);
     }
 
-    /// Index claims: an ST interval above the threshold confirms only when it also clears the
-    /// noise floor; one below the threshold refutes; a ranking claim reads the interval of the
-    /// difference over the same resamples.
-    #[test]
-    fn index_claims_test_intervals_noise_floor_and_differences() {
-        use super::super::sensitivity::{Analysis, Indices};
-        use crate::stats::sensitivity::{Indices as Sobol, percentile_interval};
-        // bootstrap replicates: parameter a's ST around 0.5, b's around 0.1
-        let boot_a: Vec<f64> = (0..200).map(|k| 0.4 + 0.2 * k as f64 / 199.0).collect();
-        let boot_b: Vec<f64> = boot_a.iter().map(|x| x - 0.4).collect();
-        let st = vec![percentile_interval(0.5, &boot_a), percentile_interval(0.1, &boot_b)];
-        let analysis = |floor: Option<f64>, term: Option<f64>| Analysis {
+    /// A Sobol' analysis of `ate_rmse_m` on map `m` (2 replicates, 32 samples) with these indices,
+    /// noise floor and per-parameter noise terms.
+    fn sobol_analysis(
+        params: &[&str],
+        indices: crate::stats::sensitivity::Indices,
+        floor: Option<f64>,
+        noise: Option<Vec<f64>>,
+    ) -> super::super::sensitivity::Analysis {
+        super::super::sensitivity::Analysis {
             group: 0,
             kind: crate::spec::SweepKind::Sobol,
             map: "m".into(),
             algorithm: "fastslam1".into(),
             metric: "ate_rmse_m".into(),
             log: false,
-            params: vec!["a".into(), "b".into()],
-            indices: Some(Indices::Sobol(Sobol {
-                s1: st.clone(),
-                st: st.clone(),
-                boot_s1: vec![boot_a.clone(), boot_b.clone()],
-                boot_st: vec![boot_a.clone(), boot_b.clone()],
-            })),
+            params: params.iter().map(|p| p.to_string()).collect(),
+            indices: Some(super::super::sensitivity::Indices::Sobol(indices)),
             shares: None,
             noise_floor: floor,
-            noise: term.map(|t| vec![t, t]),
+            noise,
             replicates: 2,
             used: 32,
             size: 32,
@@ -1259,6 +1251,27 @@ mod tests {
             failed: 0,
             rows: Vec::new(),
             note: String::new(),
+        }
+    }
+
+    /// Index claims: an ST interval above the threshold confirms only when it also clears the
+    /// noise floor; one below the threshold refutes; a ranking claim reads the interval of the
+    /// difference over the same resamples.
+    #[test]
+    fn index_claims_test_intervals_noise_floor_and_differences() {
+        use crate::stats::sensitivity::{Indices as Sobol, percentile_interval};
+        // bootstrap replicates: parameter a's ST around 0.5, b's around 0.1
+        let boot_a: Vec<f64> = (0..200).map(|k| 0.4 + 0.2 * k as f64 / 199.0).collect();
+        let boot_b: Vec<f64> = boot_a.iter().map(|x| x - 0.4).collect();
+        let st = vec![percentile_interval(0.5, &boot_a), percentile_interval(0.1, &boot_b)];
+        let analysis = |floor: Option<f64>, term: Option<f64>| {
+            let indices = Sobol {
+                s1: st.clone(),
+                st: st.clone(),
+                boot_s1: vec![boot_a.clone(), boot_b.clone()],
+                boot_st: vec![boot_a.clone(), boot_b.clone()],
+            };
+            sobol_analysis(&["a", "b"], indices, floor, term.map(|t| vec![t, t]))
         };
         let claim = |test: &str, parameter: &str, extra: &str| -> ClaimSpec {
             toml::from_str(&format!("id = \"c\"\nsource = \"s\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"st\"\nparameter = \"{parameter}\"\ntest = \"{test}\"\n{extra}")).unwrap()
@@ -1364,37 +1377,20 @@ mod tests {
     /// alone and this was confirmed.
     #[test]
     fn an_interaction_must_clear_its_noise_term() {
-        use super::super::sensitivity::{Analysis, Indices};
         use crate::stats::sensitivity::{Indices as Sobol, percentile_interval};
         let boot_s1: Vec<f64> = (0..200).map(|k| 0.1 + 0.02 * (k as f64 / 199.0 - 0.5)).collect();
         let boot_st: Vec<f64> =
             boot_s1.iter().zip(0..).map(|(s, k)| s + 0.15 + 0.1 * k as f64 / 199.0).collect();
         let s1 = vec![percentile_interval(0.1, &boot_s1)];
         let st = vec![percentile_interval(0.3, &boot_st)];
-        let analysis = |term: f64| Analysis {
-            group: 0,
-            kind: crate::spec::SweepKind::Sobol,
-            map: "m".into(),
-            algorithm: "fastslam1".into(),
-            metric: "ate_rmse_m".into(),
-            log: false,
-            params: vec!["a".into()],
-            indices: Some(Indices::Sobol(Sobol {
+        let analysis = |term: f64| {
+            let indices = Sobol {
                 s1: s1.clone(),
                 st: st.clone(),
                 boot_s1: vec![boot_s1.clone()],
                 boot_st: vec![boot_st.clone()],
-            })),
-            shares: None,
-            noise_floor: Some(term),
-            noise: Some(vec![term]),
-            replicates: 2,
-            used: 32,
-            size: 32,
-            runs: 0,
-            failed: 0,
-            rows: Vec::new(),
-            note: String::new(),
+            };
+            sobol_analysis(&["a"], indices, Some(term), Some(vec![term]))
         };
         let claim: ClaimSpec = toml::from_str("id = \"c\"\nsource = \"s\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"interaction\"\nparameter = \"a\"\ntest = \"above\"\nvalue = 0.1\n").unwrap();
         let verdict = |term: f64| index_on_map(&[analysis(term)], &claim, "m", "fastslam1");

@@ -389,6 +389,28 @@ pub(super) fn by_point(runs: &[crate::store::RunRow]) -> HashMap<&str, Vec<&crat
 mod tests {
     use super::*;
 
+    /// The analysis of metric `y` of a two-parameter (a, b) Saltelli design's runs.
+    fn sobol_of(
+        design: &DesignRecord,
+        runs: &[crate::store::RunRow],
+        replicates: usize,
+    ) -> Analysis {
+        let cells = by_point(runs);
+        one(
+            0,
+            SweepKind::Sobol,
+            &["a".into(), "b".into()],
+            design,
+            |p| cells.get(p).map(Vec::as_slice).unwrap_or_default(),
+            "m",
+            "odometry",
+            "y",
+            false,
+            replicates,
+            1,
+        )
+    }
+
     /// A two-parameter Saltelli design whose "runs" compute y = 4 x₁ + x₂ + noise(replicate):
     /// S1 ≈ ST ≈ 16/17 and 1/17, the world's share is what the replicate offsets make it, and a
     /// failed run drops exactly its sample.
@@ -399,20 +421,7 @@ mod tests {
             (!(i == 5 && rep == 0)).then(|| 4.0 * x[0] + x[1] + 0.1 * f64::from(rep))
         });
         let rows = design.rows.len();
-        let cells = by_point(&runs);
-        let a = one(
-            0,
-            SweepKind::Sobol,
-            &["a".into(), "b".into()],
-            &design,
-            |p| cells.get(p).map(Vec::as_slice).unwrap_or_default(),
-            "m",
-            "odometry",
-            "y",
-            false,
-            3,
-            1,
-        );
+        let a = sobol_of(&design, &runs, 3);
         let Some(Indices::Sobol(x)) = &a.indices else { panic!("{}", a.note) };
         let (s1, st) = (&x.s1, &x.st);
         assert!(
@@ -445,20 +454,7 @@ mod tests {
         let (design, runs) = saltelli_runs(n, 9, 2, |x, rep, i| {
             (!(i == broken && rep == 0)).then(|| 4.0 * x[0] + 10.0 * f64::from(rep))
         });
-        let cells = by_point(&runs);
-        let a = one(
-            0,
-            SweepKind::Sobol,
-            &["a".into(), "b".into()],
-            &design,
-            |p| cells.get(p).map(Vec::as_slice).unwrap_or_default(),
-            "m",
-            "odometry",
-            "y",
-            false,
-            2,
-            1,
-        );
+        let a = sobol_of(&design, &runs, 2);
         let Some(Indices::Sobol(x)) = &a.indices else { panic!("{}", a.note) };
         assert!(x.st[1].value.abs() < 1e-12, "b has no effect: ST {:?}", x.st[1]);
         assert_eq!(a.used, n, "the sample keeps the replicate all its points have");

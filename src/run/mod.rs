@@ -277,25 +277,23 @@ pub fn run_study(
             // Replace whatever is there: forced, or an entry that could not be read. A cache that
             // cannot be written only costs a recomputation next time; until the study is written,
             // the run's results are then held here.
-            let held = match cache.put(&run.hash, &c, true) {
+            let cached = cache.put(&run.hash, &c, true);
+            let CachedRun { row, trace, landmarks, matches, wall_ms } = c;
+            let trace_rows = trace.truth.len();
+            let held = match cached {
                 Ok(()) => None,
                 Err(e) => {
                     progress.warn(&format!("cannot cache {}: {e}", run.run_id));
-                    Some(store::RunParts {
-                        trace: c.trace.clone(),
-                        landmarks: c.landmarks.clone(),
-                        matches: c.matches.clone(),
-                    })
+                    Some(store::RunParts { trace, landmarks, matches })
                 }
             };
             progress.finished(
-                c.row.status,
+                row.status,
                 false,
                 multiplicity[run.hash.as_str()],
                 planned_cost[run.hash.as_str()],
             );
-            let trace_rows = c.trace.truth.len();
-            done.insert(run.hash.as_str(), Done::of(c.row, c.wall_ms, trace_rows, false, held));
+            done.insert(run.hash.as_str(), Done::of(row, wall_ms, trace_rows, false, held));
         },
     );
     progress.done();
