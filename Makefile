@@ -5,7 +5,7 @@ CARGO ?= cargo
 BIN   := $(or $(CARGO_TARGET_DIR),target)/release/slamlab
 SPECS := $(sort $(wildcard experiments/*.toml))
 
-.PHONY: all build report run test test-slurm bench validate clean-results check-reports check-html pdf install-checkers
+.PHONY: all build report run test test-slurm memcheck bench validate clean-results check-reports check-html pdf install-checkers
 
 all: report
 
@@ -50,6 +50,11 @@ test:
 ## byte-identical to a single-process run.
 test-slurm: build
 	tests/tools/test_slurm.sh
+
+## One TNEWTON run under valgrind's memcheck (installs valgrind when missing): fails on any use
+## of memory NLopt has not written (build/nlopt_patch.rs). About 10 s.
+memcheck: build
+	tests/tools/memcheck_tnewton.sh $(BIN)
 
 ## Benchmarks: criterion micro-benchmarks, then the whole pipeline from scratch.
 bench: build

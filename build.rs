@@ -1,7 +1,13 @@
-//! Records the compiler version for results manifests (provenance).
+//! Records the compiler version for results manifests (provenance), and builds the NLopt that
+//! slamlab links: the `nlopt` crate's copy with TNEWTON's uninitialised reads fixed
+//! (`build/nlopt_patch.rs`).
 use std::process::Command;
 
+#[path = "build/nlopt_patch.rs"]
+mod nlopt_patch;
+
 fn main() {
+    nlopt_patch::build();
     let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".into());
     let version = Command::new(rustc)
         .arg("--version")

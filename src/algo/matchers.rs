@@ -12,8 +12,9 @@ use crate::trace::SlamError;
 use crate::world::{Sensors, WorldKind};
 use std::borrow::Cow;
 
-/// Code version of TNEWTON runs: the scan matchers' plus the deterministic heap fill.
-pub const TNEWTON_CODE_VERSION: &str = "scanmatch-3+heap-fill-1";
+/// Code version of TNEWTON runs: the scan matchers' plus NLopt's PNET with its work array and
+/// `mx` zeroed (`build/nlopt_patch.rs`).
+pub const TNEWTON_CODE_VERSION: &str = "scanmatch-3+pnet-zeroed-1";
 
 /// Polar Scan Matching (Diosi & Kleeman) on scans prepared by the study's
 /// `[scan_matching.segmentation]` ([EP]'s "Diosi": PSM on segmented scans), or with its own
@@ -216,7 +217,8 @@ impl Algorithm for PoseSearch {
         .into()
     }
     fn code_version(&self) -> Cow<'_, str> {
-        // TNEWTON's results depended on heap garbage before the fixed malloc fill (src/main.rs)
+        // TNEWTON's results depended on heap garbage before NLopt's PNET was patched to zero its
+        // work array (build/nlopt_patch.rs): its cache entries carry their own version
         match self.0 {
             Optimizer::Tnewton => TNEWTON_CODE_VERSION.into(),
             _ => track::CODE_VERSION.into(),
