@@ -33,30 +33,54 @@ pub enum MotionModel {
     /// the error lies along the direction of travel and in heading only as far as the robot
     /// turns. In the filters, Q = G_u (J diag(σd², σφ²) Jᵀ + F) G_uᵀ with J = ∂u/∂(d, φ) the arc's
     /// Jacobian and F = diag(floor_translation_m², floor_translation_m², floor_rotation_rad²) a
-    /// floor of independent body-frame noise (it keeps Q positive definite; set it near zero to
-    /// match the simulation exactly). With k_translation = k_rotation = k and zero floors it is
-    /// the simulated noise (tested against the world's own samples).
+    /// floor of independent body-frame noise. With k_translation = k_rotation = k it is the
+    /// simulated noise (tested against the world's own samples) plus the floor.
+    ///
+    /// The simulation draws nothing off the arc: driving straight it moves neither sideways nor
+    /// in heading. So the floor defaults to [`MATCHED_FLOOR`], which only keeps Q positive
+    /// definite, and a floor above [`FLOOR_NEEDS_REASON`] — noise the filter is told of that the
+    /// world does not draw — needs its reason stated in `floor_reason` (shown in the report).
     Proportional {
         /// Translation noise per metre driven [m/m].
         k_translation: f64,
         /// Rotation noise per radian turned [rad/rad].
         k_rotation: f64,
-        /// Translation noise floor per step [m] (keeps Q positive definite when standing).
+        /// Translation noise floor per step, per body axis [m].
+        #[serde(default = "matched_floor")]
         floor_translation_m: f64,
         /// Rotation noise floor per step [rad].
+        #[serde(default = "matched_floor")]
         floor_rotation_rad: f64,
+        /// Why the floor exceeds what the world draws (required above [`FLOOR_NEEDS_REASON`]).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        floor_reason: Option<String>,
     },
 }
 
+/// The default floor of the `proportional` model, in m and rad per step: the simulated odometry
+/// draws no noise off the driven arc, and 1e-7 keeps Q positive definite (and FastSLAM 2.0's
+/// proposal invertible) without telling the filter of noise it never meets. A floor of 1e-4 per
+/// step already made EKF-SLAM conservative in `cross-consistency` (mean NEES 1.84 against 3).
+pub const MATCHED_FLOOR: f64 = 1e-7;
+
+/// A floor above this (m or rad per step) is noise the world does not draw: it needs a reason.
+/// Ten times [`MATCHED_FLOOR`]; below a micrometre or microradian per step any floor is numerical.
+pub const FLOOR_NEEDS_REASON: f64 = 1e-6;
+
+fn matched_floor() -> f64 {
+    MATCHED_FLOOR
+}
+
 impl Default for MotionModel {
-    /// Matches the default simulated odometry (10 % proportional noise, read as σ), with floors
-    /// of 1 mm and 0.001 rad per step.
+    /// Matches the default simulated odometry (10 % proportional noise, read as σ) with the
+    /// matched floor.
     fn default() -> Self {
         MotionModel::Proportional {
             k_translation: 0.1,
             k_rotation: 0.1,
-            floor_translation_m: 1e-3,
-            floor_rotation_rad: 1e-3,
+            floor_translation_m: MATCHED_FLOOR,
+            floor_rotation_rad: MATCHED_FLOOR,
+            floor_reason: None,
         }
     }
 }
@@ -75,11 +99,28 @@ impl MotionModel {
                 k_rotation,
                 floor_translation_m,
                 floor_rotation_rad,
+                ref floor_reason,
             } => {
                 c.non_negative("k_translation", k_translation);
                 c.non_negative("k_rotation", k_rotation);
                 c.non_negative("floor_translation_m", floor_translation_m);
                 c.non_negative("floor_rotation_rad", floor_rotation_rad);
+                let stated = floor_reason.as_deref().is_some_and(|r| !r.trim().is_empty());
+                for (key, floor, unit) in [
+                    ("floor_translation_m", floor_translation_m, "m"),
+                    ("floor_rotation_rad", floor_rotation_rad, "rad"),
+                ] {
+                    c.require(stated || !(floor > FLOOR_NEEDS_REASON), key, || {
+                        format!(
+                            "{floor} {unit} per step is noise the simulated odometry never draws \
+                             (it draws none off the driven arc): state why in `floor_reason`, or \
+                             leave the floor out for the matched {MATCHED_FLOOR}"
+                        )
+                    });
+                }
+                if floor_reason.is_some() && !stated {
+                    c.fail("floor_reason", "is empty: state why the floor exceeds the world's");
+                }
             }
         }
         c.finish()
@@ -93,9 +134,17 @@ impl MotionModel {
                 k_rotation,
                 floor_translation_m,
                 floor_rotation_rad,
-            } => format!(
-                "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: the simulated odometry's own noise on the driven arc, σ = {k_translation}·|arc length| and {k_rotation}·|turn| per step propagated through the arc, plus a floor of {floor_translation_m} m per axis and {floor_rotation_rad} rad per step."
-            ),
+                floor_reason,
+            } => {
+                let why = match floor_reason {
+                    Some(reason) => format!(", more than the world draws: {}", reason.trim()),
+                    None => ", which only keeps Q positive definite: the simulated odometry draws no noise off the arc".into(),
+                };
+                format!(
+                    "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: the simulated odometry's own noise on the driven arc, σ = {k_translation}·|arc length| and {k_rotation}·|turn| per step propagated through the arc, plus a floor of {floor_translation_m} m per axis and {floor_rotation_rad} rad per step{why}{}",
+                    if why.ends_with('.') { "" } else { "." }
+                )
+            }
             MotionModel::Pose { sigma_x_m, sigma_y_m, sigma_theta_rad } => {
                 format!(
                     "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: per-step world-frame pose noise σ = ({sigma_x_m} m, {sigma_y_m} m, {sigma_theta_rad} rad) ([FT] Eq. 7.18)."
@@ -130,6 +179,7 @@ impl MotionModel {
                 k_rotation,
                 floor_translation_m: ft,
                 floor_rotation_rad: fr,
+                ..
             } => {
                 let (d, phi) = arc_of(u);
                 let j = arc_jacobian(d, phi);
@@ -162,6 +212,7 @@ impl MotionModel {
                 k_rotation,
                 floor_translation_m: ft,
                 floor_rotation_rad: fr,
+                ..
             } => {
                 // the perturbed arc's change, applied to u (u itself when u is an arc: then this
                 // is driving the perturbed arc, exactly as the simulation does)
@@ -245,6 +296,38 @@ mod tests {
         }
     }
 
+    /// A floor the world does not draw is refused without a reason, and accepted with one; the
+    /// default is the matched floor, read from a section that leaves it out.
+    #[test]
+    fn a_floor_above_the_worlds_needs_a_stated_reason() {
+        let section = |floors: &str| {
+            toml::from_str::<MotionModel>(&format!(
+                "model = \"proportional\"\nk_translation = 0.1\nk_rotation = 0.1\n{floors}"
+            ))
+            .unwrap()
+        };
+        assert_eq!(section(""), MotionModel::default());
+        assert!(section("").validate().is_empty());
+        let keys = |m: MotionModel| m.validate().into_iter().map(|v| v.key).collect::<Vec<_>>();
+        assert_eq!(
+            keys(section("floor_translation_m = 0.001\nfloor_rotation_rad = 0.001")),
+            ["floor_translation_m", "floor_rotation_rad"]
+        );
+        assert_eq!(keys(section("floor_rotation_rad = 0.000002")), ["floor_rotation_rad"]);
+        assert!(keys(section("floor_translation_m = 0.000001")).is_empty(), "at the threshold");
+        assert!(
+            keys(section("floor_translation_m = 0.001\nfloor_reason = \"real odometry slips\""))
+                .is_empty()
+        );
+        assert_eq!(
+            keys(section("floor_translation_m = 0.001\nfloor_reason = \" \"")),
+            ["floor_translation_m", "floor_reason"]
+        );
+        // a section without a reason serialises as before: its run hashes do not change
+        let text = toml::to_string(&section("floor_translation_m = 0.001")).unwrap();
+        assert!(!text.contains("floor_reason"), "{text}");
+    }
+
     #[test]
     fn describe_names_the_noise_parameters() {
         let proportional = MotionModel::Proportional {
@@ -252,12 +335,24 @@ mod tests {
             k_rotation: 0.25,
             floor_translation_m: 0.002,
             floor_rotation_rad: 0.003,
+            floor_reason: Some("the robot slips.".into()),
         }
         .describe();
         assert!(
             proportional.contains("σ = 0.15·|arc length| and 0.25·|turn|")
-                && proportional.contains("floor of 0.002 m per axis and 0.003 rad"),
+                && proportional.contains(
+                    "floor of 0.002 m per axis and 0.003 rad per step, more than the world \
+                     draws: the robot slips."
+                ),
             "{proportional}"
+        );
+        let matched = MotionModel::default().describe();
+        assert!(
+            matched.contains(
+                "floor of 0.0000001 m per axis and 0.0000001 rad per step, which only keeps Q \
+                 positive definite"
+            ),
+            "{matched}"
         );
         let pose = MotionModel::Pose { sigma_x_m: 0.02, sigma_y_m: 0.01, sigma_theta_rad: 0.03 }
             .describe();
@@ -303,6 +398,7 @@ mod tests {
             k_rotation: k,
             floor_translation_m: 0.0,
             floor_rotation_rad: 0.0,
+            floor_reason: None,
         };
         let mut rng = ChaCha8Rng::seed_from_u64(9);
         for (v, w) in [(1.0, 0.0), (0.0, 0.5), (1.0, 0.8), (0.5, -2.0)] {

@@ -91,6 +91,7 @@ fn noise_free_point_world_is_recovered_by_every_filter() {
         k_rotation: 0.0,
         floor_translation_m: 1e-6,
         floor_rotation_rad: 1e-6,
+        floor_reason: None,
     };
     let world = World {
         point_noise: Some(

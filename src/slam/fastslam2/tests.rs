@@ -205,6 +205,7 @@ fn the_proposal_beats_motion_sampling_with_few_particles() {
         k_rotation: 0.0,
         floor_translation_m: sigma[0],
         floor_rotation_rad: sigma[1],
+        floor_reason: None,
     };
     let r = Matrix2::new(1e-4, 0.0, 0.0, 4e-6);
     let p = params(5, DataAssociation::Known);
@@ -303,6 +304,7 @@ fn resampling_keeps_the_particle_count_and_follows_the_best_particle() {
         k_rotation: 0.0,
         floor_translation_m: sigma[0],
         floor_rotation_rad: sigma[1],
+        floor_reason: None,
     };
     let world = circle_world(sigma, 4);
     let observations = observe(
