@@ -136,9 +136,12 @@ impl MotionModel {
                 floor_rotation_rad,
                 floor_reason,
             } => {
+                let above = floor_translation_m.max(*floor_rotation_rad) > FLOOR_NEEDS_REASON;
                 let why = match floor_reason {
-                    Some(reason) => format!(", more than the world draws: {}", reason.trim()),
-                    None => ", which only keeps Q positive definite: the simulated odometry draws no noise off the arc".into(),
+                    Some(reason) if above => {
+                        format!(", more than the world draws: {}", reason.trim())
+                    }
+                    _ => ", which only keeps Q positive definite: the simulated odometry draws no noise off the arc".into(),
                 };
                 format!(
                     "Motion model of EKF-SLAM, FastSLAM 2.0 and FastSLAM on point worlds: the simulated odometry's own noise on the driven arc, σ = {k_translation}·|arc length| and {k_rotation}·|turn| per step propagated through the arc, plus a floor of {floor_translation_m} m per axis and {floor_rotation_rad} rad per step{why}{}",
