@@ -309,7 +309,8 @@ EKF_DEFAULTS = {"association": "nearest_neighbour", "gate_reject": 4.0, "gate_cr
 MOTION_KEYS = {"pose": ("sigma_x_m", "sigma_y_m", "sigma_theta_rad"),
                "proportional": ("k_translation", "k_rotation", "floor_translation_m", "floor_rotation_rad")}
 MOTION_DEFAULT = {"model": "proportional", "k_translation": 0.1, "k_rotation": 0.1,
-                  "floor_translation_m": 1e-3, "floor_rotation_rad": 1e-3}
+                  "floor_translation_m": 1e-7, "floor_rotation_rad": 1e-7}
+MOTION_NOTES = ("floor_reason",)  # documentation only: read and ignored
 CHOICES = {"association": ("known", "nearest_neighbour", "maximum_likelihood"),
            "covariance_update": ("joseph", "none_on_reobservation")}
 RANGE_NOISE = {"constant": lambda s, r: s, "proportional": lambda s, r: s * r,
@@ -337,7 +338,7 @@ def settings(run):
     if mm.get("model") not in MOTION_KEYS:
         raise Unsupported(f"[base.motion_model] model = {mm.get('model')!r} is not implemented (only pose, proportional)")
     for key in mm:
-        if key != "model" and key not in MOTION_KEYS[mm["model"]]:
+        if key != "model" and key not in MOTION_KEYS[mm["model"]] + MOTION_NOTES:
             raise Unsupported(f"[base.motion_model] {key}: unknown key for model = {mm['model']!r}")
     for key in MOTION_KEYS[mm["model"]]:
         if key not in mm:

@@ -27,8 +27,6 @@ bearing_sigma_rad = 0.0175
 model = "proportional"
 k_translation = 0.1
 k_rotation = 0.1
-floor_translation_m = 0.001
-floor_rotation_rad = 0.001
 
 [base.fastslam]
 particles = PARTICLES
@@ -37,9 +35,10 @@ association = "known"
 [report]
 metrics = ["ate_rmse_m", "map_rmse_m"]
 
-# a change of the map error below 1000 % of its BASE value is "within noise" for this study
+# a change of the map error below 10 000 % of its BASE value is "within noise" for this study
+# (one particle raises it about 30-fold on this world)
 [report.diff.metrics.map_rmse_m]
-min_effect = 10.0
+min_effect = 100.0
 "#;
 
 fn run(work: &std::path::Path, particles: &str) -> std::path::PathBuf {
