@@ -5,6 +5,7 @@ use crate::config::{Checks, Violation};
 use crate::features::FeatureParams;
 use crate::scanmatch::brute::BruteForceParams;
 use crate::scanmatch::epsm::EpsmParams;
+use crate::scanmatch::plicp::PlIcpParams;
 use crate::scanmatch::psm::PsmParams;
 use crate::scanmatch::search::SearchParams;
 use crate::scanmatch::track::ScanMatchingParams;
@@ -49,6 +50,8 @@ pub struct Params {
     pub pose_search: SearchParams,
     /// The brute-force reference ([EP] §6.1).
     pub brute_force: BruteForceParams,
+    /// PL-ICP, point-to-line ICP (Censi, ICRA 2008).
+    pub pl_icp: PlIcpParams,
     /// External algorithms' own parameters, `[base.external.<name>]`, handed to the program as
     /// written (docs/external-algorithms.md). Not written out when empty, so the studies without
     /// one keep their run hashes.
@@ -75,6 +78,7 @@ impl Params {
             epsm,
             pose_search,
             brute_force,
+            pl_icp,
             external: _, // the program's own: handed over as written
         } = self;
         let mut c = Checks::new();
@@ -91,6 +95,7 @@ impl Params {
         c.nested("epsm", epsm.validate());
         c.nested("pose_search", pose_search.validate());
         c.nested("brute_force", brute_force.validate());
+        c.nested("pl_icp", pl_icp.validate());
         let in_use = [
             ("laser", self.laser.rate_hz, sensors.laser),
             ("landmark_sensor", self.landmark_sensor.rate_hz, sensors.landmarks),
@@ -191,6 +196,7 @@ sections!(
     epsm,
     pose_search,
     brute_force,
+    pl_icp,
     external,
 );
 

@@ -29,6 +29,9 @@ pub struct Epsm;
 /// The brute-force reference: a translation grid with E-PSM's orientation search ([EP] §6.1).
 pub struct BruteForce;
 
+/// PL-ICP, point-to-line ICP (Censi, ICRA 2008), on the raw points.
+pub struct PlIcp;
+
 /// Simultaneous (x, y, θ) search with one of NLopt's optimisers ([EP] §5.3.2); listed by the
 /// optimiser's name (`crs2`, `direct_l`, …).
 pub struct PoseSearch(pub Optimizer);
@@ -258,5 +261,45 @@ impl Algorithm for PoseSearch {
     fn run(&self, input: RunInput<'_>) -> Result<Output, SlamError> {
         let p = input.params;
         track(input, Matcher::PoseSearch { optimizer: self.0, params: &p.pose_search })
+    }
+}
+
+impl Algorithm for PlIcp {
+    fn name(&self) -> &str {
+        "pl_icp"
+    }
+    fn title(&self) -> &str {
+        "PL-ICP"
+    }
+    fn summary(&self) -> Cow<'_, str> {
+        "PL-ICP, point-to-line ICP (Censi, ICRA 2008) on the raw points, with CSM sm2's defaults"
+            .into()
+    }
+    fn code_version(&self) -> Cow<'_, str> {
+        format!("{}+{}", track::CODE_VERSION, crate::scanmatch::plicp::CODE_VERSION).into()
+    }
+    fn role(&self) -> Role {
+        Role::ScanMatcher
+    }
+    fn sensors(&self, _: WorldKind) -> Sensors {
+        Sensors::LASER
+    }
+    fn sections(&self, _: WorldKind) -> Vec<String> {
+        sections("pl_icp")
+    }
+    fn describe(&self, p: &Params, _: &Listing<'_>) -> Vec<Choice> {
+        choices(p, Choice { topic: Topic::PlIcp, text: p.pl_icp.describe() })
+    }
+    fn work(&self, p: &Params, size: &RunSize) -> Work {
+        // the common objective scores the estimate and the guess (3 evaluations); the ICP
+        // iterations cost about as much as a few more
+        match_work(p, size, 8.0)
+    }
+    fn matcher<'p>(&self, p: &'p Params) -> Option<Matcher<'p>> {
+        Some(Matcher::PlIcp(&p.pl_icp))
+    }
+    fn run(&self, input: RunInput<'_>) -> Result<Output, SlamError> {
+        let p = input.params;
+        track(input, Matcher::PlIcp(&p.pl_icp))
     }
 }

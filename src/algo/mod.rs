@@ -83,6 +83,7 @@ pub enum Topic {
     Epsm,
     BruteForce,
     PoseSearch,
+    PlIcp,
     /// How scan-matching errors are measured.
     MatchErrors,
     /// An algorithm's own sentence (an external program's description).
@@ -241,6 +242,7 @@ pub fn builtins() -> Vec<Arc<dyn Algorithm>> {
         Arc::new(matchers::Psm { own_heuristics: true }),
         Arc::new(matchers::Epsm),
         Arc::new(matchers::BruteForce),
+        Arc::new(matchers::PlIcp),
     ];
     all.extend(
         Optimizer::ALL.iter().map(|&o| Arc::new(matchers::PoseSearch(o)) as Arc<dyn Algorithm>),

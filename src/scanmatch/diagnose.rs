@@ -302,6 +302,17 @@ fn observe(
             let r = super::search::simultaneous(&mut rec, initial, optimizer, params, s.seed);
             (r, Some(rec.seen))
         }
+        Matcher::PlIcp(params) => {
+            let r = super::plicp::pl_icp_observed(
+                s.reference,
+                s.current,
+                initial,
+                params,
+                &mut cost,
+                &mut record,
+            );
+            (r, None)
+        }
     };
     let path = match best {
         Some(best) => best,

@@ -26,6 +26,7 @@ pub mod brute;
 pub mod diagnose;
 pub mod epsm;
 pub mod objective;
+pub mod plicp;
 pub mod psm;
 pub mod real;
 pub mod scan;

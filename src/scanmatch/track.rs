@@ -134,6 +134,7 @@ pub enum Matcher<'a> {
         optimizer: Optimizer,
         params: &'a super::search::SearchParams,
     },
+    PlIcp(&'a super::plicp::PlIcpParams),
 }
 
 /// A scan-matching run's output: the trace (estimate over `steps` steps) and its matches.
@@ -167,6 +168,11 @@ pub fn preparation(
                 },
             )
         }
+        // PL-ICP works on the raw points, as CSM does: no filtering, no line projection
+        Matcher::PlIcp(_) => (
+            SegmentationParams { method: Segmentation::None, ..params.segmentation.clone() },
+            geometry,
+        ),
         _ => (params.segmentation.clone(), geometry),
     }
 }
@@ -353,6 +359,9 @@ pub fn run_matcher(
         Matcher::BruteForce(params) => super::brute::brute_force(&mut cost, initial, params),
         Matcher::PoseSearch { optimizer, params } => {
             super::search::simultaneous(&mut cost, initial, optimizer, params, seed)
+        }
+        Matcher::PlIcp(params) => {
+            super::plicp::pl_icp(reference, current, initial, params, &mut cost)
         }
     }
 }

@@ -2,6 +2,7 @@
 
 mod bad_input;
 mod code_versions;
+mod csm_reference;
 mod determinism;
 mod diff;
 mod export_tum;
