@@ -6,6 +6,7 @@ pub mod driver;
 pub mod ekf;
 pub mod fastslam;
 pub mod fastslam2;
+pub mod graph;
 pub mod motion;
 pub mod observations;
 pub mod odometry;

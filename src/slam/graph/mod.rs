@@ -1,0 +1,604 @@
+//! Graph-based SLAM on point landmarks (smoothing and mapping, "SAM"; Dellaert & Kaess 2006,
+//! GraphSLAM in Thrun et al. 2005 Ch. 11): every pose x₀ … x_K and every landmark m_j are
+//! unknowns of one nonlinear least-squares problem,
+//!
+//!   min Σ‖x₀ ⊖ x̄₀‖²_P₀ + Σₖ‖(x_{k+1} ⊖ xₖ) − uₖ‖²_Qₖ + Σ‖h(xₖ, m_j) − z‖²_R,
+//!
+//! a prior on the first pose, odometry between-factors with the noise the filters are told
+//! (`[motion_model]`'s body-frame covariance of the increment) and range–bearing factors with the
+//! sensor's R. It is solved by Levenberg–Marquardt (Marquardt's diagonal damping, Nielsen's
+//! update of λ) on the sparse normal equations, factorised by faer's sparse Cholesky
+//! (simplicial, sequential: the same operations on every machine and thread count).
+//!
+//! Two estimates, two registry algorithms:
+//! - **batch** (`graph_slam_batch`): one solve over the whole run; its trajectory is the
+//!   smoothed one, and its pose beliefs are the marginals of the information matrix at every
+//!   `belief_every`-th step;
+//! - **online** (`graph_slam`): the graph grows step by step and is re-solved every
+//!   `relinearise_every` steps, warm-started from the last solution (new poses by odometry, new
+//!   landmarks from their first reading); the estimate of a step is what the smoother knew at that
+//!   step — the newest pose of the last solve, composed with the odometry since — comparable with
+//!   a filter's, and its belief at each solve is that pose's marginal.
+//!
+//! Data association is known (the sensor's landmark identities); data without identities is
+//! refused, as EKF-SLAM with `association = "known"` refuses it.
+
+use super::SlamError;
+use super::observations::{Observation, StepObservations};
+use crate::config::{Checks, Violation};
+use crate::geom::{Pose2, wrap_angle};
+use crate::slam::fastslam::models::point_predict;
+use crate::slam::motion::MotionModel;
+use crate::trace::{LandmarkMap, Trace};
+use crate::world::World;
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
+use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
+use faer::{Mat, Par, Side};
+use nalgebra::{Matrix2, Matrix3, SMatrix, Vector2};
+use serde::{Deserialize, Serialize};
+
+/// Code version of graph-SLAM runs.
+pub const CODE_VERSION: &str = "graph-1";
+
+/// `[graph]`: the smoother's settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GraphParams {
+    /// Online estimate: re-solve every this many odometry steps. Default 10.
+    pub relinearise_every: u32,
+    /// Batch estimate: the pose marginal (for NEES) at every this many steps. Default 10.
+    pub belief_every: u32,
+    /// Levenberg–Marquardt iterations per solve. Default 100.
+    pub max_iterations: u32,
+    /// A solve stops when an accepted step lowers the cost by less than this fraction. Default 1e-10.
+    pub relative_decrease: f64,
+    /// σ of the prior on the first pose (the true start, as the filters are given it) [m, rad].
+    /// Default 1e-6.
+    pub prior_sigma: f64,
+}
+
+impl Default for GraphParams {
+    fn default() -> Self {
+        Self {
+            relinearise_every: 10,
+            belief_every: 10,
+            max_iterations: 100,
+            relative_decrease: 1e-10,
+            prior_sigma: 1e-6,
+        }
+    }
+}
+
+impl GraphParams {
+    pub fn validate(&self) -> Vec<Violation> {
+        let mut c = Checks::new();
+        c.require(self.relinearise_every >= 1, "relinearise_every", || "must be at least 1".into());
+        c.require(self.belief_every >= 1, "belief_every", || "must be at least 1".into());
+        c.require(self.max_iterations >= 1, "max_iterations", || "must be at least 1".into());
+        c.positive("relative_decrease", self.relative_decrease);
+        c.positive("prior_sigma", self.prior_sigma);
+        c.finish()
+    }
+
+    /// The report's sentence on the smoother.
+    pub fn describe(&self) -> String {
+        format!(
+            "Graph-based SLAM (smoothing and mapping): all poses and landmarks solved together by Levenberg–Marquardt on the sparse normal equations (faer's sparse Cholesky), with a prior of σ = {} on the true start, odometry factors with the motion model's noise of each increment and range–bearing factors with the sensor's; known association. The batch estimate is one solve over the whole run (pose marginals every {} steps for NEES); the online estimate re-solves every {} steps, warm-started, and reports at each step the newest solved pose composed with the odometry since.",
+            self.prior_sigma, self.belief_every, self.relinearise_every
+        )
+    }
+}
+
+/// A factor of the graph.
+#[derive(Debug, Clone, Copy)]
+enum Factor {
+    /// On pose k (the first, in a run): xₖ − x̄, whitened by `w` (P^{-1/2}).
+    Prior { k: usize, mean: Pose2, w: Matrix3<f64> },
+    /// Between poses k and k + 1: (x_{k+1} ⊖ x_k) − u, whitened by Q^{-1/2}.
+    Odometry { k: usize, u: Pose2, w: Matrix3<f64> },
+    /// Pose k sees landmark slot j at (range, bearing) z, whitened by R^{-1/2}.
+    RangeBearing { k: usize, j: usize, z: Vector2<f64>, w: Matrix2<f64> },
+}
+
+/// L⁻¹ with LLᵀ = `cov` (so that ‖L⁻¹r‖² = rᵀ cov⁻¹ r); `None` when `cov` is not positive definite.
+fn whitener<const D: usize>(cov: SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D>> {
+    let l = cov.cholesky()?.l();
+    l.try_inverse()
+}
+
+/// The factor graph and its current linearisation point.
+pub struct Graph {
+    /// Poses, then landmarks: x = (x₀, y₀, θ₀, …, m₀ₓ, m₀ᵧ, …).
+    poses: Vec<Pose2>,
+    landmarks: Vec<Vector2<f64>>,
+    /// Landmark identity of each slot, and the slot of each identity seen.
+    identity: Vec<usize>,
+    slot: std::collections::HashMap<usize, usize>,
+    factors: Vec<Factor>,
+    params: GraphParams,
+    /// Solves whose factorisation failed at every damping tried.
+    pub numerical_failures: u64,
+}
+
+/// One factor's whitened residual and Jacobian blocks: residual rows, and for up to two variable
+/// blocks (first column, width, the rows × width Jacobian in row-major order).
+struct Linear {
+    r: [f64; 3],
+    rows: usize,
+    blocks: [(usize, usize, [f64; 9]); 2],
+    nblocks: usize,
+}
+
+impl Graph {
+    pub fn new(start: Pose2, params: &GraphParams) -> Self {
+        let s = params.prior_sigma;
+        let w = Matrix3::from_diagonal_element(1.0 / s);
+        Graph {
+            poses: vec![start],
+            landmarks: Vec::new(),
+            identity: Vec::new(),
+            slot: Default::default(),
+            factors: vec![Factor::Prior { k: 0, mean: start, w }],
+            params: params.clone(),
+            numerical_failures: 0,
+        }
+    }
+
+    fn dim(&self) -> usize {
+        3 * self.poses.len() + 2 * self.landmarks.len()
+    }
+
+    fn landmark_col(&self, j: usize) -> usize {
+        3 * self.poses.len() + 2 * j
+    }
+
+    /// Adds pose k + 1 after the odometry increment `u` (initialised by composing it with pose k).
+    pub fn add_odometry(&mut self, u: &Pose2, motion: &MotionModel) -> Result<(), SlamError> {
+        let k = self.poses.len() - 1;
+        // the motion model's covariance of the increment in the body frame (its Q at the identity)
+        let q = motion.covariance(&Pose2::IDENTITY, u);
+        let w = whitener(q).unwrap_or_else(|| Matrix3::from_diagonal_element(1e6));
+        self.poses.push(self.poses[k].compose(*u));
+        self.factors.push(Factor::Odometry { k, u: *u, w });
+        Ok(())
+    }
+
+    /// Adds the readings of the newest pose; a new identity gets a landmark initialised from its
+    /// first reading.
+    pub fn add_observations(&mut self, observations: &[Observation]) -> Result<(), SlamError> {
+        let k = self.poses.len() - 1;
+        for o in observations {
+            let id = o.landmark.ok_or(SlamError::NoIdentities)?;
+            let j = match self.slot.get(&id) {
+                Some(&j) => j,
+                None => {
+                    let pose = self.poses[k];
+                    let (r, b) = (o.z[0], o.z[1]);
+                    let a = pose.theta + b;
+                    self.landmarks.push(Vector2::new(pose.x + r * a.cos(), pose.y + r * a.sin()));
+                    self.identity.push(id);
+                    self.slot.insert(id, self.landmarks.len() - 1);
+                    self.landmarks.len() - 1
+                }
+            };
+            let w = whitener(o.r).unwrap_or_else(|| Matrix2::from_diagonal_element(1e6));
+            self.factors.push(Factor::RangeBearing { k, j, z: o.z, w });
+        }
+        Ok(())
+    }
+
+    /// The whitened residual and Jacobians of `f` at (`poses`, `landmarks`).
+    fn linearise(&self, f: &Factor, poses: &[Pose2], landmarks: &[Vector2<f64>]) -> Linear {
+        match *f {
+            Factor::Prior { k, mean, w } => {
+                let x = poses[k];
+                let e = nalgebra::Vector3::new(
+                    x.x - mean.x,
+                    x.y - mean.y,
+                    wrap_angle(x.theta - mean.theta),
+                );
+                let r = w * e;
+                let mut j = [0.0; 9];
+                j.copy_from_slice(w.transpose().as_slice()); // row-major of w
+                Linear {
+                    r: [r[0], r[1], r[2]],
+                    rows: 3,
+                    blocks: [(3 * k, 3, j), (0, 0, [0.0; 9])],
+                    nblocks: 1,
+                }
+            }
+            Factor::Odometry { k, u, w } => {
+                let (a, b) = (poses[k], poses[k + 1]);
+                let (s, c) = a.theta.sin_cos();
+                let (dx, dy) = (b.x - a.x, b.y - a.y);
+                let e = nalgebra::Vector3::new(
+                    c * dx + s * dy - u.x,
+                    -s * dx + c * dy - u.y,
+                    wrap_angle(b.theta - a.theta - u.theta),
+                );
+                let ja =
+                    Matrix3::new(-c, -s, -s * dx + c * dy, s, -c, -c * dx - s * dy, 0.0, 0.0, -1.0);
+                let jb = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+                let (r, ja, jb) = (w * e, w * ja, w * jb);
+                let row_major = |m: Matrix3<f64>| {
+                    let mut out = [0.0; 9];
+                    out.copy_from_slice(m.transpose().as_slice());
+                    out
+                };
+                Linear {
+                    r: [r[0], r[1], r[2]],
+                    rows: 3,
+                    blocks: [(3 * k, 3, row_major(ja)), (3 * (k + 1), 3, row_major(jb))],
+                    nblocks: 2,
+                }
+            }
+            Factor::RangeBearing { k, j, z, w } => {
+                let (x, m) = (poses[k], landmarks[j]);
+                let p = point_predict(&m, &x);
+                let e = Vector2::new(p.z[0] - z[0], wrap_angle(p.z[1] - z[1]));
+                // ∂h/∂m = H; ∂h/∂(x, y) = −H; ∂bearing/∂θ = −1
+                let hm = w * p.h;
+                let hx = w * nalgebra::Matrix2x3::new(
+                    -p.h[(0, 0)],
+                    -p.h[(0, 1)],
+                    0.0,
+                    -p.h[(1, 0)],
+                    -p.h[(1, 1)],
+                    -1.0,
+                );
+                let r = w * e;
+                let mut jx = [0.0; 9];
+                for row in 0..2 {
+                    for col in 0..3 {
+                        jx[row * 3 + col] = hx[(row, col)];
+                    }
+                }
+                let mut jm = [0.0; 9];
+                for row in 0..2 {
+                    for col in 0..2 {
+                        jm[row * 2 + col] = hm[(row, col)];
+                    }
+                }
+                Linear {
+                    r: [r[0], r[1], 0.0],
+                    rows: 2,
+                    blocks: [(3 * k, 3, jx), (self.landmark_col(j), 2, jm)],
+                    nblocks: 2,
+                }
+            }
+        }
+    }
+
+    fn cost_at(&self, poses: &[Pose2], landmarks: &[Vector2<f64>]) -> f64 {
+        self.factors
+            .iter()
+            .map(|f| {
+                let l = self.linearise(f, poses, landmarks);
+                l.r[..l.rows].iter().map(|v| v * v).sum::<f64>()
+            })
+            .sum()
+    }
+
+    /// The lower triangle of H = JᵀJ (entries in factor order, duplicates summed) and g = Jᵀr.
+    fn normal_equations(&self) -> (Vec<Pair<usize, usize>>, Vec<f64>, Vec<f64>, f64) {
+        let mut idx = Vec::new();
+        let mut val = Vec::new();
+        let mut g = vec![0.0; self.dim()];
+        let mut cost = 0.0;
+        for f in &self.factors {
+            let l = self.linearise(f, &self.poses, &self.landmarks);
+            cost += l.r[..l.rows].iter().map(|v| v * v).sum::<f64>();
+            for a in 0..l.nblocks {
+                let (ca, wa, ja) = l.blocks[a];
+                for ia in 0..wa {
+                    g[ca + ia] += (0..l.rows).map(|k| ja[k * wa + ia] * l.r[k]).sum::<f64>();
+                }
+                for b in 0..l.nblocks {
+                    let (cb, wb, jb) = l.blocks[b];
+                    for ia in 0..wa {
+                        for ib in 0..wb {
+                            let (row, col) = (ca + ia, cb + ib);
+                            if row >= col {
+                                idx.push(Pair::new(row, col));
+                                val.push(
+                                    (0..l.rows)
+                                        .map(|k| ja[k * wa + ia] * jb[k * wb + ib])
+                                        .sum::<f64>(),
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        (idx, val, g, cost)
+    }
+
+    /// Levenberg–Marquardt from the current values; returns whether it converged.
+    pub fn solve(&mut self) -> bool {
+        let n = self.dim();
+        let (idx, val, mut g, mut cost) = self.normal_equations();
+        let Ok((symbolic, order)) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx) else {
+            return false;
+        };
+        let Some(cholesky) = symbolic_cholesky(&symbolic) else {
+            self.numerical_failures += 1;
+            return false;
+        };
+        let mut h = SparseColMat::new_from_argsort(symbolic.clone(), &order, &val).expect("H");
+        let diagonal: Vec<usize> = (0..n)
+            .map(|c| {
+                let start = symbolic.col_ptr()[c];
+                start
+                    + symbolic
+                        .row_idx_of_col_raw(c)
+                        .iter()
+                        .position(|&r| r == c)
+                        .expect("H has its diagonal")
+            })
+            .collect();
+        let (mut lambda, mut nu) = (1e-4, 2.0);
+        for _ in 0..self.params.max_iterations {
+            let mut damped = h.clone();
+            for &d in &diagonal {
+                let v = damped.val()[d];
+                damped.val_mut()[d] = v + lambda * v.max(1e-12);
+            }
+            let Some(dx) = solve_llt(&cholesky, &damped, &g) else {
+                lambda *= nu;
+                nu *= 2.0;
+                continue;
+            };
+            let (poses, landmarks) = self.stepped(&dx);
+            let new_cost = self.cost_at(&poses, &landmarks);
+            // predicted decrease of the Gauss–Newton model: −(2gᵀΔ + ΔᵀHΔ)
+            let h_dx = symmetric_product(&h, &dx);
+            let predicted = -(0..n).map(|i| 2.0 * g[i] * dx[i] + dx[i] * h_dx[i]).sum::<f64>();
+            let rho = (cost - new_cost) / predicted;
+            if new_cost < cost && rho > 0.0 {
+                let decrease = cost - new_cost;
+                (self.poses, self.landmarks) = (poses, landmarks);
+                lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
+                nu = 2.0;
+                if decrease <= self.params.relative_decrease * cost {
+                    return true;
+                }
+                let (_, val, g_new, cost_new) = self.normal_equations();
+                h = SparseColMat::new_from_argsort(symbolic.clone(), &order, &val).expect("H");
+                (g, cost) = (g_new, cost_new);
+            } else {
+                lambda *= nu;
+                nu *= 2.0;
+                if !lambda.is_finite() || lambda > 1e16 {
+                    return cost.is_finite();
+                }
+            }
+        }
+        false
+    }
+
+    fn stepped(&self, dx: &[f64]) -> (Vec<Pose2>, Vec<Vector2<f64>>) {
+        let poses = (self.poses.iter().enumerate())
+            .map(|(k, p)| {
+                Pose2::new(
+                    p.x + dx[3 * k],
+                    p.y + dx[3 * k + 1],
+                    wrap_angle(p.theta + dx[3 * k + 2]),
+                )
+            })
+            .collect();
+        let base = 3 * self.poses.len();
+        let landmarks = (self.landmarks.iter().enumerate())
+            .map(|(j, m)| Vector2::new(m.x + dx[base + 2 * j], m.y + dx[base + 2 * j + 1]))
+            .collect();
+        (poses, landmarks)
+    }
+
+    /// The marginal covariances of the given poses (blocks of H⁻¹ at the current values).
+    pub fn pose_marginals(&mut self, which: &[usize]) -> Vec<Option<Matrix3<f64>>> {
+        let n = self.dim();
+        let (idx, val, _, _) = self.normal_equations();
+        let Ok((symbolic, order)) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx) else {
+            return vec![None; which.len()];
+        };
+        let h = SparseColMat::new_from_argsort(symbolic.clone(), &order, &val).expect("H");
+        let Some(cholesky) = symbolic_cholesky(&symbolic) else {
+            return vec![None; which.len()];
+        };
+        let mut l_val = vec![0.0; cholesky.len_val()];
+        let par = Par::Seq;
+        let mut buffer =
+            MemBuffer::new(cholesky.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        let Ok(llt) = cholesky.factorize_numeric_llt(
+            &mut l_val,
+            h.as_ref(),
+            Side::Lower,
+            LltRegularization::default(),
+            par,
+            MemStack::new(&mut buffer),
+            Default::default(),
+        ) else {
+            self.numerical_failures += 1;
+            return vec![None; which.len()];
+        };
+        which
+            .iter()
+            .map(|&k| {
+                let mut e = Mat::<f64>::zeros(n, 3);
+                for i in 0..3 {
+                    e[(3 * k + i, i)] = 1.0;
+                }
+                let mut buffer = MemBuffer::new(llt.solve_in_place_scratch::<f64>(3, par));
+                llt.solve_in_place_with_conj(
+                    faer::Conj::No,
+                    e.as_mut(),
+                    par,
+                    MemStack::new(&mut buffer),
+                );
+                let m = Matrix3::from_fn(|r, c| e[(3 * k + r, c)]);
+                m.iter().all(|v| v.is_finite()).then(|| (m + m.transpose()) * 0.5)
+            })
+            .collect()
+    }
+
+    pub fn poses(&self) -> &[Pose2] {
+        &self.poses
+    }
+
+    pub fn map(&self) -> LandmarkMap {
+        LandmarkMap {
+            points: self.landmarks.iter().map(|m| crate::geom::Point2::new(m.x, m.y)).collect(),
+            point_ids: self.identity.iter().map(|&id| Some(id)).collect(),
+            ..LandmarkMap::default()
+        }
+    }
+}
+
+/// The fill-reducing ordering and simplicial structure of H's Cholesky factor (simplicial and
+/// sequential, so the arithmetic does not depend on the CPU's vector width or the thread count).
+fn symbolic_cholesky(symbolic: &SymbolicSparseColMat<usize>) -> Option<SymbolicCholesky<usize>> {
+    factorize_symbolic_cholesky(
+        symbolic.as_ref(),
+        Side::Lower,
+        SymmetricOrdering::Amd,
+        CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
+            ..Default::default()
+        },
+    )
+    .ok()
+}
+
+/// Solves H Δ = −g by the sparse Cholesky factorisation of H.
+fn solve_llt(
+    cholesky: &SymbolicCholesky<usize>,
+    h: &SparseColMat<usize, f64>,
+    g: &[f64],
+) -> Option<Vec<f64>> {
+    let n = g.len();
+    let par = Par::Seq;
+    let mut l_val = vec![0.0; cholesky.len_val()];
+    let mut buffer =
+        MemBuffer::new(cholesky.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+    let llt = cholesky
+        .factorize_numeric_llt(
+            &mut l_val,
+            h.as_ref(),
+            Side::Lower,
+            LltRegularization::default(),
+            par,
+            MemStack::new(&mut buffer),
+            Default::default(),
+        )
+        .ok()?;
+    let mut rhs = Mat::<f64>::from_fn(n, 1, |i, _| -g[i]);
+    let mut buffer = MemBuffer::new(llt.solve_in_place_scratch::<f64>(1, par));
+    llt.solve_in_place_with_conj(faer::Conj::No, rhs.as_mut(), par, MemStack::new(&mut buffer));
+    let dx: Vec<f64> = (0..n).map(|i| rhs[(i, 0)]).collect();
+    dx.iter().all(|v| v.is_finite()).then_some(dx)
+}
+
+/// H·v for H stored as its lower triangle.
+fn symmetric_product(h: &SparseColMat<usize, f64>, v: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; v.len()];
+    let symbolic = h.symbolic();
+    for c in 0..v.len() {
+        let start = symbolic.col_ptr()[c];
+        for (k, &r) in symbolic.row_idx_of_col_raw(c).iter().enumerate() {
+            let x = h.val()[start + k];
+            out[r] += x * v[c];
+            if r != c {
+                out[c] += x * v[r];
+            }
+        }
+    }
+    out
+}
+
+/// Batch smoothing: the whole run, one solve.
+pub fn run_batch(
+    world: &World,
+    motion: &MotionModel,
+    params: &GraphParams,
+    observations: &[StepObservations],
+) -> Result<Trace, SlamError> {
+    let mut graph = Graph::new(world.truth[0], params);
+    let mut cursor = super::observations::Cursor::new(observations, true);
+    for k in 0..=world.odometry.len() {
+        if k > 0 {
+            graph.add_odometry(&world.odometry[k - 1], motion)?;
+        }
+        graph.add_observations(cursor.at(k))?;
+    }
+    if !graph.solve() {
+        graph.numerical_failures += 1;
+    }
+    let every = params.belief_every as usize;
+    let which: Vec<usize> = (0..graph.poses.len()).step_by(every).collect();
+    let marginals = graph.pose_marginals(&which);
+    let mut pose_belief = vec![None; graph.poses.len()];
+    for (k, m) in which.iter().zip(marginals) {
+        pose_belief[*k] = m.map(|m| (graph.poses[*k], m));
+    }
+    Ok(Trace {
+        estimate: graph.poses.clone(),
+        numerical_failures: graph.numerical_failures,
+        map: Some(graph.map()),
+        pose_belief,
+        ..Trace::default()
+    })
+}
+
+/// Online smoothing: re-solved every `relinearise_every` steps (and at the last step); each
+/// step's estimate is what the smoother knew then.
+pub fn run_online(
+    world: &World,
+    motion: &MotionModel,
+    params: &GraphParams,
+    observations: &[StepObservations],
+) -> Result<Trace, SlamError> {
+    let mut graph = Graph::new(world.truth[0], params);
+    let mut cursor = super::observations::Cursor::new(observations, true);
+    let steps = world.odometry.len();
+    let mut estimate = Vec::with_capacity(steps + 1);
+    let mut pose_belief = Vec::with_capacity(steps + 1);
+    // the newest pose of the last solve, and its step
+    let mut anchor = (0usize, world.truth[0]);
+    for k in 0..=steps {
+        if k > 0 {
+            graph.add_odometry(&world.odometry[k - 1], motion)?;
+        }
+        graph.add_observations(cursor.at(k))?;
+        if k % params.relinearise_every as usize == 0 || k == steps {
+            if !graph.solve() {
+                graph.numerical_failures += 1;
+            }
+            anchor = (k, graph.poses[k]);
+            let marginal = graph.pose_marginals(&[k]).pop().flatten();
+            pose_belief.push(marginal.map(|m| (graph.poses[k], m)));
+        } else {
+            pose_belief.push(None);
+        }
+        let (from, pose) = anchor;
+        let mut p = pose;
+        for u in &world.odometry[from..k] {
+            p = p.compose(*u);
+        }
+        estimate.push(p);
+    }
+    Ok(Trace {
+        estimate,
+        numerical_failures: graph.numerical_failures,
+        map: Some(graph.map()),
+        pose_belief,
+        ..Trace::default()
+    })
+}
+
+#[cfg(test)]
+mod tests;

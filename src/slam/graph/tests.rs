@@ -1,0 +1,165 @@
+use super::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+fn normal(rng: &mut ChaCha8Rng) -> f64 {
+    rng.sample(StandardNormal)
+}
+
+/// A linear-Gaussian world: headings held at zero (odometry increments without turns and with a
+/// heading σ of 1e-6 rad, priors on both ends of the chain), so the position problem is linear
+/// weighted least squares (the headings' coupling moves positions by (1e-6)²-small amounts). The
+/// smoother equals its closed-form solution.
+#[test]
+fn on_a_linear_gaussian_chain_the_smoother_equals_the_closed_form_solution() {
+    let mut rng = ChaCha8Rng::seed_from_u64(1);
+    let n = 30;
+    let sigma = [0.05, 0.02, 1e-6];
+    let motion =
+        MotionModel::Pose { sigma_x_m: sigma[0], sigma_y_m: sigma[1], sigma_theta_rad: sigma[2] };
+    let params = GraphParams::default();
+    let mut graph = Graph::new(Pose2::IDENTITY, &params);
+    let mut u = Vec::new();
+    for _ in 0..n {
+        let step = Pose2::new(1.0 + 0.05 * normal(&mut rng), 0.02 * normal(&mut rng), 0.0);
+        graph.add_odometry(&step, &motion).unwrap();
+        u.push(step);
+    }
+    // a second prior at the end: the chain is over-determined
+    let end = Pose2::new(n as f64 + 0.3, -0.2, 0.0);
+    let s_end = 0.04;
+    graph.factors.push(Factor::Prior {
+        k: n,
+        mean: end,
+        w: Matrix3::new(1.0 / s_end, 0.0, 0.0, 0.0, 1.0 / s_end, 0.0, 0.0, 0.0, 1e6),
+    });
+    assert!(graph.solve());
+    // closed form, per axis: minimise (p₀/σ₀)² + Σ((p_{k+1} − p_k − u_k)/σ)² + ((p_n − end)/σ_end)²
+    for (axis, s) in [(0, sigma[0]), (1, sigma[1])] {
+        let m = n + 1;
+        let mut a = nalgebra::DMatrix::<f64>::zeros(m + n + 1, m);
+        let mut b = nalgebra::DVector::<f64>::zeros(m + n + 1);
+        let s0 = params.prior_sigma;
+        a[(0, 0)] = 1.0 / s0;
+        for k in 0..n {
+            a[(1 + k, k)] = -1.0 / s;
+            a[(1 + k, k + 1)] = 1.0 / s;
+            b[1 + k] = if axis == 0 { u[k].x } else { u[k].y } / s;
+        }
+        a[(m + n, n)] = 1.0 / s_end;
+        b[m + n] = if axis == 0 { end.x } else { end.y } / s_end;
+        let x = (a.transpose() * &a).cholesky().unwrap().solve(&(a.transpose() * b));
+        for k in 0..=n {
+            let got = if axis == 0 { graph.poses()[k].x } else { graph.poses()[k].y };
+            // to the stopping rule's precision (an accepted step lowering the cost by < 1e-10 of it)
+            assert!((got - x[k]).abs() < 1e-8, "pose {k} axis {axis}: {got} vs {}", x[k]);
+        }
+    }
+}
+
+/// A world drawn from the smoother's own model — odometry increments with the motion model's
+/// noise, range–bearing readings with R, a ring of landmarks around a circular path: the mean
+/// NEES of the batch estimate's poses is ≈ 3, and the online one's newest pose too.
+#[test]
+fn on_a_consistent_simulation_the_pose_nees_is_about_three() {
+    let motion = MotionModel::Pose { sigma_x_m: 0.05, sigma_y_m: 0.02, sigma_theta_rad: 0.01 };
+    let r = Matrix2::new(0.05f64.powi(2), 0.0, 0.0, 0.02f64.powi(2));
+    let params = GraphParams::default();
+    let mut sums = [(0.0, 0usize), (0.0, 0usize)];
+    for seed in 0..20 {
+        let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
+        let landmarks: Vec<Vector2<f64>> = (0..12)
+            .map(|j| {
+                let a = j as f64 * std::f64::consts::TAU / 12.0;
+                Vector2::new(10.0 * a.cos(), 10.0 * a.sin())
+            })
+            .collect();
+        let (steps, u_true) = (120, Pose2::new(0.4, 0.0, std::f64::consts::TAU / 120.0));
+        let mut truth = vec![Pose2::new(6.0, 0.0, std::f64::consts::FRAC_PI_2)];
+        let mut odometry = Vec::new();
+        let mut observations = Vec::new();
+        for k in 0..=steps {
+            if k > 0 {
+                truth.push(truth[k - 1].compose(u_true));
+                odometry.push(Pose2::new(
+                    u_true.x + 0.05 * normal(&mut rng),
+                    u_true.y + 0.02 * normal(&mut rng),
+                    u_true.theta + 0.01 * normal(&mut rng),
+                ));
+            }
+            let seen: Vec<Observation> = (landmarks.iter().enumerate())
+                .filter(|(_, m)| (*m - Vector2::new(truth[k].x, truth[k].y)).norm() < 8.0)
+                .map(|(j, m)| {
+                    let z = point_predict(m, &truth[k]).z;
+                    Observation {
+                        model: crate::slam::fastslam::models::Model::Point,
+                        z: Vector2::new(
+                            z[0] + 0.05 * normal(&mut rng),
+                            wrap_angle(z[1] + 0.02 * normal(&mut rng)),
+                        ),
+                        r,
+                        landmark: Some(j),
+                    }
+                })
+                .collect();
+            observations.push(StepObservations { step: k, observations: seen });
+        }
+        let world = World {
+            dt_s: 0.1,
+            truth: truth.clone(),
+            odometry,
+            laser: None,
+            scans: Vec::new(),
+            point_scans: Vec::new(),
+            truth_lines: Vec::new(),
+            truth_corners: Vec::new(),
+            truth_points: Vec::new(),
+            point_noise: None,
+        };
+        for (slot, trace) in [
+            run_batch(&world, &motion, &params, &observations).unwrap(),
+            run_online(&world, &motion, &params, &observations).unwrap(),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            for (k, belief) in trace.pose_belief.iter().enumerate() {
+                if let Some((pose, cov)) = belief {
+                    let e = nalgebra::Vector3::new(
+                        pose.x - truth[k].x,
+                        pose.y - truth[k].y,
+                        wrap_angle(pose.theta - truth[k].theta),
+                    );
+                    let nees = (e.transpose() * cov.try_inverse().unwrap() * e)[0];
+                    sums[slot].0 += nees;
+                    sums[slot].1 += 1;
+                }
+            }
+        }
+    }
+    for (name, (sum, n)) in ["batch", "online"].iter().zip(sums) {
+        let mean = sum / n as f64;
+        assert!((2.5..=3.5).contains(&mean), "{name}: mean NEES {mean} over {n} poses");
+    }
+}
+
+#[test]
+fn readings_without_identities_are_refused() {
+    let mut graph = Graph::new(Pose2::IDENTITY, &GraphParams::default());
+    let o = Observation {
+        model: crate::slam::fastslam::models::Model::Point,
+        z: Vector2::new(1.0, 0.0),
+        r: Matrix2::identity(),
+        landmark: None,
+    };
+    assert_eq!(graph.add_observations(&[o]), Err(SlamError::NoIdentities));
+}
+
+#[test]
+fn defaults_validate_and_bad_values_are_named() {
+    assert!(GraphParams::default().validate().is_empty());
+    let bad = GraphParams { relinearise_every: 0, prior_sigma: 0.0, ..GraphParams::default() };
+    let keys: Vec<String> = bad.validate().into_iter().map(|v| v.key).collect();
+    assert_eq!(keys, ["relinearise_every", "prior_sigma"]);
+}
