@@ -11,6 +11,7 @@ use crate::scanmatch::search::SearchParams;
 use crate::scanmatch::track::ScanMatchingParams;
 use crate::slam::ekf::EkfParams;
 use crate::slam::fastslam::FastSlamParams;
+use crate::slam::graph::GraphParams;
 use crate::slam::motion::MotionModel;
 use crate::world::Sensors;
 use crate::world::laser::LaserParams;
@@ -40,6 +41,8 @@ pub struct Params {
     pub motion_model: MotionModel,
     /// EKF-SLAM.
     pub ekf: EkfParams,
+    /// Graph-based SLAM (smoothing).
+    pub graph: GraphParams,
     /// What every scan matcher shares: trigger, initial guess, segmentation, objective ([EP]).
     pub scan_matching: ScanMatchingParams,
     /// Polar Scan Matching (Diosi & Kleeman's constants).
@@ -73,6 +76,7 @@ impl Params {
             fastslam,
             motion_model,
             ekf,
+            graph,
             scan_matching,
             psm,
             epsm,
@@ -90,6 +94,7 @@ impl Params {
         c.nested("fastslam", fastslam.validate());
         c.nested("motion_model", motion_model.validate());
         c.nested("ekf", ekf.validate());
+        c.nested("graph", graph.validate());
         c.nested("scan_matching", scan_matching.validate());
         c.nested("psm", psm.validate());
         c.nested("epsm", epsm.validate());
@@ -191,6 +196,7 @@ sections!(
     fastslam,
     motion_model,
     ekf,
+    graph,
     scan_matching,
     psm,
     epsm,

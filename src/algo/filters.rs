@@ -369,3 +369,66 @@ impl Algorithm for EkfSlam {
         Ok(estimate(trace))
     }
 }
+
+/// Graph-based SLAM on point landmarks: the online estimate (`graph_slam`) or the batch one
+/// (`graph_slam_batch`).
+pub struct GraphSlam {
+    pub batch: bool,
+}
+
+impl Algorithm for GraphSlam {
+    fn name(&self) -> &str {
+        if self.batch { "graph_slam_batch" } else { "graph_slam" }
+    }
+    fn title(&self) -> &str {
+        if self.batch { "Graph SLAM (batch)" } else { "Graph SLAM (online)" }
+    }
+    fn summary(&self) -> Cow<'_, str> {
+        if self.batch {
+            "graph-based SLAM, the smoothed estimate: every pose and landmark solved together once, after the last step (Levenberg–Marquardt, sparse Cholesky); known association".into()
+        } else {
+            "graph-based SLAM, the online estimate: the graph re-solved every few steps, warm-started, each step reporting what the smoother knew then; known association".into()
+        }
+    }
+    fn code_version(&self) -> Cow<'_, str> {
+        // the two estimates share their sections: the variant keeps their runs apart
+        let variant = if self.batch { "batch" } else { "online" };
+        format!("{}:{variant}", slam::graph::CODE_VERSION).into()
+    }
+    fn role(&self) -> Role {
+        Role::Estimator
+    }
+    fn sensors(&self, _: WorldKind) -> Sensors {
+        Sensors::LANDMARKS
+    }
+    fn sections(&self, _: WorldKind) -> Vec<String> {
+        sections(&["graph", "motion_model"])
+    }
+    fn describe(&self, p: &Params, _: &Listing<'_>) -> Vec<Choice> {
+        vec![motion_model(p), Choice { topic: Topic::Graph, text: p.graph.describe() }]
+    }
+    fn work(&self, p: &Params, size: &RunSize) -> Work {
+        // a sparse solve over the whole graph: poses + landmarks per solve, ~10 iterations; online
+        // solves every `relinearise_every` steps over a graph that grows with them
+        let solves = if self.batch {
+            1.0
+        } else {
+            size.steps / f64::from(p.graph.relinearise_every.max(1)) / 2.0
+        };
+        let mut w = Work::default();
+        w.filter_points = 10.0 * solves.max(1.0) * (size.steps + size.landmarks) * 20.0;
+        w
+    }
+    fn matcher<'p>(&self, _: &'p Params) -> Option<Matcher<'p>> {
+        None
+    }
+    fn run(&self, input: RunInput<'_>) -> Result<Output, SlamError> {
+        if input.kind == WorldKind::Laser {
+            return Err(SlamError::MissingSensor("landmark sensor"));
+        }
+        let p = input.params;
+        let observations = observations(&input, Matrix2::identity())?;
+        let run = if self.batch { slam::graph::run_batch } else { slam::graph::run_online };
+        Ok(estimate(run(input.world, &p.motion_model, &p.graph, &observations)?))
+    }
+}

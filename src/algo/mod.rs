@@ -75,6 +75,8 @@ pub enum Topic {
     /// FastSLAM on point-landmark worlds ([PF]) and FastSLAM 2.0.
     FastslamOnPoints,
     Ekf,
+    /// Graph-based SLAM (smoothing).
+    Graph,
     /// What every scan matcher shares: trigger, initial guess, chaining.
     ScanMatching,
     ScanObjective,
@@ -238,6 +240,8 @@ pub fn builtins() -> Vec<Arc<dyn Algorithm>> {
         Arc::new(filters::Fastslam1),
         Arc::new(filters::Fastslam2),
         Arc::new(filters::EkfSlam),
+        Arc::new(filters::GraphSlam { batch: false }),
+        Arc::new(filters::GraphSlam { batch: true }),
         Arc::new(matchers::Psm { own_heuristics: false }),
         Arc::new(matchers::Psm { own_heuristics: true }),
         Arc::new(matchers::Epsm),
@@ -395,7 +399,7 @@ mod tests {
     fn every_builtin_has_a_distinct_name_and_resolves_to_itself() {
         let c = Catalogue::builtin();
         let names = c.names();
-        assert_eq!(names.len(), 21);
+        assert_eq!(names.len(), 23);
         for (i, n) in names.iter().enumerate() {
             assert!(!names[..i].contains(n), "{n} is listed twice");
             assert_eq!(c.get(n).map(|a| a.name()), Some(*n));

@@ -319,8 +319,18 @@ impl Graph {
         (idx, val, g, cost)
     }
 
-    /// Levenberg–Marquardt from the current values; returns whether it converged.
+    /// Levenberg–Marquardt from the current values to `relative_decrease`; returns whether it
+    /// converged.
     pub fn solve(&mut self) -> bool {
+        self.solve_to(self.params.relative_decrease)
+    }
+
+    /// An intermediate solve that only initialises a later one: to a relative decrease of 1e-6.
+    pub fn solve_warm(&mut self) -> bool {
+        self.solve_to(self.params.relative_decrease.max(1e-6))
+    }
+
+    fn solve_to(&mut self, relative_decrease: f64) -> bool {
         let n = self.dim();
         let (idx, val, mut g, mut cost) = self.normal_equations();
         let Ok((symbolic, order)) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx) else {
@@ -365,7 +375,7 @@ impl Graph {
                 (self.poses, self.landmarks) = (poses, landmarks);
                 lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
                 nu = 2.0;
-                if decrease <= self.params.relative_decrease * cost {
+                if decrease <= relative_decrease * cost {
                     return true;
                 }
                 let (_, val, g_new, cost_new) = self.normal_equations();
@@ -520,7 +530,10 @@ fn symmetric_product(h: &SparseColMat<usize, f64>, v: &[f64]) -> Vec<f64> {
     out
 }
 
-/// Batch smoothing: the whole run, one solve.
+/// Batch smoothing: the smoothed trajectory after the last step. The graph is built step by step
+/// and re-solved every `relinearise_every` steps only to initialise the final solve (from the
+/// odometry alone, Levenberg–Marquardt can stall on long runs with large heading errors); the
+/// estimate is that final solve's, over the whole run.
 pub fn run_batch(
     world: &World,
     motion: &MotionModel,
@@ -529,11 +542,15 @@ pub fn run_batch(
 ) -> Result<Trace, SlamError> {
     let mut graph = Graph::new(world.truth[0], params);
     let mut cursor = super::observations::Cursor::new(observations, true);
-    for k in 0..=world.odometry.len() {
+    let steps = world.odometry.len();
+    for k in 0..=steps {
         if k > 0 {
             graph.add_odometry(&world.odometry[k - 1], motion)?;
         }
         graph.add_observations(cursor.at(k))?;
+        if k % params.relinearise_every as usize == 0 && k < steps {
+            graph.solve_warm();
+        }
     }
     if !graph.solve() {
         graph.numerical_failures += 1;
