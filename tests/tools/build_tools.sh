@@ -10,7 +10,7 @@ set -euo pipefail
 . "$(dirname "$0")/apt_install.sh"
 
 if ! command -v cargo >/dev/null; then
-  echo "error: cargo not found: slamlab needs a Rust toolchain (1.85 or newer), e.g. from https://rustup.rs" >&2
+  echo "error: cargo not found: slamlab needs a Rust toolchain (1.87 or newer), e.g. from https://rustup.rs" >&2
   exit 1
 fi
 

@@ -1,3 +1,6 @@
+//! Tests of the smoother: the closed form on a linear-Gaussian chain, NEES on simulations drawn
+//! from its own model, and its inputs refused or validated.
+
 use super::*;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
