@@ -189,6 +189,27 @@ pub struct World {
     pub point_noise: Option<point_sensor::PointNoise>,
 }
 
+impl World {
+    /// A world of the given truth and odometry, with no sensor data (tests make their own
+    /// observations), 0.1 s steps.
+    #[cfg(test)]
+    pub fn from_odometry(truth: Vec<Pose2>, odometry: Vec<Pose2>) -> World {
+        assert_eq!(truth.len(), odometry.len() + 1);
+        World {
+            dt_s: 0.1,
+            truth,
+            odometry,
+            laser: None,
+            scans: Vec::new(),
+            point_scans: Vec::new(),
+            truth_lines: Vec::new(),
+            truth_corners: Vec::new(),
+            truth_points: Vec::new(),
+            point_noise: None,
+        }
+    }
+}
+
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum WorldError {
     #[error(

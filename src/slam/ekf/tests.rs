@@ -42,19 +42,7 @@ fn ring_landmarks(n: usize, offset: f64) -> Vec<Point2> {
 
 /// A world with the given truth and odometry and no sensor data (observations are made here).
 fn world(truth: Vec<Pose2>, odometry: Vec<Pose2>) -> World {
-    assert_eq!(truth.len(), odometry.len() + 1);
-    World {
-        dt_s: 0.1,
-        truth,
-        odometry,
-        laser: None,
-        scans: Vec::new(),
-        point_scans: Vec::new(),
-        truth_lines: Vec::new(),
-        truth_corners: Vec::new(),
-        truth_points: Vec::new(),
-        point_noise: None,
-    }
+    World::from_odometry(truth, odometry)
 }
 
 /// Truth from composing the odometry exactly (noise-free world).

@@ -914,18 +914,7 @@ mod tests {
         let motion = MotionModel::Pose { sigma_x_m: 0.01, sigma_y_m: 0.01, sigma_theta_rad: 0.01 };
         let truth = vec![Pose2::IDENTITY, Pose2::new(0.1, 0.0, 0.0), Pose2::new(0.2, 0.0, 0.0)];
         let odometry = vec![Pose2::new(0.1, 0.0, 0.0); 2];
-        let world = World {
-            dt_s: 0.1,
-            truth: truth.clone(),
-            odometry,
-            laser: None,
-            scans: Vec::new(),
-            point_scans: Vec::new(),
-            truth_lines: Vec::new(),
-            truth_corners: Vec::new(),
-            truth_points: Vec::new(),
-            point_noise: None,
-        };
+        let world = World::from_odometry(truth.clone(), odometry);
         let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
         let seen = |k: usize, m: Vector2<f64>, id: usize| Observation {
             model: Model::Point,

@@ -62,18 +62,7 @@ fn circle_world(odometry_sigma: [f64; 2], seed: u64) -> World {
             u.theta + odometry_sigma[1] * n[2],
         ));
     }
-    World {
-        dt_s: 0.1,
-        truth,
-        odometry,
-        laser: None,
-        scans: Vec::new(),
-        point_scans: Vec::new(),
-        truth_lines: Vec::new(),
-        truth_corners: Vec::new(),
-        truth_points: landmarks(),
-        point_noise: None,
-    }
+    World { truth_points: landmarks(), ..World::from_odometry(truth, odometry) }
 }
 
 /// Range-bearing observations of the point landmarks within range (and of `lines` as (ρ', θ'))

@@ -35,7 +35,8 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky,
 };
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, Par, Side};
@@ -420,40 +421,24 @@ impl Graph {
         let Some(cholesky) = symbolic_cholesky(&symbolic) else {
             return vec![None; which.len()];
         };
-        let mut l_val = vec![0.0; cholesky.len_val()];
-        let par = Par::Seq;
-        let mut buffer =
-            MemBuffer::new(cholesky.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
-        let Ok(llt) = cholesky.factorize_numeric_llt(
-            &mut l_val,
-            h.as_ref(),
-            Side::Lower,
-            LltRegularization::default(),
-            par,
-            MemStack::new(&mut buffer),
-            Default::default(),
-        ) else {
+        let marginals = with_llt(&cholesky, &h, |llt| {
+            which
+                .iter()
+                .map(|&k| {
+                    let mut e = Mat::<f64>::zeros(n, 3);
+                    for i in 0..3 {
+                        e[(3 * k + i, i)] = 1.0;
+                    }
+                    solve_in_place(llt, &mut e);
+                    let m = Matrix3::from_fn(|r, c| e[(3 * k + r, c)]);
+                    m.iter().all(|v| v.is_finite()).then(|| (m + m.transpose()) * 0.5)
+                })
+                .collect()
+        });
+        marginals.unwrap_or_else(|| {
             self.numerical_failures += 1;
-            return vec![None; which.len()];
-        };
-        which
-            .iter()
-            .map(|&k| {
-                let mut e = Mat::<f64>::zeros(n, 3);
-                for i in 0..3 {
-                    e[(3 * k + i, i)] = 1.0;
-                }
-                let mut buffer = MemBuffer::new(llt.solve_in_place_scratch::<f64>(3, par));
-                llt.solve_in_place_with_conj(
-                    faer::Conj::No,
-                    e.as_mut(),
-                    par,
-                    MemStack::new(&mut buffer),
-                );
-                let m = Matrix3::from_fn(|r, c| e[(3 * k + r, c)]);
-                m.iter().all(|v| v.is_finite()).then(|| (m + m.transpose()) * 0.5)
-            })
-            .collect()
+            vec![None; which.len()]
+        })
     }
 
     pub fn poses(&self) -> &[Pose2] {
@@ -484,6 +469,36 @@ fn symbolic_cholesky(symbolic: &SymbolicSparseColMat<usize>) -> Option<SymbolicC
     .ok()
 }
 
+/// Runs `f` on the numeric Cholesky factorisation of `h` (sequential); `None` when `h` is not
+/// positive definite.
+fn with_llt<R>(
+    cholesky: &SymbolicCholesky<usize>,
+    h: &SparseColMat<usize, f64>,
+    f: impl FnOnce(&LltRef<'_, usize, f64>) -> R,
+) -> Option<R> {
+    let mut l_val = vec![0.0; cholesky.len_val()];
+    let mut buffer =
+        MemBuffer::new(cholesky.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()));
+    let llt = cholesky
+        .factorize_numeric_llt(
+            &mut l_val,
+            h.as_ref(),
+            Side::Lower,
+            LltRegularization::default(),
+            Par::Seq,
+            MemStack::new(&mut buffer),
+            Default::default(),
+        )
+        .ok()?;
+    Some(f(&llt))
+}
+
+/// x ← H⁻¹x with `llt` the factorisation of H.
+fn solve_in_place(llt: &LltRef<'_, usize, f64>, x: &mut Mat<f64>) {
+    let mut buffer = MemBuffer::new(llt.solve_in_place_scratch::<f64>(x.ncols(), Par::Seq));
+    llt.solve_in_place_with_conj(faer::Conj::No, x.as_mut(), Par::Seq, MemStack::new(&mut buffer));
+}
+
 /// Solves H Δ = −g by the sparse Cholesky factorisation of H.
 fn solve_llt(
     cholesky: &SymbolicCholesky<usize>,
@@ -491,25 +506,11 @@ fn solve_llt(
     g: &[f64],
 ) -> Option<Vec<f64>> {
     let n = g.len();
-    let par = Par::Seq;
-    let mut l_val = vec![0.0; cholesky.len_val()];
-    let mut buffer =
-        MemBuffer::new(cholesky.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
-    let llt = cholesky
-        .factorize_numeric_llt(
-            &mut l_val,
-            h.as_ref(),
-            Side::Lower,
-            LltRegularization::default(),
-            par,
-            MemStack::new(&mut buffer),
-            Default::default(),
-        )
-        .ok()?;
-    let mut rhs = Mat::<f64>::from_fn(n, 1, |i, _| -g[i]);
-    let mut buffer = MemBuffer::new(llt.solve_in_place_scratch::<f64>(1, par));
-    llt.solve_in_place_with_conj(faer::Conj::No, rhs.as_mut(), par, MemStack::new(&mut buffer));
-    let dx: Vec<f64> = (0..n).map(|i| rhs[(i, 0)]).collect();
+    let dx = with_llt(cholesky, h, |llt| {
+        let mut rhs = Mat::<f64>::from_fn(n, 1, |i, _| -g[i]);
+        solve_in_place(llt, &mut rhs);
+        (0..n).map(|i| rhs[(i, 0)]).collect::<Vec<f64>>()
+    })?;
     dx.iter().all(|v| v.is_finite()).then_some(dx)
 }
 

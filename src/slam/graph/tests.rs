@@ -108,18 +108,7 @@ fn on_a_consistent_simulation_the_pose_nees_is_about_three() {
                 .collect();
             observations.push(StepObservations { step: k, observations: seen });
         }
-        let world = World {
-            dt_s: 0.1,
-            truth: truth.clone(),
-            odometry,
-            laser: None,
-            scans: Vec::new(),
-            point_scans: Vec::new(),
-            truth_lines: Vec::new(),
-            truth_corners: Vec::new(),
-            truth_points: Vec::new(),
-            point_noise: None,
-        };
+        let world = World::from_odometry(truth.clone(), odometry);
         for (slot, trace) in [
             run_batch(&world, &motion, &params, &observations).unwrap(),
             run_online(&world, &motion, &params, &observations).unwrap(),
