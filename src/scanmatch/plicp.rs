@@ -391,24 +391,12 @@ fn real_roots_quartic(a: [f64; 5]) -> Vec<f64> {
     if a[4] == 0.0 || !a.iter().all(|x| x.is_finite()) {
         return Vec::new();
     }
-    let m = nalgebra::Matrix4::new(
-        0.0,
-        0.0,
-        0.0,
-        -a[0] / a[4],
-        1.0,
-        0.0,
-        0.0,
-        -a[1] / a[4],
-        0.0,
-        1.0,
-        0.0,
-        -a[2] / a[4],
-        0.0,
-        0.0,
-        1.0,
-        -a[3] / a[4],
-    );
+    // companion matrix: ones below the diagonal, −aᵢ/a₄ in the last column
+    let m = nalgebra::Matrix4::from_fn(|r, c| match c {
+        3 => -a[r] / a[4],
+        _ if r == c + 1 => 1.0,
+        _ => 0.0,
+    });
     m.complex_eigenvalues()
         .iter()
         .filter(|z| z.im.abs() <= 1e-9 * (1.0 + z.re.abs()))

@@ -781,18 +781,7 @@ mod tests {
         let motion = MotionModel::Pose { sigma_x_m: 0.05, sigma_y_m: 0.05, sigma_theta_rad: 0.02 };
         let n = 30;
         let truth: Vec<Pose2> = (0..=n).map(|k| Pose2::new(0.1 * k as f64, 0.0, 0.0)).collect();
-        let world = World {
-            dt_s: 0.1,
-            truth: truth.clone(),
-            odometry: vec![Pose2::new(0.1, 0.0, 0.0); n],
-            laser: None,
-            scans: Vec::new(),
-            point_scans: Vec::new(),
-            truth_lines: Vec::new(),
-            truth_corners: Vec::new(),
-            truth_points: Vec::new(),
-            point_noise: None,
-        };
+        let world = World::from_odometry(truth.clone(), vec![Pose2::new(0.1, 0.0, 0.0); n]);
         let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
         let marks = [Vector2::new(2.0, 1.0), Vector2::new(3.0, -1.5)];
         let stream: Vec<StepObservations> = (1..=n)
@@ -860,18 +849,7 @@ mod tests {
         let motion = MotionModel::Pose { sigma_x_m: 0.05, sigma_y_m: 0.05, sigma_theta_rad: 0.02 };
         let n = 10;
         let truth: Vec<Pose2> = (0..=n).map(|k| Pose2::new(0.1 * k as f64, 0.0, 0.0)).collect();
-        let world = World {
-            dt_s: 0.1,
-            truth: truth.clone(),
-            odometry: vec![Pose2::new(0.1, 0.0, 0.0); n],
-            laser: None,
-            scans: Vec::new(),
-            point_scans: Vec::new(),
-            truth_lines: Vec::new(),
-            truth_corners: Vec::new(),
-            truth_points: Vec::new(),
-            point_noise: None,
-        };
+        let world = World::from_odometry(truth.clone(), vec![Pose2::new(0.1, 0.0, 0.0); n]);
         let r = Matrix2::new(0.01, 0.0, 0.0, 0.001);
         let stream: Vec<StepObservations> = (1..=n)
             .map(|k| StepObservations {

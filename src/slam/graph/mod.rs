@@ -531,16 +531,15 @@ fn symmetric_product(h: &SparseColMat<usize, f64>, v: &[f64]) -> Vec<f64> {
     out
 }
 
-/// Batch smoothing: the smoothed trajectory after the last step. The graph is built step by step
-/// and re-solved every `relinearise_every` steps only to initialise the final solve (from the
-/// odometry alone, Levenberg–Marquardt can stall on long runs with large heading errors); the
-/// estimate is that final solve's, over the whole run.
-pub fn run_batch(
+/// Grows the graph step by step over the world's odometry and observations; `at_step(graph, k,
+/// due)` runs after step k is added, `due` at every `relinearise_every`-th step and the last.
+fn grow(
     world: &World,
     motion: &MotionModel,
     params: &GraphParams,
     observations: &[StepObservations],
-) -> Result<Trace, SlamError> {
+    mut at_step: impl FnMut(&mut Graph, usize, bool),
+) -> Result<Graph, SlamError> {
     let mut graph = Graph::new(world.truth[0], params);
     let mut cursor = super::observations::Cursor::new(observations, true);
     let steps = world.odometry.len();
@@ -549,10 +548,27 @@ pub fn run_batch(
             graph.add_odometry(&world.odometry[k - 1], motion)?;
         }
         graph.add_observations(cursor.at(k))?;
-        if k % params.relinearise_every as usize == 0 && k < steps {
+        at_step(&mut graph, k, k % params.relinearise_every as usize == 0 || k == steps);
+    }
+    Ok(graph)
+}
+
+/// Batch smoothing: the smoothed trajectory after the last step. The graph is re-solved every
+/// `relinearise_every` steps while it grows only to initialise the final solve (from the odometry
+/// alone, Levenberg–Marquardt can stall on long runs with large heading errors); the estimate is
+/// that final solve's, over the whole run.
+pub fn run_batch(
+    world: &World,
+    motion: &MotionModel,
+    params: &GraphParams,
+    observations: &[StepObservations],
+) -> Result<Trace, SlamError> {
+    let steps = world.odometry.len();
+    let mut graph = grow(world, motion, params, observations, |graph, k, due| {
+        if due && k < steps {
             graph.solve_warm();
         }
-    }
+    })?;
     if !graph.solve() {
         graph.numerical_failures += 1;
     }
@@ -574,44 +590,33 @@ pub fn run_batch(
 
 /// Online smoothing: re-solved every `relinearise_every` steps to a relative decrease of 1e-6
 /// (and at the last step to `relative_decrease`); each step's estimate is what the smoother knew
-/// then.
+/// then: the newest pose of the last solve, composed with the odometry since.
 pub fn run_online(
     world: &World,
     motion: &MotionModel,
     params: &GraphParams,
     observations: &[StepObservations],
 ) -> Result<Trace, SlamError> {
-    let mut graph = Graph::new(world.truth[0], params);
-    let mut cursor = super::observations::Cursor::new(observations, true);
     let steps = world.odometry.len();
     let mut estimate = Vec::with_capacity(steps + 1);
     let mut pose_belief = Vec::with_capacity(steps + 1);
-    // the newest pose of the last solve, and its step
-    let mut anchor = (0usize, world.truth[0]);
-    for k in 0..=steps {
-        if k > 0 {
-            graph.add_odometry(&world.odometry[k - 1], motion)?;
-        }
-        graph.add_observations(cursor.at(k))?;
-        if k % params.relinearise_every as usize == 0 || k == steps {
+    let mut pose = world.truth[0];
+    let graph = grow(world, motion, params, observations, |graph, k, due| {
+        if due {
             // the last solve to full precision (the final map); the others to 1e-6 of the cost
             let converged = if k == steps { graph.solve() } else { graph.solve_warm() };
             if !converged {
                 graph.numerical_failures += 1;
             }
-            anchor = (k, graph.poses[k]);
+            pose = graph.poses[k];
             let marginal = graph.pose_marginals(&[k]).pop().flatten();
-            pose_belief.push(marginal.map(|m| (graph.poses[k], m)));
+            pose_belief.push(marginal.map(|m| (pose, m)));
         } else {
+            pose = pose.compose(world.odometry[k - 1]);
             pose_belief.push(None);
         }
-        let (from, pose) = anchor;
-        let mut p = pose;
-        for u in &world.odometry[from..k] {
-            p = p.compose(*u);
-        }
-        estimate.push(p);
-    }
+        estimate.push(pose);
+    })?;
     Ok(Trace {
         estimate,
         numerical_failures: graph.numerical_failures,
