@@ -7,7 +7,7 @@
 
 use crate::config::{Checks, Violation};
 use crate::geom::{Pose2, unicycle_increment, wrap_angle};
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Vector3};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -197,6 +197,33 @@ impl MotionModel {
         }
     }
 
+    /// The between-factor of odometry increment `u` (see [`BetweenFactor`]).
+    pub fn between_factor(&self, u: &Pose2) -> BetweenFactor {
+        match *self {
+            MotionModel::Pose { .. } => BetweenFactor {
+                u: *u,
+                arc: false,
+                cov: self.covariance(&Pose2::IDENTITY, u),
+                t: Matrix3::identity(),
+            },
+            MotionModel::Proportional {
+                k_translation,
+                k_rotation,
+                floor_translation_m: ft,
+                floor_rotation_rad: fr,
+                ..
+            } => {
+                // the arc's noise moves (d, φ) alone; the floor is body-frame noise, mapped by T
+                let (f, t) = arc_coordinates(u);
+                let (sd, sp) = (k_translation * f[0].abs(), k_rotation * f[1].abs());
+                let floor = Matrix3::from_diagonal(&Vector3::new(ft * ft, ft * ft, fr * fr));
+                let cov = Matrix3::from_diagonal(&Vector3::new(sd * sd, sp * sp, 0.0))
+                    + t * floor * t.transpose();
+                BetweenFactor { u: *u, arc: true, cov, t }
+            }
+        }
+    }
+
     /// A sample of x' (five standard normals drawn, whatever the parameters): the arc's length
     /// and turn perturbed and the exact arc driven, as the simulation does, plus the floor.
     pub fn sample(&self, pose: &Pose2, u: &Pose2, rng: &mut ChaCha8Rng) -> Pose2 {
@@ -238,6 +265,81 @@ impl MotionModel {
     }
 }
 
+/// The motion model as a smoother's between-factor on poses a and b for the odometry increment
+/// u: a residual e(a, b) that is zero when b = a ⊕ u, with covariance `cov` — the same noise the
+/// filters are told, in the coordinates where it is defined, so that the residual is exact where
+/// the filters' Q is a linearisation.
+#[derive(Debug, Clone, Copy)]
+pub struct BetweenFactor {
+    u: Pose2,
+    /// `Pose`: e = b − (a ⊕ u) in the world frame. `Proportional`: e = f(b ⊖ a) − f(u) with
+    /// f = (d, φ, ℓ) the increment's arc length, turn and offset from its arc ([`arc_coordinates`]).
+    arc: bool,
+    /// The covariance of e.
+    pub cov: Matrix3<f64>,
+    /// ∂e/∂u at b = a ⊕ u (maps body-frame noise on the increment to e).
+    t: Matrix3<f64>,
+}
+
+impl BetweenFactor {
+    /// The covariance of e with independent body-frame noise of σ = `s` (m, m, rad) added to
+    /// the increment's.
+    pub fn inflated_cov(&self, s: f64) -> Matrix3<f64> {
+        self.cov + self.t * self.t.transpose() * (s * s)
+    }
+
+    /// e(a, b) and its Jacobians ∂e/∂a, ∂e/∂b (rows e, columns x, y, θ).
+    pub fn residual(&self, a: &Pose2, b: &Pose2) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let (s, c) = a.theta.sin_cos();
+        if !self.arc {
+            let p = a.compose(self.u);
+            let e = Vector3::new(b.x - p.x, b.y - p.y, wrap_angle(b.theta - p.theta));
+            let u = self.u;
+            let f = Matrix3::new(
+                1.0,
+                0.0,
+                -s * u.x - c * u.y,
+                0.0,
+                1.0,
+                c * u.x - s * u.y,
+                0.0,
+                0.0,
+                1.0,
+            );
+            return (e, -f, Matrix3::identity());
+        }
+        // ũ = b ⊖ a and its Jacobians
+        let (dx, dy) = (b.x - a.x, b.y - a.y);
+        let rel = b.relative_to(*a);
+        let ja = Matrix3::new(-c, -s, -s * dx + c * dy, s, -c, -c * dx - s * dy, 0.0, 0.0, -1.0);
+        let jb = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+        let (f, t) = arc_coordinates(&rel);
+        let (f0, _) = arc_coordinates(&self.u);
+        let e = Vector3::new(f[0] - f0[0], wrap_angle(f[1] - f0[1]), f[2] - f0[2]);
+        (e, t * ja, t * jb)
+    }
+}
+
+/// The arc coordinates f(u) = (d, φ, ℓ) of a body-frame increment and T = ∂f/∂u: the arc through
+/// the chord with turn φ ([`arc_of`]), and ℓ the increment's offset across the direction φ/2 that
+/// the chord of an exact arc takes — zero on every arc, so noise on (d, φ) moves (d, φ) only.
+pub fn arc_coordinates(u: &Pose2) -> (Vector3<f64>, Matrix3<f64>) {
+    let phi = u.theta;
+    let h = 0.5 * phi;
+    let (s, c) = h.sin_cos();
+    let chord = u.x * c + u.y * s;
+    let offset = -u.x * s + u.y * c;
+    // d = chord · g(h), g(h) = h / sin h
+    let (g, dg) = if phi.abs() < SERIES_BELOW_RAD {
+        (1.0 + h * h / 6.0, h / 3.0)
+    } else {
+        (h / s, (s - h * c) / (s * s))
+    };
+    let d_phi = 0.5 * offset * g + 0.5 * chord * dg;
+    let t = Matrix3::new(c * g, s * g, d_phi, 0.0, 0.0, 1.0, -s, c, -0.5 * chord);
+    (Vector3::new(chord * g, phi, offset), t)
+}
+
 /// The arc (d, φ) — length and turn, v·Δt and ω·Δt — that drives increment `u`: exact for an arc
 /// ([`unicycle_increment`]); an increment off any arc (a real log's slip) gets the arc through
 /// its chord's length and its turn.
@@ -268,6 +370,78 @@ fn arc_jacobian(d: f64, phi: f64) -> nalgebra::Matrix3x2<f64> {
 mod tests {
     use super::*;
     use rand::SeedableRng;
+
+    /// f(u) = (d, φ, ℓ) is (d, φ, 0) on every arc, and T = ∂f/∂u matches central differences,
+    /// straight and turning.
+    #[test]
+    fn arc_coordinates_are_the_arc_and_their_jacobian_matches_finite_differences() {
+        for (d, phi) in [(0.4, 0.3), (0.1, -1.2), (0.3, 2e-5), (-0.2, 0.05)] {
+            let (f, _) = arc_coordinates(&unicycle_increment(d, phi, 1.0));
+            assert!(
+                (f[0] - d).abs() < 1e-12 && (f[1] - phi).abs() < 1e-15 && f[2].abs() < 1e-12,
+                "({d}, {phi}): {f}"
+            );
+        }
+        for u in
+            [Pose2::new(0.4, 0.03, 0.3), Pose2::new(0.1, -0.02, -1.2), Pose2::new(0.3, 0.01, 2e-5)]
+        {
+            let (_, t) = arc_coordinates(&u);
+            let eps = 1e-7;
+            for k in 0..3 {
+                let shift = |e: f64| {
+                    let mut p = [u.x, u.y, u.theta];
+                    p[k] += e;
+                    arc_coordinates(&Pose2::new(p[0], p[1], p[2])).0
+                };
+                let num = (shift(eps) - shift(-eps)) / (2.0 * eps);
+                for r in 0..3 {
+                    assert!(
+                        (t[(r, k)] - num[r]).abs() < 1e-6,
+                        "T[{r},{k}] = {} vs {}",
+                        t[(r, k)],
+                        num[r]
+                    );
+                }
+            }
+        }
+    }
+
+    /// Both models' between-factors: zero at b = a ⊕ u, Jacobians matching central differences.
+    #[test]
+    fn between_factors_vanish_on_the_increment_and_their_jacobians_match_finite_differences() {
+        let u = Pose2::new(0.3, 0.02, 0.25);
+        let a = Pose2::new(1.0, -2.0, 3.0);
+        let b = Pose2::new(1.1, -1.8, -3.1);
+        for model in [
+            MotionModel::default(),
+            MotionModel::Pose { sigma_x_m: 0.1, sigma_y_m: 0.05, sigma_theta_rad: 0.01 },
+        ] {
+            let factor = model.between_factor(&u);
+            let (e0, _, _) = factor.residual(&a, &a.compose(u));
+            assert!(e0.norm() < 1e-12, "{model:?}: {e0}");
+            let (_, ja, jb) = factor.residual(&a, &b);
+            let eps = 1e-7;
+            for (which, jac) in [(0, ja), (1, jb)] {
+                for k in 0..3 {
+                    let shift = |e: f64| {
+                        let mut p =
+                            if which == 0 { [a.x, a.y, a.theta] } else { [b.x, b.y, b.theta] };
+                        p[k] += e;
+                        let q = Pose2::new(p[0], p[1], p[2]);
+                        if which == 0 {
+                            factor.residual(&q, &b).0
+                        } else {
+                            factor.residual(&a, &q).0
+                        }
+                    };
+                    let num = (shift(eps) - shift(-eps)) / (2.0 * eps);
+                    for r in 0..3 {
+                        assert!((jac[(r, k)] - num[r]).abs() < 1e-6, "{model:?} {which} [{r},{k}]");
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn jacobian_matches_finite_differences() {

@@ -61,16 +61,17 @@ fn on_a_linear_gaussian_chain_the_smoother_equals_the_closed_form_solution() {
     }
 }
 
-/// A world drawn from the smoother's own model — odometry increments with the motion model's
-/// noise, range–bearing readings with R, a ring of landmarks around a circular path: the mean
-/// NEES of the batch estimate's poses is ≈ 3, and the online one's newest pose too.
-#[test]
-fn on_a_consistent_simulation_the_pose_nees_is_about_three() {
-    let motion = MotionModel::Pose { sigma_x_m: 0.05, sigma_y_m: 0.02, sigma_theta_rad: 0.01 };
+/// Mean pose NEES of the batch and online estimates on 100 worlds drawn from `motion`'s own noise
+/// (`drive(truth, u, rng)` returns the next true pose and the odometry reading): range–bearing
+/// readings with R, a ring of landmarks around a circular path.
+fn mean_nees(
+    motion: &MotionModel,
+    drive: impl Fn(Pose2, Pose2, &mut ChaCha8Rng) -> (Pose2, Pose2),
+) -> [f64; 2] {
     let r = Matrix2::new(0.05f64.powi(2), 0.0, 0.0, 0.02f64.powi(2));
     let params = GraphParams::default();
     let mut sums = [(0.0, 0usize), (0.0, 0usize)];
-    for seed in 0..20 {
+    for seed in 0..100 {
         let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
         let landmarks: Vec<Vector2<f64>> = (0..12)
             .map(|j| {
@@ -84,12 +85,9 @@ fn on_a_consistent_simulation_the_pose_nees_is_about_three() {
         let mut observations = Vec::new();
         for k in 0..=steps {
             if k > 0 {
-                truth.push(truth[k - 1].compose(u_true));
-                odometry.push(Pose2::new(
-                    u_true.x + 0.05 * normal(&mut rng),
-                    u_true.y + 0.02 * normal(&mut rng),
-                    u_true.theta + 0.01 * normal(&mut rng),
-                ));
+                let (next, reading) = drive(truth[k - 1], u_true, &mut rng);
+                truth.push(next);
+                odometry.push(reading);
             }
             let seen: Vec<Observation> = (landmarks.iter().enumerate())
                 .filter(|(_, m)| (*m - Vector2::new(truth[k].x, truth[k].y)).norm() < 8.0)
@@ -110,8 +108,8 @@ fn on_a_consistent_simulation_the_pose_nees_is_about_three() {
         }
         let world = World::from_odometry(truth.clone(), odometry);
         for (slot, trace) in [
-            run_batch(&world, &motion, &params, &observations).unwrap(),
-            run_online(&world, &motion, &params, &observations).unwrap(),
+            run_batch(&world, motion, &params, &observations).unwrap(),
+            run_online(&world, motion, &params, &observations).unwrap(),
         ]
         .into_iter()
         .enumerate()
@@ -130,9 +128,47 @@ fn on_a_consistent_simulation_the_pose_nees_is_about_three() {
             }
         }
     }
-    for (name, (sum, n)) in ["batch", "online"].iter().zip(sums) {
-        let mean = sum / n as f64;
-        assert!((2.5..=3.5).contains(&mean), "{name}: mean NEES {mean} over {n} poses");
+    sums.map(|(sum, n)| sum / n as f64)
+}
+
+/// [FT] Eq. 7.18's world-frame pose noise, drawn as the model states it (x' = x ⊕ u + ε): the
+/// mean NEES of the batch estimate's poses is ≈ 3, and the online one's newest pose too.
+#[test]
+fn on_a_consistent_simulation_the_pose_nees_is_about_three() {
+    let sigma = [0.05, 0.02, 0.01];
+    let motion =
+        MotionModel::Pose { sigma_x_m: sigma[0], sigma_y_m: sigma[1], sigma_theta_rad: sigma[2] };
+    let nees = mean_nees(&motion, |pose, u, rng| {
+        let p = pose.compose(u);
+        let next = Pose2::new(
+            p.x + sigma[0] * normal(rng),
+            p.y + sigma[1] * normal(rng),
+            wrap_angle(p.theta + sigma[2] * normal(rng)),
+        );
+        (next, u)
+    });
+    for (name, mean) in ["batch", "online"].iter().zip(nees) {
+        assert!((2.5..=3.5).contains(&mean), "{name}: mean NEES {mean}");
+    }
+}
+
+/// The simulated odometry's own noise — the arc's length and turn perturbed, the exact arc
+/// driven, nothing off it — with the matched floor: NEES ≈ 3 for both estimates. A factor on the
+/// body-frame increment with the linearised Q (rank two plus the 1e-7 floor) failed this: the
+/// second-order offset of a perturbed arc from its tangent plane is many floor-σ on turns.
+#[test]
+fn on_the_simulated_odometrys_own_noise_the_pose_nees_is_about_three() {
+    let k = 0.1;
+    let motion = MotionModel::default(); // k_translation = k_rotation = 0.1, the matched floor
+    let nees = mean_nees(&motion, |pose, u, rng| {
+        let (d, phi) = (u.x, u.theta); // the step read as an arc of length d turning by φ
+        let arc = |d: f64, phi: f64| crate::geom::unicycle_increment(d, phi, 1.0);
+        let truth_u = arc(d, phi);
+        let reading = arc(d + k * d.abs() * normal(rng), phi + k * phi.abs() * normal(rng));
+        (pose.compose(truth_u), reading)
+    });
+    for (name, mean) in ["batch", "online"].iter().zip(nees) {
+        assert!((2.5..=3.5).contains(&mean), "{name}: mean NEES {mean}");
     }
 }
 
