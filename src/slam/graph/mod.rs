@@ -131,6 +131,8 @@ pub struct Graph {
     params: GraphParams,
     /// Solves whose factorisation failed at every damping tried.
     pub numerical_failures: u64,
+    /// The structure of the last solve (see [`Graph::take_structure`]).
+    structure: Option<Structure>,
     /// Levenberg–Marquardt's λ at the end of the last converged solve (1e-4 before the first).
     lambda: f64,
     /// The smallest σ of any odometry factor (its covariance's smallest eigenvalue, square-rooted).
@@ -160,6 +162,7 @@ impl Graph {
             numerical_failures: 0,
             stiffest_sigma: f64::INFINITY,
             lambda: 1e-4,
+            structure: None,
         }
     }
 
@@ -313,10 +316,9 @@ impl Graph {
             .sum()
     }
 
-    /// The lower triangle of H = JᵀJ (entries in factor order, duplicates summed) and g = Jᵀr.
-    fn normal_equations(&self) -> (Vec<Pair<usize, usize>>, Vec<f64>, Vec<f64>, f64) {
-        let mut idx = Vec::new();
-        let mut val = Vec::new();
+    /// Runs `entry(row, col, value)` for each factor's contribution to the lower triangle of
+    /// H = JᵀJ, in factor order; returns g = Jᵀr and the cost rᵀr.
+    fn accumulate(&self, mut entry: impl FnMut(usize, usize, f64)) -> (Vec<f64>, f64) {
         let mut g = vec![0.0; self.dim()];
         let mut cost = 0.0;
         for f in &self.factors {
@@ -333,19 +335,23 @@ impl Graph {
                         for ib in 0..wb {
                             let (row, col) = (ca + ia, cb + ib);
                             if row >= col {
-                                idx.push(Pair::new(row, col));
-                                val.push(
-                                    (0..l.rows)
-                                        .map(|k| ja[k * wa + ia] * jb[k * wb + ib])
-                                        .sum::<f64>(),
-                                );
+                                let v = (0..l.rows).map(|k| ja[k * wa + ia] * jb[k * wb + ib]);
+                                entry(row, col, v.sum::<f64>());
                             }
                         }
                     }
                 }
             }
         }
-        (idx, val, g, cost)
+        (g, cost)
+    }
+
+    /// H's stored values (duplicates summed in factor order), g and the cost at the current values.
+    fn normal_equations(&self, structure: &Structure) -> (Vec<f64>, Vec<f64>, f64) {
+        let mut h = vec![0.0; structure.symbolic.compute_nnz()];
+        let mut slots = structure.slot.iter();
+        let (g, cost) = self.accumulate(|_, _, v| h[*slots.next().expect("same factors")] += v);
+        (h, g, cost)
     }
 
     /// Levenberg–Marquardt from the current values to `relative_decrease`; returns whether it
@@ -367,34 +373,27 @@ impl Graph {
     /// each from the last, and then as stated; near the optimum the stated problem converges in
     /// a few steps.
     fn solve_to(&mut self, relative_decrease: f64) -> bool {
-        let n = self.dim();
-        let (idx, _, _, _) = self.normal_equations();
-        let Ok((symbolic, order)) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx) else {
-            return false;
-        };
-        let Some(cholesky) = symbolic_cholesky(&symbolic) else {
+        let Some(structure) = self.take_structure() else {
             self.numerical_failures += 1;
             return false;
         };
-        let diagonal: Vec<usize> = (0..n)
-            .map(|c| {
-                let start = symbolic.col_ptr()[c];
-                start
-                    + symbolic
-                        .row_idx_of_col_raw(c)
-                        .iter()
-                        .position(|&r| r == c)
-                        .expect("H has its diagonal")
-            })
-            .collect();
-        let structure = Structure { symbolic, order, cholesky, diagonal };
         let stiffest = self.stiffest_sigma;
         for s in CONTINUATION_SIGMAS.into_iter().filter(|&s| s > 10.0 * stiffest) {
             self.set_inflation(s);
             self.levenberg_marquardt(&structure, relative_decrease.max(1e-6));
         }
         self.set_inflation(0.0);
-        self.levenberg_marquardt(&structure, relative_decrease)
+        let converged = self.levenberg_marquardt(&structure, relative_decrease);
+        self.structure = Some(structure);
+        converged
+    }
+
+    /// The structure of the graph's normal equations: the last one's while no factor was added.
+    fn take_structure(&mut self) -> Option<Structure> {
+        match self.structure.take() {
+            Some(s) if s.factors == self.factors.len() => Some(s),
+            _ => Structure::of(self),
+        }
     }
 
     /// Every odometry factor whitened for its noise plus independent body-frame noise of σ = `s`.
@@ -408,20 +407,18 @@ impl Graph {
     }
 
     fn levenberg_marquardt(&mut self, structure: &Structure, relative_decrease: f64) -> bool {
-        let Structure { symbolic, order, cholesky, diagonal } = structure;
         let n = self.dim();
-        let (_, val, mut g, mut cost) = self.normal_equations();
-        let mut h = SparseColMat::new_from_argsort(symbolic.clone(), order, &val).expect("H");
+        let (mut h, mut g, mut cost) = self.normal_equations(structure);
+        let mut damped = SparseColMat::new(structure.symbolic.clone(), h.clone());
         // λ starts where the last solve left it: a warm start is near the optimum, where Gauss–Newton
         // steps are accepted, and would spend ~8 iterations lowering λ from 1e-4 by Nielsen's ⅓
         let (mut lambda, mut nu) = (self.lambda.max(1e-12), 2.0);
         for _ in 0..self.params.max_iterations {
-            let mut damped = h.clone();
-            for &d in diagonal {
-                let v = damped.val()[d];
-                damped.val_mut()[d] = v + lambda * v.max(1e-12);
+            damped.val_mut().copy_from_slice(&h);
+            for &d in &structure.diagonal {
+                damped.val_mut()[d] = h[d] + lambda * h[d].max(1e-12);
             }
-            let Some(dx) = solve_llt(cholesky, &damped, &g) else {
+            let Some(dx) = solve_llt(&structure.cholesky, &damped, &g) else {
                 lambda *= nu;
                 nu *= 2.0;
                 continue;
@@ -429,7 +426,7 @@ impl Graph {
             let (poses, landmarks) = self.stepped(&dx);
             let new_cost = self.cost_at(&poses, &landmarks);
             // predicted decrease of the Gauss–Newton model: −(2gᵀΔ + ΔᵀHΔ)
-            let h_dx = symmetric_product(&h, &dx);
+            let h_dx = symmetric_product(&structure.symbolic, &h, &dx);
             let predicted = -(0..n).map(|i| 2.0 * g[i] * dx[i] + dx[i] * h_dx[i]).sum::<f64>();
             let rho = (cost - new_cost) / predicted;
             if new_cost < cost && rho > 0.0 {
@@ -441,9 +438,7 @@ impl Graph {
                     self.lambda = lambda;
                     return true;
                 }
-                let (_, val, g_new, cost_new) = self.normal_equations();
-                h = SparseColMat::new_from_argsort(symbolic.clone(), order, &val).expect("H");
-                (g, cost) = (g_new, cost_new);
+                (h, g, cost) = self.normal_equations(structure);
             } else {
                 lambda *= nu;
                 nu *= 2.0;
@@ -469,14 +464,12 @@ impl Graph {
     /// The marginal covariances of the given poses (blocks of H⁻¹ at the current values).
     pub fn pose_marginals(&mut self, which: &[usize]) -> Vec<Option<Matrix3<f64>>> {
         let n = self.dim();
-        let (idx, val, _, _) = self.normal_equations();
-        let Ok((symbolic, order)) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx) else {
+        let Some(structure) = self.take_structure() else {
             return vec![None; which.len()];
         };
-        let h = SparseColMat::new_from_argsort(symbolic.clone(), &order, &val).expect("H");
-        let Some(cholesky) = symbolic_cholesky(&symbolic) else {
-            return vec![None; which.len()];
-        };
+        let (values, _, _) = self.normal_equations(&structure);
+        let h = SparseColMat::new(structure.symbolic.clone(), values);
+        let cholesky = &structure.cholesky;
         let marginals = with_llt(&cholesky, &h, |llt| {
             which
                 .iter()
@@ -495,6 +488,7 @@ impl Graph {
                 })
                 .collect()
         });
+        self.structure = Some(structure);
         marginals.unwrap_or_else(|| {
             self.numerical_failures += 1;
             vec![None; which.len()]
@@ -519,11 +513,35 @@ const CONTINUATION_SIGMAS: [f64; 4] = [1e-3, 1e-4, 1e-5, 1e-6];
 
 /// The sparsity structure of a graph's normal equations, shared by the solves over it.
 struct Structure {
+    /// The number of factors it was built for.
+    factors: usize,
+    /// H's lower triangle.
     symbolic: SymbolicSparseColMat<usize>,
-    order: faer::sparse::Argsort<usize>,
     cholesky: SymbolicCholesky<usize>,
+    /// Where each entry `Graph::accumulate` emits lies among H's stored values, in its order.
+    slot: Vec<usize>,
     /// Where each diagonal entry lies among H's stored values.
     diagonal: Vec<usize>,
+}
+
+impl Structure {
+    /// The structure of `graph`'s normal equations and its symbolic factorisation; `None` when
+    /// the factorisation's ordering fails.
+    fn of(graph: &Graph) -> Option<Structure> {
+        let n = graph.dim();
+        let mut idx = Vec::new();
+        graph.accumulate(|row, col, _| idx.push(Pair::new(row, col)));
+        let (symbolic, _) = SymbolicSparseColMat::try_new_from_indices(n, n, &idx).ok()?;
+        let cholesky = symbolic_cholesky(&symbolic)?;
+        let at = |row: usize, col: usize| {
+            let start = symbolic.col_ptr()[col];
+            let rows = symbolic.row_idx_of_col_raw(col);
+            start + rows.binary_search(&row).expect("an entry of H's structure")
+        };
+        let slot = idx.iter().map(|p| at(p.row, p.col)).collect();
+        let diagonal = (0..n).map(|c| at(c, c)).collect();
+        Some(Structure { factors: graph.factors.len(), symbolic, cholesky, slot, diagonal })
+    }
 }
 
 /// A pose moved by the left perturbation δ = (vx, vy, ω): rotated by ω about the origin, then
@@ -620,14 +638,17 @@ fn solve_llt(
     dx.iter().all(|v| v.is_finite()).then_some(dx)
 }
 
-/// H·v for H stored as its lower triangle.
-fn symmetric_product(h: &SparseColMat<usize, f64>, v: &[f64]) -> Vec<f64> {
+/// H·v for H stored as its lower triangle (`structure`, `values`).
+fn symmetric_product(
+    structure: &SymbolicSparseColMat<usize>,
+    values: &[f64],
+    v: &[f64],
+) -> Vec<f64> {
     let mut out = vec![0.0; v.len()];
-    let symbolic = h.symbolic();
     for c in 0..v.len() {
-        let start = symbolic.col_ptr()[c];
-        for (k, &r) in symbolic.row_idx_of_col_raw(c).iter().enumerate() {
-            let x = h.val()[start + k];
+        let start = structure.col_ptr()[c];
+        for (k, &r) in structure.row_idx_of_col_raw(c).iter().enumerate() {
+            let x = values[start + k];
             out[r] += x * v[c];
             if r != c {
                 out[c] += x * v[r];
