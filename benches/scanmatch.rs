@@ -6,7 +6,8 @@
 //!   −0.1 m, 3°; initial guess 5 cm and 2° off), preparation included.
 //! - `intel`: consecutive pairs of the Intel lab log (`../shared/data/intel-lab`, skipped with a
 //!   message when absent), initial guess = the corrected increment; targets: E-PSM ≤ 5 ms, CRS2
-//!   ≤ 20 ms.
+//!   ≤ 20 ms. PL-ICP (issue 28) beside PSM, both with their preparation: PSM segments into lines,
+//!   PL-ICP takes the raw points as CSM does.
 //! - `diosi_reference`: PSM on the 3 636 matches of `../shared/data/psm-reference/intel-pairs.csv`
 //!   (scans prepared once, as Diosi's program does), to set beside the C program's own time on the
 //!   same matches (0.135 ms per match, README "Benchmarks"); skipped with a message when absent.
@@ -17,6 +18,7 @@ use slamlab::scanmatch::Cost;
 use slamlab::scanmatch::brute::{BruteForceParams, brute_force};
 use slamlab::scanmatch::epsm::{EpsmParams, epsm};
 use slamlab::scanmatch::objective::{Objective, ObjectiveParams};
+use slamlab::scanmatch::plicp::{PlIcpParams, pl_icp};
 use slamlab::scanmatch::psm::{PsmParams, psm};
 use slamlab::scanmatch::scan::PolarScan;
 use slamlab::scanmatch::scan::testing::{
@@ -34,8 +36,11 @@ const GUESS: Pose2 = Pose2::new(0.25, -0.1, 0.017_453_292_519_943_295);
 const MATCHERS: [&str; 6] = ["psm_original", "psm", "epsm", "epsm_table5", "crs2", "brute_force"];
 
 fn segmentation(matcher: &str) -> SegmentationParams {
-    let method =
-        if matcher == "psm_original" { Segmentation::PsmHeuristics } else { Segmentation::Lines };
+    let method = match matcher {
+        "psm_original" => Segmentation::PsmHeuristics,
+        "pl_icp" => Segmentation::None, // CSM works on the raw points
+        _ => Segmentation::Lines,
+    };
     SegmentationParams { method, ..SegmentationParams::default() }
 }
 
@@ -59,6 +64,7 @@ fn run(
         "epsm" => epsm(&mut cost, initial, &EpsmParams::default()),
         "epsm_table5" => epsm(&mut cost, initial, &EpsmParams::table5()),
         "crs2" => simultaneous(&mut cost, initial, Optimizer::Crs2, &SearchParams::default(), 7),
+        "pl_icp" => pl_icp(&r, &c, initial, &PlIcpParams::default(), &mut cost),
         _ => brute_force(&mut cost, initial, &BruteForceParams::default()),
     };
     m.f
@@ -114,7 +120,7 @@ fn intel(c: &mut Criterion) {
     let mut group = c.benchmark_group("scanmatch/intel_match");
     group.sample_size(10);
     group.throughput(Throughput::Elements(INTEL_PAIRS as u64));
-    for matcher in ["psm_original", "psm", "epsm", "crs2"] {
+    for matcher in ["psm_original", "psm", "epsm", "crs2", "pl_icp"] {
         group.bench_with_input(BenchmarkId::from_parameter(matcher), &matcher, |b, m| {
             b.iter(|| {
                 let mut total = 0.0;
