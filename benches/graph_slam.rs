@@ -14,7 +14,7 @@
 //!   steps to initialise the final one, so O(steps²) over a run);
 //! - `graph_slam` (online): re-solved every 10 steps, O(steps²) over a run;
 //! - `one solve`: one solve of the whole graph from near its optimum (poses at the truth,
-//!   landmarks at their first reading from there; `graph::time_one_solve`) — the smoother's
+//!   landmarks at their first reading from there; `graph::graph_at_truth`) — the smoother's
 //!   building block, what each re-solve costs, O(steps) while the factor stays sparse.
 //!
 //! Cases that would run for too long are skipped and say why: EKF-SLAM at 10 000 landmarks (a
@@ -116,8 +116,8 @@ fn main() {
         } else {
             ("not run: O(steps²)".into(), "not run: O(steps²)".into())
         };
-        let (seconds, converged) = graph::time_one_solve(&w, &motion, &params, &z).unwrap();
-        let solve = seconds * 1e6 / steps as f64;
+        let mut at_truth = graph::graph_at_truth(&w, &motion, &params, &z).unwrap();
+        let (solve, converged) = per_step(steps, || at_truth.solve());
         let note = if converged { "" } else { " (not converged)" };
         println!("| {n} ({mapped}) | {steps} | {ekf} | {batch} | {online} | {solve:.1}{note} |");
     }

@@ -757,15 +757,14 @@ pub fn run_online(
 mod tests;
 
 /// For the benchmark of one solve's cost (`benches/graph_slam.rs`): the graph of the whole run
-/// with every pose at the truth and every landmark at its first reading from there, then one
-/// [`Graph::solve`] — a re-solve near the optimum, the smoother's building block. Returns the
-/// solve's wall time [s] and whether it converged.
-pub fn time_one_solve(
+/// with every pose at the truth and every landmark at its first reading from there, to be solved
+/// once by [`Graph::solve`] — a re-solve near the optimum, the smoother's building block.
+pub fn graph_at_truth(
     world: &World,
     motion: &MotionModel,
     params: &GraphParams,
     observations: &[StepObservations],
-) -> Result<(f64, bool), SlamError> {
+) -> Result<Graph, SlamError> {
     let mut graph = Graph::new(world.truth[0], params);
     let mut cursor = super::observations::Cursor::new(observations, true);
     for k in 0..=world.odometry.len() {
@@ -775,7 +774,5 @@ pub fn time_one_solve(
         }
         graph.add_observations(cursor.at(k))?;
     }
-    let start = std::time::Instant::now();
-    let converged = graph.solve();
-    Ok((start.elapsed().as_secs_f64(), converged))
+    Ok(graph)
 }
