@@ -371,6 +371,27 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
 
+    /// Asserts that `jac` (rows: f's components; columns: x, y, θ) is ∂f/∂p at `at`, against central
+    /// differences of step `eps`, within 1e-6.
+    fn assert_jacobian(jac: Matrix3<f64>, at: Pose2, eps: f64, f: impl Fn(Pose2) -> Vector3<f64>) {
+        for k in 0..3 {
+            let shift = |e: f64| {
+                let mut p = [at.x, at.y, at.theta];
+                p[k] += e;
+                f(Pose2::new(p[0], p[1], p[2]))
+            };
+            let num = (shift(eps) - shift(-eps)) / (2.0 * eps);
+            for r in 0..3 {
+                assert!(
+                    (jac[(r, k)] - num[r]).abs() < 1e-6,
+                    "[{r},{k}] = {} vs {} at {at:?}",
+                    jac[(r, k)],
+                    num[r]
+                );
+            }
+        }
+    }
+
     /// f(u) = (d, φ, ℓ) is (d, φ, 0) on every arc, and T = ∂f/∂u matches central differences,
     /// straight and turning.
     #[test]
@@ -386,23 +407,7 @@ mod tests {
             [Pose2::new(0.4, 0.03, 0.3), Pose2::new(0.1, -0.02, -1.2), Pose2::new(0.3, 0.01, 2e-5)]
         {
             let (_, t) = arc_coordinates(&u);
-            let eps = 1e-7;
-            for k in 0..3 {
-                let shift = |e: f64| {
-                    let mut p = [u.x, u.y, u.theta];
-                    p[k] += e;
-                    arc_coordinates(&Pose2::new(p[0], p[1], p[2])).0
-                };
-                let num = (shift(eps) - shift(-eps)) / (2.0 * eps);
-                for r in 0..3 {
-                    assert!(
-                        (t[(r, k)] - num[r]).abs() < 1e-6,
-                        "T[{r},{k}] = {} vs {}",
-                        t[(r, k)],
-                        num[r]
-                    );
-                }
-            }
+            assert_jacobian(t, u, 1e-7, |v| arc_coordinates(&v).0);
         }
     }
 
@@ -420,26 +425,8 @@ mod tests {
             let (e0, _, _) = factor.residual(&a, &a.compose(u));
             assert!(e0.norm() < 1e-12, "{model:?}: {e0}");
             let (_, ja, jb) = factor.residual(&a, &b);
-            let eps = 1e-7;
-            for (which, jac) in [(0, ja), (1, jb)] {
-                for k in 0..3 {
-                    let shift = |e: f64| {
-                        let mut p =
-                            if which == 0 { [a.x, a.y, a.theta] } else { [b.x, b.y, b.theta] };
-                        p[k] += e;
-                        let q = Pose2::new(p[0], p[1], p[2]);
-                        if which == 0 {
-                            factor.residual(&q, &b).0
-                        } else {
-                            factor.residual(&a, &q).0
-                        }
-                    };
-                    let num = (shift(eps) - shift(-eps)) / (2.0 * eps);
-                    for r in 0..3 {
-                        assert!((jac[(r, k)] - num[r]).abs() < 1e-6, "{model:?} {which} [{r},{k}]");
-                    }
-                }
-            }
+            assert_jacobian(ja, a, 1e-7, |q| factor.residual(&q, &b).0);
+            assert_jacobian(jb, b, 1e-7, |q| factor.residual(&a, &q).0);
         }
     }
 
@@ -448,29 +435,11 @@ mod tests {
         let m = MotionModel::default();
         let u = Pose2::new(0.3, -0.05, 0.2);
         let pose = Pose2::new(1.0, 2.0, 2.9);
-        let f = m.jacobian(&pose, &u);
-        let eps = 1e-6;
-        for k in 0..3 {
-            let shift = |e: f64| {
-                let mut p = [pose.x, pose.y, pose.theta];
-                p[k] += e;
-                m.predict(&Pose2::new(p[0], p[1], p[2]), &u)
-            };
-            let (a, b) = (shift(eps), shift(-eps));
-            let num = [
-                (a.x - b.x) / (2.0 * eps),
-                (a.y - b.y) / (2.0 * eps),
-                wrap_angle(a.theta - b.theta) / (2.0 * eps),
-            ];
-            for r in 0..3 {
-                assert!(
-                    (f[(r, k)] - num[r]).abs() < 1e-6,
-                    "F[{r},{k}] = {} vs {}",
-                    f[(r, k)],
-                    num[r]
-                );
-            }
-        }
+        // θ stays within (−π, π] here (2.9 + 0.2 ± 1e-6), so no difference needs wrapping
+        assert_jacobian(m.jacobian(&pose, &u), pose, 1e-6, |q| {
+            let p = m.predict(&q, &u);
+            Vector3::new(p.x, p.y, p.theta)
+        });
     }
 
     /// A floor the world does not draw is refused without a reason, and accepted with one; the
