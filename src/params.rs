@@ -13,6 +13,7 @@ use crate::slam::ekf::EkfParams;
 use crate::slam::fastslam::FastSlamParams;
 use crate::slam::graph::GraphParams;
 use crate::slam::motion::MotionModel;
+use crate::slam::pose_graph::PoseGraphParams;
 use crate::world::Sensors;
 use crate::world::laser::LaserParams;
 use crate::world::odometry::OdometryNoise;
@@ -55,6 +56,8 @@ pub struct Params {
     pub brute_force: BruteForceParams,
     /// PL-ICP, point-to-line ICP (Censi, ICRA 2008).
     pub pl_icp: PlIcpParams,
+    /// The laser pose graph: its front end, edges and loop closures.
+    pub pose_graph: PoseGraphParams,
     /// External algorithms' own parameters, `[base.external.<name>]`, handed to the program as
     /// written (docs/external-algorithms.md). Not written out when empty, so the studies without
     /// one keep their run hashes.
@@ -83,6 +86,7 @@ impl Params {
             pose_search,
             brute_force,
             pl_icp,
+            pose_graph,
             external: _, // the program's own: handed over as written
         } = self;
         let mut c = Checks::new();
@@ -101,6 +105,7 @@ impl Params {
         c.nested("pose_search", pose_search.validate());
         c.nested("brute_force", brute_force.validate());
         c.nested("pl_icp", pl_icp.validate());
+        c.nested("pose_graph", pose_graph.validate());
         let in_use = [
             ("laser", self.laser.rate_hz, sensors.laser),
             ("landmark_sensor", self.landmark_sensor.rate_hz, sensors.landmarks),
@@ -203,6 +208,7 @@ sections!(
     pose_search,
     brute_force,
     pl_icp,
+    pose_graph,
     external,
 );
 

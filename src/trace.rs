@@ -45,6 +45,9 @@ pub struct Trace {
     pub kalman_gain: Vec<f64>,
     /// Scan matchers: one record per match, in order. Empty for the other algorithms.
     pub matches: Vec<MatchRecord>,
+    /// The laser pose graph: one record per loop closure it kept, in order (its consecutive
+    /// matches are in `matches`); `None` for the other algorithms.
+    pub loop_closures: Option<Vec<MatchRecord>>,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]

@@ -1,7 +1,8 @@
 //! The built-in scan matchers ([EP]): PSM on the study's segmentation or on its own heuristics,
-//! E-PSM, the brute-force reference, and the simultaneous search with each of NLopt's
-//! optimisers. All run through `scanmatch::track` (trigger, initial guess, chaining); they differ
-//! in the matcher of one pair.
+//! E-PSM, the brute-force reference, the simultaneous search with each of NLopt's optimisers and
+//! PL-ICP. All run through `scanmatch::track` (trigger, initial guess, chaining); they differ in
+//! the matcher of one pair. The laser pose graph (`slam::pose_graph`) runs any of them as its
+//! front end.
 
 use super::{Algorithm, Choice, Listing, Output, Role, RunInput, RunSize, Topic, Work};
 use crate::params::Params;
@@ -11,6 +12,7 @@ use crate::scanmatch::track::{self, Matcher};
 use crate::trace::SlamError;
 use crate::world::{Sensors, WorldKind};
 use std::borrow::Cow;
+use std::sync::Arc;
 
 /// Code version of TNEWTON runs: the scan matchers' plus NLopt's PNET with its work array and
 /// `mx` zeroed (`build/nlopt_patch.rs`).
@@ -301,5 +303,96 @@ impl Algorithm for PlIcp {
     fn run(&self, input: RunInput<'_>) -> Result<Output, SlamError> {
         let p = input.params;
         track(input, Matcher::PlIcp(&p.pl_icp))
+    }
+}
+
+/// The laser pose graph (`slam::pose_graph`): scan-matching edges and loop closures, optimised;
+/// its front end is any built-in scan matcher, named by `[pose_graph] front_end`.
+pub struct PoseGraph;
+
+impl PoseGraph {
+    /// The front end `params` name (validated against `pose_graph::front_ends()` when the spec
+    /// was read, and those against the registry by a test).
+    fn front_end(params: &Params) -> Arc<dyn Algorithm> {
+        let name = &params.pose_graph.front_end;
+        super::builtins()
+            .into_iter()
+            .find(|a| a.name() == name && a.is_scan_matcher())
+            .unwrap_or_else(|| panic!("pose_graph.front_end `{name}` was validated"))
+    }
+}
+
+impl Algorithm for PoseGraph {
+    fn name(&self) -> &str {
+        "pose_graph"
+    }
+    fn title(&self) -> &str {
+        "Pose graph"
+    }
+    fn summary(&self) -> Cow<'_, str> {
+        "laser pose-graph SLAM: a scan matcher's consecutive matches and loop closures (revisited scans matched and kept by an overlap test), optimised by Levenberg–Marquardt under Cauchy's kernel; any built-in scan matcher is the front end".into()
+    }
+    fn code_version(&self) -> Cow<'_, str> {
+        // the front end is a parameter: every matcher's version is in it
+        format!(
+            "{}+{}+{}+{}",
+            crate::slam::pose_graph::CODE_VERSION,
+            crate::slam::graph::CODE_VERSION,
+            crate::scanmatch::plicp::CODE_VERSION,
+            TNEWTON_CODE_VERSION,
+        )
+        .into()
+    }
+    fn role(&self) -> Role {
+        Role::ScanMatcher
+    }
+    fn sensors(&self, _: WorldKind) -> Sensors {
+        Sensors::LASER
+    }
+    fn sections(&self, _: WorldKind) -> Vec<String> {
+        // the front end's section is a parameter: all of them
+        [
+            "scan_matching",
+            "psm",
+            "epsm",
+            "pose_search",
+            "brute_force",
+            "pl_icp",
+            "motion_model",
+            "graph",
+            "pose_graph",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect()
+    }
+    fn describe(&self, p: &Params, study: &Listing<'_>) -> Vec<Choice> {
+        let mut out = Self::front_end(p).describe(p, study);
+        out.push(Choice { topic: Topic::PoseGraph, text: p.pose_graph.describe() });
+        out
+    }
+    fn work(&self, p: &Params, size: &RunSize) -> Work {
+        // every scan is matched once more against each loop-closure candidate, at most
+        let w = Self::front_end(p).work(p, size);
+        let k = 1.0 + f64::from(p.pose_graph.loop_candidates);
+        Work { extraction: w.extraction, matching: w.matching * k, ..w }
+    }
+    fn matcher<'p>(&self, p: &'p Params) -> Option<Matcher<'p>> {
+        Self::front_end(p).matcher(p)
+    }
+    fn run(&self, input: RunInput<'_>) -> Result<Output, SlamError> {
+        let p = input.params;
+        let matcher = self.matcher(p).expect("a built-in scan matcher has a matcher");
+        let run = crate::slam::pose_graph::pose_graph(
+            input.world,
+            matcher,
+            &p.scan_matching,
+            &p.pose_graph,
+            &p.graph,
+            &p.motion_model,
+            input.seed,
+            input.clock,
+        )?;
+        Ok(Output { trace: run.trace, steps: Some(run.steps) })
     }
 }

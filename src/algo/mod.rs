@@ -86,6 +86,8 @@ pub enum Topic {
     BruteForce,
     PoseSearch,
     PlIcp,
+    /// The laser pose graph built on a front end's matches.
+    PoseGraph,
     /// How scan-matching errors are measured.
     MatchErrors,
     /// An algorithm's own sentence (an external program's description).
@@ -247,6 +249,7 @@ pub fn builtins() -> Vec<Arc<dyn Algorithm>> {
         Arc::new(matchers::Epsm),
         Arc::new(matchers::BruteForce),
         Arc::new(matchers::PlIcp),
+        Arc::new(matchers::PoseGraph),
     ];
     all.extend(
         Optimizer::ALL.iter().map(|&o| Arc::new(matchers::PoseSearch(o)) as Arc<dyn Algorithm>),
@@ -399,7 +402,7 @@ mod tests {
     fn every_builtin_has_a_distinct_name_and_resolves_to_itself() {
         let c = Catalogue::builtin();
         let names = c.names();
-        assert_eq!(names.len(), 23);
+        assert_eq!(names.len(), 24);
         for (i, n) in names.iter().enumerate() {
             assert!(!names[..i].contains(n), "{n} is listed twice");
             assert_eq!(c.get(n).map(|a| a.name()), Some(*n));

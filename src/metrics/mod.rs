@@ -319,6 +319,20 @@ pub const METRICS: &[MetricDef] = &[
         lower_is_better: false,
     },
     MetricDef {
+        name: "loop_closures",
+        title: "Loop closures",
+        unit: "count",
+        description: "loop closures the laser pose graph kept (revisited scans matched and passing its overlap test)",
+        lower_is_better: false,
+    },
+    MetricDef {
+        name: "loop_closures_wrong",
+        title: "Wrong loop closures",
+        unit: "count",
+        description: "kept loop closures whose relative pose is more than 0.2 m or 5° off the truth's (the gross-error gate of the PL-ICP comparison with CSM)",
+        lower_is_better: true,
+    },
+    MetricDef {
         name: MAP_WALL_RMS,
         title: "Incremental-map RMS",
         unit: "mm",
@@ -408,6 +422,9 @@ pub fn compute(world: &World, trace: &Trace) -> RunMetrics {
     if !trace.matches.is_empty() {
         out.extend(match_metrics(&trace.matches));
     }
+    if let Some(closures) = &trace.loop_closures {
+        out.extend(loop_closure_metrics(closures));
+    }
     if !trace.kalman_gain.is_empty() {
         out.push((
             KALMAN_GAIN,
@@ -471,6 +488,24 @@ pub fn match_metrics(matches: &[crate::trace::MatchRecord]) -> RunMetrics {
         ("fallback_rate", matches.iter().filter(|m| m.fallback).count() as f64 / n),
         ("matches", n),
     ]
+}
+
+/// A loop closure is wrong when its relative pose is off the truth's by more than this
+/// translation [m] or rotation [deg]: the gross-error gate of the PL-ICP comparison with CSM
+/// (`tests/it/csm_reference.rs`), chosen there before any closure was made.
+pub const WRONG_CLOSURE: (f64, f64) = (0.2, 5.0);
+
+/// The laser pose graph's loop closures: how many it kept, and how many of them were wrong
+/// ([`WRONG_CLOSURE`]).
+pub fn loop_closure_metrics(closures: &[crate::trace::MatchRecord]) -> RunMetrics {
+    let wrong = closures
+        .iter()
+        .filter(|m| {
+            let (ax, ay, at) = m.error();
+            ax.hypot(ay) > WRONG_CLOSURE.0 || at.abs().to_degrees() > WRONG_CLOSURE.1
+        })
+        .count();
+    vec![("loop_closures", closures.len() as f64), ("loop_closures_wrong", wrong as f64)]
 }
 
 /// [`MAP_WALL_RMS`]: the returns of the scans taken at `steps`, placed at the estimated poses of

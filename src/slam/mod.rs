@@ -10,6 +10,7 @@ pub mod graph;
 pub mod motion;
 pub mod observations;
 pub mod odometry;
+pub mod pose_graph;
 
 pub use fastslam::models;
 

@@ -367,13 +367,18 @@ fn arc_jacobian(d: f64, phi: f64) -> nalgebra::Matrix3x2<f64> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rand::SeedableRng;
 
     /// Asserts that `jac` (rows: f's components; columns: x, y, θ) is ∂f/∂p at `at`, against central
     /// differences of step `eps`, within 1e-6.
-    fn assert_jacobian(jac: Matrix3<f64>, at: Pose2, eps: f64, f: impl Fn(Pose2) -> Vector3<f64>) {
+    pub(crate) fn assert_jacobian(
+        jac: Matrix3<f64>,
+        at: Pose2,
+        eps: f64,
+        f: impl Fn(Pose2) -> Vector3<f64>,
+    ) {
         for k in 0..3 {
             let shift = |e: f64| {
                 let mut p = [at.x, at.y, at.theta];

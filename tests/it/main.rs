@@ -15,6 +15,7 @@ mod memory;
 mod nlopt_threads;
 mod pipeline;
 mod point_worlds;
+mod pose_graph;
 mod psm_reference;
 mod psm_samples;
 mod readme;

@@ -47,7 +47,7 @@ use faer::sparse::linalg::cholesky::{
 };
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, Par, Side};
-use nalgebra::{Matrix2, Matrix3, SMatrix, Vector2};
+use nalgebra::{Matrix2, Matrix3, SMatrix, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// Code version of graph-SLAM runs.
@@ -111,6 +111,10 @@ enum Factor {
     Odometry { k: usize, between: BetweenFactor, w: Matrix3<f64> },
     /// Pose k sees landmark slot j at (range, bearing) z, whitened by R^{-1/2}.
     RangeBearing { k: usize, j: usize, z: Vector2<f64>, w: Matrix2<f64> },
+    /// A measured pose of b in a's frame (a scan match): (x_b ⊖ x_a) − z, with the angle
+    /// wrapped, whitened by `w`; under Cauchy's kernel of width `cauchy` (in whitened units)
+    /// when it is finite.
+    Relative { a: usize, b: usize, z: Pose2, w: Matrix3<f64>, cauchy: f64 },
 }
 
 /// L⁻¹ with LLᵀ = `cov` (so that ‖L⁻¹r‖² = rᵀ cov⁻¹ r); `None` when `cov` is not positive definite.
@@ -142,6 +146,9 @@ pub struct Graph {
 /// One factor's whitened residual and Jacobian blocks: residual rows, and for up to two variable
 /// blocks (first column, width, the rows × width Jacobian in row-major order).
 struct Linear {
+    /// The factor's cost: rᵀr, or Cauchy's ρ(rᵀr) = c² ln(1 + rᵀr/c²) under a robust kernel
+    /// (whose `r` and Jacobians are then scaled by √ρ′, iteratively reweighted least squares).
+    cost: f64,
     r: [f64; 3],
     rows: usize,
     blocks: [(usize, usize, [f64; 9]); 2],
@@ -186,6 +193,24 @@ impl Graph {
         Ok(())
     }
 
+    /// Adds a pose with no factor to it yet, at `initial`; returns its index.
+    pub fn add_pose(&mut self, initial: Pose2) -> usize {
+        self.poses.push(initial);
+        self.poses.len() - 1
+    }
+
+    /// Adds a measured pose `z` of pose b in pose a's frame with covariance `cov` (a scan match),
+    /// under Cauchy's kernel of width `cauchy` σ (`f64::INFINITY`: plain least squares).
+    pub fn add_relative(&mut self, a: usize, b: usize, z: Pose2, cov: Matrix3<f64>, cauchy: f64) {
+        let w = whitener(cov).unwrap_or_else(|| Matrix3::from_diagonal_element(1e6));
+        self.factors.push(Factor::Relative { a, b, z, w, cauchy });
+    }
+
+    /// Sets pose k's current value (the start of the next solve).
+    pub fn set_pose(&mut self, k: usize, pose: Pose2) {
+        self.poses[k] = pose;
+    }
+
     /// Adds the readings of the newest pose; a new identity gets a landmark initialised from its
     /// first reading.
     pub fn add_observations(&mut self, observations: &[Observation]) -> Result<(), SlamError> {
@@ -215,6 +240,23 @@ impl Graph {
     /// landmark's position.
     fn linearise(&self, f: &Factor, poses: &[Pose2], landmarks: &[Vector2<f64>]) -> Linear {
         let mut l = self.linearise_in_coordinates(f, poses, landmarks);
+        let s = l.r[..l.rows].iter().map(|v| v * v).sum::<f64>();
+        l.cost = s;
+        let kernel = match *f {
+            Factor::Relative { cauchy, .. } if cauchy.is_finite() => Some(cauchy),
+            _ => None,
+        };
+        if let Some(c) = kernel {
+            // ρ(s) = c² ln(1 + s/c²), ρ′(s) = 1/(1 + s/c²): the Gauss–Newton model of Σρ has
+            // gradient Σρ′Jᵀr and Hessian Σρ′JᵀJ, i.e. plain least squares on √ρ′·(r, J)
+            let c2 = c * c;
+            l.cost = c2 * (s / c2).ln_1p();
+            let scale = (1.0 / (1.0 + s / c2)).sqrt();
+            l.r.iter_mut().for_each(|v| *v *= scale);
+            for (_, _, jac) in l.blocks.iter_mut().take(l.nblocks) {
+                jac.iter_mut().for_each(|v| *v *= scale);
+            }
+        }
         for (col, width, jac) in l.blocks.iter_mut().take(l.nblocks) {
             if *width == 3 && *col < 3 * poses.len() {
                 // ∂x/∂δ = [[1, 0, −y], [0, 1, x], [0, 0, 1]] at pose (x, y, θ)
@@ -248,6 +290,7 @@ impl Graph {
                 let mut j = [0.0; 9];
                 j.copy_from_slice(w.transpose().as_slice()); // row-major of w
                 Linear {
+                    cost: 0.0,
                     r: [r[0], r[1], r[2]],
                     rows: 3,
                     blocks: [(3 * k, 3, j), (0, 0, [0.0; 9])],
@@ -263,9 +306,26 @@ impl Graph {
                     out
                 };
                 Linear {
+                    cost: 0.0,
                     r: [r[0], r[1], r[2]],
                     rows: 3,
                     blocks: [(3 * k, 3, row_major(ja)), (3 * (k + 1), 3, row_major(jb))],
+                    nblocks: 2,
+                }
+            }
+            Factor::Relative { a, b, z, w, .. } => {
+                let (e, ja, jb) = relative_residual(&poses[a], &poses[b], &z);
+                let (r, ja, jb) = (w * e, w * ja, w * jb);
+                let row_major = |m: Matrix3<f64>| {
+                    let mut out = [0.0; 9];
+                    out.copy_from_slice(m.transpose().as_slice());
+                    out
+                };
+                Linear {
+                    cost: 0.0,
+                    r: [r[0], r[1], r[2]],
+                    rows: 3,
+                    blocks: [(3 * a, 3, row_major(ja)), (3 * b, 3, row_major(jb))],
                     nblocks: 2,
                 }
             }
@@ -297,6 +357,7 @@ impl Graph {
                     }
                 }
                 Linear {
+                    cost: 0.0,
                     r: [r[0], r[1], 0.0],
                     rows: 2,
                     blocks: [(3 * k, 3, jx), (self.landmark_col(j), 2, jm)],
@@ -307,13 +368,7 @@ impl Graph {
     }
 
     fn cost_at(&self, poses: &[Pose2], landmarks: &[Vector2<f64>]) -> f64 {
-        self.factors
-            .iter()
-            .map(|f| {
-                let l = self.linearise(f, poses, landmarks);
-                l.r[..l.rows].iter().map(|v| v * v).sum::<f64>()
-            })
-            .sum()
+        self.factors.iter().map(|f| self.linearise(f, poses, landmarks).cost).sum()
     }
 
     /// Runs `entry(row, col, value)` for each factor's contribution to the lower triangle of
@@ -323,7 +378,7 @@ impl Graph {
         let mut cost = 0.0;
         for f in &self.factors {
             let l = self.linearise(f, &self.poses, &self.landmarks);
-            cost += l.r[..l.rows].iter().map(|v| v * v).sum::<f64>();
+            cost += l.cost;
             for a in 0..l.nblocks {
                 let (ca, wa, ja) = l.blocks[a];
                 for ia in 0..wa {
@@ -506,6 +561,26 @@ impl Graph {
             ..LandmarkMap::default()
         }
     }
+}
+
+/// The residual of a measured relative pose z of b in a's frame, e = (x_b ⊖ x_a) − z with the
+/// angle wrapped, and its Jacobians with respect to (x, y, θ) of a and of b: with
+/// d = R(θ_a)ᵀ(t_b − t_a), ∂d/∂t_a = −R(θ_a)ᵀ, ∂d/∂t_b = R(θ_a)ᵀ, ∂d/∂θ_a = ∂R(θ_a)ᵀ/∂θ·(t_b − t_a).
+fn relative_residual(
+    a: &Pose2,
+    b: &Pose2,
+    z: &Pose2,
+) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+    let (s, c) = a.theta.sin_cos();
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    let e = Vector3::new(
+        c * dx + s * dy - z.x,
+        -s * dx + c * dy - z.y,
+        wrap_angle(b.theta - a.theta - z.theta),
+    );
+    let ja = Matrix3::new(-c, -s, -s * dx + c * dy, s, -c, -c * dx - s * dy, 0.0, 0.0, -1.0);
+    let jb = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+    (e, ja, jb)
 }
 
 /// The body-frame σ of the continuation's stages (see `Graph::solve_to`) [m, rad].
