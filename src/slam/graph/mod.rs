@@ -27,8 +27,14 @@
 //!   step — the newest pose of the last solve, composed with the odometry since — comparable with
 //!   a filter's, and its belief at each solve is that pose's marginal.
 //!
-//! Data association is known (the sensor's landmark identities); data without identities is
-//! refused, as EKF-SLAM with `association = "known"` refuses it.
+//! Data association is known (the sensor's landmark identities; data without them is refused,
+//! as EKF-SLAM with `association = "known"` refuses it), or EKF-SLAM's χ²-gated nearest neighbour
+//! against the smoother's own estimate and marginals ([`GraphAssociation`]).
+//!
+//! For real logs: poses at the steps with a reading only, the odometry between composed
+//! ([`Nodes::ReadingSteps`]); Cauchy's kernel on the range–bearing factors
+//! (`range_bearing_cauchy`) against gross readings. The laser pose graph
+//! (`slam::pose_graph`) adds relative-pose factors (scan matches) between any two poses.
 
 use super::SlamError;
 use super::observations::{Observation, StepObservations};
@@ -68,6 +74,80 @@ pub struct GraphParams {
     /// σ of the prior on the first pose (the true start, as the filters are given it) [m, rad].
     /// Default 1e-6.
     pub prior_sigma: f64,
+    /// Which steps get a pose of their own (see [`Nodes`]). Default `every_step`; written out only
+    /// when set, so the runs of studies without it keep their hashes.
+    #[serde(skip_serializing_if = "Nodes::is_every_step")]
+    pub nodes: Nodes,
+    /// Width of Cauchy's kernel on every range–bearing factor, in σ (whitened units); infinite =
+    /// plain least squares. Default infinite; written out only when finite.
+    #[serde(skip_serializing_if = "is_infinite")]
+    pub range_bearing_cauchy: f64,
+    /// How readings are matched to landmarks (see [`GraphAssociation`]). Default `known`; written
+    /// out only when set.
+    #[serde(skip_serializing_if = "GraphAssociation::is_known")]
+    pub association: GraphAssociation,
+    /// Nearest-neighbour association: a landmark can take a reading only below this NIS (χ²₂).
+    /// Default 4, EKF-SLAM's `gate_reject`; written out only when set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gate_reject: Option<f64>,
+    /// … and a reading above this NIS from every landmark makes a new one; between the gates it
+    /// is ignored. Default 25, EKF-SLAM's `gate_create`; written out only when set.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gate_create: Option<f64>,
+}
+
+/// How the smoother matches readings to landmarks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GraphAssociation {
+    /// The sensor's landmark identities; data without them is refused.
+    #[default]
+    Known,
+    /// EKF-SLAM's χ²-gated nearest neighbour, decided as each pose is added, against the
+    /// smoother's estimate then: the newest pose (the last solve's, composed with the odometry
+    /// since) and each landmark, with the newest pose's covariance (the last solve's marginal,
+    /// propagated with the odometry's) and each landmark's marginal from the last solve (from
+    /// its first reading until a solve gives one). S = H_x P_x H_xᵀ + H_m P_m H_mᵀ + R: the
+    /// pose–landmark cross-covariance of the joint marginal is not formed. Decisions are not
+    /// revisited after later solves.
+    NearestNeighbour,
+}
+
+impl GraphAssociation {
+    fn is_known(&self) -> bool {
+        *self == GraphAssociation::Known
+    }
+}
+
+/// EKF-SLAM's default gates (`EkfParams`), the smoother's defaults.
+const DEFAULT_GATE_REJECT: f64 = 4.0;
+const DEFAULT_GATE_CREATE: f64 = 25.0;
+
+fn is_infinite(x: &f64) -> bool {
+    x.is_infinite() && *x > 0.0
+}
+
+/// Which steps of a run are poses of the graph.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Nodes {
+    /// Every odometry step, joined by the motion model's own between-factor.
+    #[default]
+    EveryStep,
+    /// The first and last steps and every step with a reading, joined by the odometry of the
+    /// steps between composed into one relative-pose factor, its covariance propagated to first
+    /// order through the compositions (the motion model's noise of each step, in the frame of
+    /// the node it starts from). For logs with fast odometry and sparse readings (MRCLAM's 50 Hz
+    /// commands): a step without a reading adds nothing a composed increment does not carry, to
+    /// first order. The estimate between nodes is the last node's pose composed with the odometry
+    /// since.
+    ReadingSteps,
+}
+
+impl Nodes {
+    fn is_every_step(&self) -> bool {
+        *self == Nodes::EveryStep
+    }
 }
 
 impl Default for GraphParams {
@@ -78,11 +158,24 @@ impl Default for GraphParams {
             max_iterations: 100,
             relative_decrease: 1e-10,
             prior_sigma: 1e-6,
+            nodes: Nodes::EveryStep,
+            range_bearing_cauchy: f64::INFINITY,
+            association: GraphAssociation::Known,
+            gate_reject: None,
+            gate_create: None,
         }
     }
 }
 
 impl GraphParams {
+    /// The nearest-neighbour gates (reject, create).
+    pub fn gates(&self) -> (f64, f64) {
+        (
+            self.gate_reject.unwrap_or(DEFAULT_GATE_REJECT),
+            self.gate_create.unwrap_or(DEFAULT_GATE_CREATE),
+        )
+    }
+
     pub fn validate(&self) -> Vec<Violation> {
         let mut c = Checks::new();
         c.require(self.relinearise_every >= 1, "relinearise_every", || "must be at least 1".into());
@@ -90,15 +183,48 @@ impl GraphParams {
         c.require(self.max_iterations >= 1, "max_iterations", || "must be at least 1".into());
         c.positive("relative_decrease", self.relative_decrease);
         c.positive("prior_sigma", self.prior_sigma);
+        let nn = self.association == GraphAssociation::NearestNeighbour;
+        for (key, gate) in [("gate_reject", self.gate_reject), ("gate_create", self.gate_create)] {
+            if let Some(g) = gate {
+                c.positive(key, g);
+                c.require(nn, key, || "applies to association = \"nearest_neighbour\" only".into());
+            }
+        }
+        let (reject, create) = self.gates();
+        c.require(reject <= create, "gate_create", || {
+            format!("must be at least gate_reject ({reject}), got {create}")
+        });
+        c.require(self.range_bearing_cauchy > 0.0, "range_bearing_cauchy", || {
+            format!("must be > 0 (inf: no kernel), got {}", self.range_bearing_cauchy)
+        });
         c.finish()
     }
 
     /// The report's sentence on the smoother.
     pub fn describe(&self) -> String {
-        format!(
-            "Graph-based SLAM (smoothing and mapping): all poses and landmarks solved together by Levenberg–Marquardt on the sparse normal equations (faer's sparse Cholesky), with a prior of σ = {} on the true start, odometry factors with the motion model's own noise (for the arc model in the arc's coordinates: length, turn and offset across the arc) and range–bearing factors with the sensor's; known association. Each solve runs by continuation on the odometry's stiffness (body-frame σ of 1e-3 down to 1e-6 added, then as stated). The batch estimate is one solve over the whole run (pose marginals every {} steps for NEES); the online estimate re-solves every {} steps, warm-started, and reports at each step the newest solved pose composed with the odometry since.",
+        let association = match self.association {
+            GraphAssociation::Known => "known association".to_string(),
+            GraphAssociation::NearestNeighbour => {
+                let (reject, create) = self.gates();
+                format!(
+                    "nearest-neighbour association with EKF-SLAM's χ² gates (update below {reject}, new landmark above {create}), decided as each pose is added against the smoother's estimate and marginals then (the pose–landmark cross-covariance included)"
+                )
+            }
+        };
+        let mut text = format!(
+            "Graph-based SLAM (smoothing and mapping): all poses and landmarks solved together by Levenberg–Marquardt on the sparse normal equations (faer's sparse Cholesky), with a prior of σ = {} on the true start, odometry factors with the motion model's own noise (for the arc model in the arc's coordinates: length, turn and offset across the arc) and range–bearing factors with the sensor's; {association}. Each solve runs by continuation on the odometry's stiffness (body-frame σ of 1e-3 down to 1e-6 added, then as stated). The batch estimate is one solve over the whole run (pose marginals every {} steps for NEES); the online estimate re-solves every {} steps, warm-started, and reports at each step the newest solved pose composed with the odometry since.",
             self.prior_sigma, self.belief_every, self.relinearise_every
-        )
+        );
+        if self.nodes == Nodes::ReadingSteps {
+            text.push_str(" Poses are kept only at the steps with a reading (and the first and last): the odometry between them is composed into one factor, its covariance propagated to first order; re-solves and marginals count poses, not steps, and the steps between poses follow the odometry from the last.");
+        }
+        if self.range_bearing_cauchy.is_finite() {
+            text.push_str(&format!(
+                " Every range–bearing factor is under Cauchy's kernel of width {} σ.",
+                self.range_bearing_cauchy
+            ));
+        }
+        text
     }
 }
 
@@ -109,8 +235,9 @@ enum Factor {
     Prior { k: usize, mean: Pose2, w: Matrix3<f64> },
     /// Between poses k and k + 1: the motion model's residual of the increment, whitened.
     Odometry { k: usize, between: BetweenFactor, w: Matrix3<f64> },
-    /// Pose k sees landmark slot j at (range, bearing) z, whitened by R^{-1/2}.
-    RangeBearing { k: usize, j: usize, z: Vector2<f64>, w: Matrix2<f64> },
+    /// Pose k sees landmark slot j at (range, bearing) z, whitened by R^{-1/2}; under Cauchy's
+    /// kernel of width `cauchy` when it is finite.
+    RangeBearing { k: usize, j: usize, z: Vector2<f64>, w: Matrix2<f64>, cauchy: f64 },
     /// A measured pose of b in a's frame (a scan match): (x_b ⊖ x_a) − z, with the angle
     /// wrapped, whitened by `w`; under Cauchy's kernel of width `cauchy` (in whitened units)
     /// when it is finite.
@@ -127,6 +254,8 @@ fn whitener<const D: usize>(cov: SMatrix<f64, D, D>) -> Option<SMatrix<f64, D, D
 pub struct Graph {
     /// Poses, then landmarks: x = (x₀, y₀, θ₀, …, m₀ₓ, m₀ᵧ, …).
     poses: Vec<Pose2>,
+    /// The odometry step of each pose (its index, unless `GraphParams::nodes` skips steps).
+    steps: Vec<usize>,
     landmarks: Vec<Vector2<f64>>,
     /// Landmark identity of each slot, and the slot of each identity seen.
     identity: Vec<usize>,
@@ -141,6 +270,13 @@ pub struct Graph {
     lambda: f64,
     /// The smallest σ of any odometry factor (its covariance's smallest eigenvalue, square-rooted).
     stiffest_sigma: f64,
+    /// Nearest-neighbour association's covariances: the newest pose's, each landmark's, and each
+    /// landmark's with the newest pose (rows: x, y, θ).
+    pose_cov: Matrix3<f64>,
+    landmark_cov: Vec<Matrix2<f64>>,
+    cross_cov: Vec<nalgebra::Matrix3x2<f64>>,
+    /// The longest range read so far [m].
+    max_range_m: f64,
 }
 
 /// One factor's whitened residual and Jacobian blocks: residual rows, and for up to two variable
@@ -161,6 +297,7 @@ impl Graph {
         let w = Matrix3::from_diagonal_element(1.0 / s);
         Graph {
             poses: vec![start],
+            steps: vec![0],
             landmarks: Vec::new(),
             identity: Vec::new(),
             slot: Default::default(),
@@ -170,6 +307,10 @@ impl Graph {
             stiffest_sigma: f64::INFINITY,
             lambda: 1e-4,
             structure: None,
+            pose_cov: Matrix3::from_diagonal_element(s * s),
+            landmark_cov: Vec::new(),
+            cross_cov: Vec::new(),
+            max_range_m: 0.0,
         }
     }
 
@@ -188,13 +329,79 @@ impl Graph {
         let w = whitener(between.cov).unwrap_or_else(|| Matrix3::from_diagonal_element(1e6));
         let smallest = between.cov.symmetric_eigenvalues().min().max(0.0).sqrt();
         self.stiffest_sigma = self.stiffest_sigma.min(smallest);
+        if self.params.association == GraphAssociation::NearestNeighbour {
+            let g = motion.jacobian(&self.poses[k], u);
+            self.pose_cov =
+                g * self.pose_cov * g.transpose() + motion.covariance(&self.poses[k], u);
+            self.cross_cov.iter_mut().for_each(|c| *c = g * *c);
+        }
         self.poses.push(self.poses[k].compose(*u));
+        self.steps.push(self.steps[k] + 1);
         self.factors.push(Factor::Odometry { k, between, w });
         Ok(())
     }
 
-    /// Adds a pose with no factor to it yet, at `initial`; returns its index.
+    /// Adds the pose of step `step` after the odometry `increments` since the newest pose, joined
+    /// to it by one relative-pose factor ([`Nodes::ReadingSteps`]): their composition, with the
+    /// covariance propagated to first order, Σ ← J_a Σ J_aᵀ + Q(Δ, u) (Q the motion model's noise
+    /// of the step from pose Δ, in the newest pose's frame).
+    pub fn add_odometry_run(&mut self, increments: &[Pose2], motion: &MotionModel, step: usize) {
+        let k = self.poses.len() - 1;
+        let (mut delta, mut cov) = (Pose2::IDENTITY, Matrix3::zeros());
+        for u in increments {
+            // ∂(Δ ⊕ u)/∂Δ at heading θ of Δ
+            let (s, c) = delta.theta.sin_cos();
+            let ja = Matrix3::new(
+                1.0,
+                0.0,
+                -s * u.x - c * u.y,
+                0.0,
+                1.0,
+                c * u.x - s * u.y,
+                0.0,
+                0.0,
+                1.0,
+            );
+            cov = ja * cov * ja.transpose() + motion.covariance(&delta, u);
+            delta = delta.compose(*u);
+        }
+        let cov = (cov + cov.transpose()) * 0.5;
+        let smallest = cov.symmetric_eigenvalues().min().max(0.0).sqrt();
+        self.stiffest_sigma = self.stiffest_sigma.min(smallest);
+        let w = whitener(cov).unwrap_or_else(|| Matrix3::from_diagonal_element(1e6));
+        if self.params.association == GraphAssociation::NearestNeighbour {
+            // x_new = x_k ⊕ Δ: Σ ← J_a Σ J_aᵀ + R(θ_k) Σ_Δ R(θ_k)ᵀ
+            let p = self.poses[k];
+            let (s, c) = p.theta.sin_cos();
+            let ja = Matrix3::new(
+                1.0,
+                0.0,
+                -s * delta.x - c * delta.y,
+                0.0,
+                1.0,
+                c * delta.x - s * delta.y,
+                0.0,
+                0.0,
+                1.0,
+            );
+            let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+            self.pose_cov = ja * self.pose_cov * ja.transpose() + r * cov * r.transpose();
+            self.cross_cov.iter_mut().for_each(|c| *c = ja * *c);
+        }
+        self.poses.push(self.poses[k].compose(delta));
+        self.steps.push(step);
+        self.factors.push(Factor::Relative { a: k, b: k + 1, z: delta, w, cauchy: f64::INFINITY });
+    }
+
+    /// The odometry step of each pose.
+    pub fn steps(&self) -> &[usize] {
+        &self.steps
+    }
+
+    /// Adds a pose with no factor to it yet, at `initial` (its step: the newest pose's + 1);
+    /// returns its index.
     pub fn add_pose(&mut self, initial: Pose2) -> usize {
+        self.steps.push(self.steps[self.steps.len() - 1] + 1);
         self.poses.push(initial);
         self.poses.len() - 1
     }
@@ -214,6 +421,10 @@ impl Graph {
     /// Adds the readings of the newest pose; a new identity gets a landmark initialised from its
     /// first reading.
     pub fn add_observations(&mut self, observations: &[Observation]) -> Result<(), SlamError> {
+        if self.params.association == GraphAssociation::NearestNeighbour {
+            self.add_observations_nearest(observations);
+            return Ok(());
+        }
         let k = self.poses.len() - 1;
         for o in observations {
             let id = o.landmark.ok_or(SlamError::NoIdentities)?;
@@ -230,9 +441,138 @@ impl Graph {
                 }
             };
             let w = whitener(o.r).unwrap_or_else(|| Matrix2::from_diagonal_element(1e6));
-            self.factors.push(Factor::RangeBearing { k, j, z: o.z, w });
+            let cauchy = self.params.range_bearing_cauchy;
+            self.factors.push(Factor::RangeBearing { k, j, z: o.z, w, cauchy });
         }
         Ok(())
+    }
+
+    /// Adds the readings of the newest pose by nearest-neighbour association (see
+    /// [`GraphAssociation::NearestNeighbour`]): every reading is decided against the state before
+    /// any of them is added, as EKF-SLAM does; a new landmark starts at its reading, with the
+    /// covariance G_p P_x G_pᵀ + G_z R G_zᵀ.
+    fn add_observations_nearest(&mut self, observations: &[Observation]) {
+        let k = self.poses.len() - 1;
+        let pose = self.poses[k];
+        let (reject, create) = self.params.gates();
+        self.max_range_m = observations.iter().map(|o| o.z[0]).fold(self.max_range_m, f64::max);
+        let decisions: Vec<Option<Option<usize>>> = observations
+            .iter()
+            .map(|o| {
+                let mut best: Option<(f64, usize)> = None;
+                for (j, m) in self.landmarks.iter().enumerate() {
+                    let p = point_predict(m, &pose);
+                    let hx = nalgebra::Matrix2x3::new(
+                        -p.h[(0, 0)],
+                        -p.h[(0, 1)],
+                        0.0,
+                        -p.h[(1, 0)],
+                        -p.h[(1, 1)],
+                        -1.0,
+                    );
+                    let hph = hx * self.cross_cov[j] * p.h.transpose();
+                    let s = hx * self.pose_cov * hx.transpose()
+                        + hph
+                        + hph.transpose()
+                        + p.h * self.landmark_cov[j] * p.h.transpose()
+                        + o.r;
+                    let Some(s_inv) = ((s + s.transpose()) * 0.5).try_inverse() else { continue };
+                    let nu = Vector2::new(o.z[0] - p.z[0], wrap_angle(o.z[1] - p.z[1]));
+                    let nis = (nu.transpose() * s_inv * nu)[0];
+                    if nis.is_finite() && best.is_none_or(|(b, _)| nis < b) {
+                        best = Some((nis, j));
+                    }
+                }
+                match best {
+                    Some((nis, j)) if nis < reject => Some(Some(j)),
+                    Some((nis, _)) if nis <= create => None,
+                    _ => Some(None),
+                }
+            })
+            .collect();
+        for (o, d) in observations.iter().zip(decisions) {
+            let j = match d {
+                None => continue, // between the gates: ambiguous, ignored
+                Some(Some(j)) => j,
+                Some(None) => {
+                    let (r, b) = (o.z[0], o.z[1]);
+                    let a = pose.theta + b;
+                    let (sa, ca) = a.sin_cos();
+                    let gp = nalgebra::Matrix2x3::new(1.0, 0.0, -r * sa, 0.0, 1.0, r * ca);
+                    let gz = Matrix2::new(ca, -r * sa, sa, r * ca);
+                    self.landmarks.push(Vector2::new(pose.x + r * ca, pose.y + r * sa));
+                    self.landmark_cov
+                        .push(gp * self.pose_cov * gp.transpose() + gz * o.r * gz.transpose());
+                    self.cross_cov.push(self.pose_cov * gp.transpose());
+                    self.landmarks.len() - 1
+                }
+            };
+            let w = whitener(o.r).unwrap_or_else(|| Matrix2::from_diagonal_element(1e6));
+            let cauchy = self.params.range_bearing_cauchy;
+            self.factors.push(Factor::RangeBearing { k, j, z: o.z, w, cauchy });
+        }
+    }
+
+    /// After a solve under nearest-neighbour association: the newest pose's marginal and each
+    /// landmark's, from the new information matrix (left as they were where the factorisation
+    /// fails).
+    fn refresh_association_covariances(&mut self) {
+        let newest = self.poses.len() - 1;
+        let n = self.dim();
+        let Some(structure) = self.take_structure() else { return };
+        let (values, _, _) = self.normal_equations(&structure);
+        let h = SparseColMat::new(structure.symbolic.clone(), values);
+        let cols: Vec<usize> = (0..self.landmarks.len()).map(|j| self.landmark_col(j)).collect();
+        let p = self.poses[newest];
+        // the landmarks the next readings can reach before the next solve, unless the robot moves
+        // farther than the longest range read: within twice that of the newest pose (the others
+        // keep their last marginal, which only shrinks as readings come: the gate stays wider)
+        let reach = 2.0 * self.max_range_m;
+        let near: Vec<usize> = (0..self.landmarks.len())
+            .filter(|&j| (self.landmarks[j] - Vector2::new(p.x, p.y)).norm() <= reach)
+            .collect();
+        // (x, y, θ) = retract(x̂, δ) to first order: Cov(x, ·) = lift · Cov(δ, ·)
+        let lift = Matrix3::new(1.0, 0.0, -p.y, 0.0, 1.0, p.x, 0.0, 0.0, 1.0);
+        let blocks = with_llt(&structure.cholesky, &h, |llt| {
+            // the newest pose's columns of H⁻¹: its marginal and its cross-covariance with every
+            // landmark
+            let mut e = Mat::<f64>::zeros(n, 3);
+            for i in 0..3 {
+                e[(3 * newest + i, i)] = 1.0;
+            }
+            solve_in_place(llt, &mut e);
+            let pose = lift * Matrix3::from_fn(|r, c| e[(3 * newest + r, c)]) * lift.transpose();
+            let cross: Vec<nalgebra::Matrix3x2<f64>> = cols
+                .iter()
+                .map(|&col| lift * nalgebra::Matrix3x2::from_fn(|r, c| e[(col + c, r)]))
+                .collect();
+            let landmarks: Vec<(usize, Matrix2<f64>)> = near
+                .iter()
+                .map(|&j| {
+                    let col = cols[j];
+                    let mut e = Mat::<f64>::zeros(n, 2);
+                    e[(col, 0)] = 1.0;
+                    e[(col + 1, 1)] = 1.0;
+                    solve_in_place(llt, &mut e);
+                    (j, Matrix2::new(e[(col, 0)], e[(col, 1)], e[(col + 1, 0)], e[(col + 1, 1)]))
+                })
+                .collect();
+            (pose, cross, landmarks)
+        });
+        self.structure = Some(structure);
+        let Some((pose, cross, landmarks)) = blocks else {
+            self.numerical_failures += 1;
+            return;
+        };
+        let finite = pose.iter().chain(cross.iter().flat_map(|c| c.iter())).all(|v| v.is_finite())
+            && landmarks.iter().flat_map(|(_, m)| m.iter()).all(|v| v.is_finite());
+        if finite {
+            self.pose_cov = (pose + pose.transpose()) * 0.5;
+            self.cross_cov = cross;
+            for (j, m) in landmarks {
+                self.landmark_cov[j] = (m + m.transpose()) * 0.5;
+            }
+        }
     }
 
     /// The whitened residual of `f` at (`poses`, `landmarks`) and its Jacobians with respect to
@@ -243,7 +583,11 @@ impl Graph {
         let s = l.r[..l.rows].iter().map(|v| v * v).sum::<f64>();
         l.cost = s;
         let kernel = match *f {
-            Factor::Relative { cauchy, .. } if cauchy.is_finite() => Some(cauchy),
+            Factor::Relative { cauchy, .. } | Factor::RangeBearing { cauchy, .. }
+                if cauchy.is_finite() =>
+            {
+                Some(cauchy)
+            }
             _ => None,
         };
         if let Some(c) = kernel {
@@ -329,7 +673,7 @@ impl Graph {
                     nblocks: 2,
                 }
             }
-            Factor::RangeBearing { k, j, z, w } => {
+            Factor::RangeBearing { k, j, z, w, .. } => {
                 let (x, m) = (poses[k], landmarks[j]);
                 let p = point_predict(&m, &x);
                 let e = Vector2::new(p.z[0] - z[0], wrap_angle(p.z[1] - z[1]));
@@ -440,6 +784,9 @@ impl Graph {
         self.set_inflation(0.0);
         let converged = self.levenberg_marquardt(&structure, relative_decrease);
         self.structure = Some(structure);
+        if self.params.association == GraphAssociation::NearestNeighbour {
+            self.refresh_association_covariances();
+        }
         converged
     }
 
@@ -557,7 +904,11 @@ impl Graph {
     pub fn map(&self) -> LandmarkMap {
         LandmarkMap {
             points: self.landmarks.iter().map(|m| crate::geom::Point2::new(m.x, m.y)).collect(),
-            point_ids: self.identity.iter().map(|&id| Some(id)).collect(),
+            // nearest-neighbour landmarks have no identity (`identity` stays empty)
+            point_ids: match self.params.association {
+                GraphAssociation::Known => self.identity.iter().map(|&id| Some(id)).collect(),
+                GraphAssociation::NearestNeighbour => vec![None; self.landmarks.len()],
+            },
             ..LandmarkMap::default()
         }
     }
@@ -734,7 +1085,9 @@ fn symmetric_product(
 }
 
 /// Grows the graph step by step over the world's odometry and observations; `at_step(graph, k,
-/// due)` runs after step k is added, `due` at every `relinearise_every`-th step and the last.
+/// due)` runs after step k is added, `due` at the last step and at every `relinearise_every`-th
+/// step ([`Nodes::EveryStep`]) or every `relinearise_every`-th pose added
+/// ([`Nodes::ReadingSteps`]).
 fn grow(
     world: &World,
     motion: &MotionModel,
@@ -745,14 +1098,52 @@ fn grow(
     let mut graph = Graph::new(world.truth[0], params);
     let mut cursor = super::observations::Cursor::new(observations, true);
     let steps = world.odometry.len();
+    let every = params.relinearise_every as usize;
+    let mut pending = Vec::new();
     for k in 0..=steps {
-        if k > 0 {
-            graph.add_odometry(&world.odometry[k - 1], motion)?;
+        let readings = cursor.at(k);
+        let due = match params.nodes {
+            Nodes::EveryStep => {
+                if k > 0 {
+                    graph.add_odometry(&world.odometry[k - 1], motion)?;
+                }
+                k % every == 0
+            }
+            Nodes::ReadingSteps => {
+                if k > 0 {
+                    pending.push(world.odometry[k - 1]);
+                }
+                let node = k > 0 && (!readings.is_empty() || k == steps);
+                if node {
+                    graph.add_odometry_run(&pending, motion, k);
+                    pending.clear();
+                }
+                k == 0 || (node && (graph.poses.len() - 1) % every == 0)
+            }
+        };
+        if graph.steps[graph.steps.len() - 1] == k {
+            graph.add_observations(readings)?;
         }
-        graph.add_observations(cursor.at(k))?;
-        at_step(&mut graph, k, k % params.relinearise_every as usize == 0 || k == steps);
+        at_step(&mut graph, k, due || k == steps);
     }
     Ok(graph)
+}
+
+/// Every step's pose: the graph's at its poses' steps, the steps between by odometry from the
+/// last pose before them (every step is a pose under [`Nodes::EveryStep`]).
+fn trajectory(graph: &Graph, world: &World) -> Vec<Pose2> {
+    let mut estimate: Vec<Pose2> = Vec::with_capacity(world.odometry.len() + 1);
+    let mut node = 0;
+    for k in 0..=world.odometry.len() {
+        if node < graph.steps.len() && graph.steps[node] == k {
+            estimate.push(graph.poses[node]);
+            node += 1;
+        } else {
+            let last = estimate[k - 1];
+            estimate.push(last.compose(world.odometry[k - 1]));
+        }
+    }
+    estimate
 }
 
 /// Batch smoothing: the smoothed trajectory after the last step. The graph is re-solved every
@@ -777,12 +1168,12 @@ pub fn run_batch(
     let every = params.belief_every as usize;
     let which: Vec<usize> = (0..graph.poses.len()).step_by(every).collect();
     let marginals = graph.pose_marginals(&which);
-    let mut pose_belief = vec![None; graph.poses.len()];
-    for (k, m) in which.iter().zip(marginals) {
-        pose_belief[*k] = m.map(|m| (graph.poses[*k], m));
+    let mut pose_belief = vec![None; steps + 1];
+    for (i, m) in which.iter().zip(marginals) {
+        pose_belief[graph.steps[*i]] = m.map(|m| (graph.poses[*i], m));
     }
     Ok(Trace {
-        estimate: graph.poses.clone(),
+        estimate: trajectory(&graph, world),
         numerical_failures: graph.numerical_failures,
         map: Some(graph.map()),
         pose_belief,
@@ -810,8 +1201,11 @@ pub fn run_online(
             if !converged {
                 graph.numerical_failures += 1;
             }
-            pose = graph.poses[k];
-            let marginal = graph.pose_marginals(&[k]).pop().flatten();
+            // the newest pose is step k's: under `reading_steps` a solve is due only where a pose
+            // was added (and at the last step, always a pose)
+            let newest = graph.poses.len() - 1;
+            pose = graph.poses[newest];
+            let marginal = graph.pose_marginals(&[newest]).pop().flatten();
             pose_belief.push(marginal.map(|m| (pose, m)));
         } else {
             pose = pose.compose(world.odometry[k - 1]);
