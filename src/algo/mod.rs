@@ -438,6 +438,22 @@ mod tests {
         );
     }
 
+    /// The pose graph's front ends are exactly the built-in scan matchers (itself excepted): a
+    /// new matcher cannot be left out, nor a removed one named.
+    #[test]
+    fn the_pose_graphs_front_ends_are_the_builtin_scan_matchers() {
+        let c = Catalogue::builtin();
+        let mut matchers: Vec<&str> = c
+            .all()
+            .filter(|a| a.is_scan_matcher() && a.name() != "pose_graph")
+            .map(|a| a.name())
+            .collect();
+        let mut front_ends = crate::slam::pose_graph::front_ends();
+        matchers.sort_unstable();
+        front_ends.sort_unstable();
+        assert_eq!(front_ends, matchers);
+    }
+
     #[test]
     fn scan_matchers_are_told_apart_from_estimators_and_have_a_matcher() {
         let p = Params::default();
