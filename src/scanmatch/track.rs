@@ -319,25 +319,30 @@ pub fn track(
             match_seed(seed, k),
         );
         let time_s = clock() - start;
-        matches.push(MatchRecord {
-            reference_step: pair.reference_step,
-            current_step: pair.current_step,
-            truth: world.truth[pair.current_step].relative_to(world.truth[pair.reference_step]),
-            initial: pair.initial,
-            estimate: result.pose,
-            f: result.f,
-            f_initial: result.f_initial,
-            pairs: result.pairs as u32,
-            iterations: result.iterations,
-            evaluations: result.evaluations,
-            fallback: result.fallback,
-            stop: format!("{:?}", result.stop),
-            time_s,
-        });
+        matches.push(record(world, pair, &result, time_s));
         reference = Some(current);
     }
     let estimate = chain(world, &matches, steps);
     Ok(Tracked { trace: Trace { estimate, matches, ..Trace::default() }, steps })
+}
+
+/// The record of `pair`'s match: its result, scored against the world's truth.
+pub fn record(world: &World, pair: &Pair, result: &MatchResult, time_s: f64) -> MatchRecord {
+    MatchRecord {
+        reference_step: pair.reference_step,
+        current_step: pair.current_step,
+        truth: world.truth[pair.current_step].relative_to(world.truth[pair.reference_step]),
+        initial: pair.initial,
+        estimate: result.pose,
+        f: result.f,
+        f_initial: result.f_initial,
+        pairs: result.pairs as u32,
+        iterations: result.iterations,
+        evaluations: result.evaluations,
+        fallback: result.fallback,
+        stop: format!("{:?}", result.stop),
+        time_s,
+    }
 }
 
 pub fn run_matcher(

@@ -37,9 +37,10 @@ use crate::config::{Checks, Violation};
 use crate::geom::{Point2, Pose2, wrap_angle};
 use crate::scanmatch::search::Optimizer;
 use crate::scanmatch::track::{
-    Matcher, ScanMatchingParams, match_seed, pairs, preparation, prepared, run_matcher,
+    Matcher, Pair, ScanMatchingParams, match_seed, pairs, preparation, prepared, record,
+    run_matcher,
 };
-use crate::trace::{MatchRecord, SlamError, Trace};
+use crate::trace::{SlamError, Trace};
 use crate::world::World;
 use crate::world::laser::{LaserGeometry, Scan};
 use nalgebra::Matrix3;
@@ -309,24 +310,6 @@ pub fn pose_graph(
     let mut scans = vec![prepared(scan_at(first_step), &geometry, &segmentation)];
     let mut points = vec![returns(scan_at(first_step), &raw_geometry)];
     let (mut matches, mut closures) = (Vec::with_capacity(pairs.len()), Vec::new());
-    let record =
-        |a: usize, b: usize, initial: Pose2, result: &crate::scanmatch::MatchResult, time_s| {
-            MatchRecord {
-                reference_step: a,
-                current_step: b,
-                truth: world.truth[b].relative_to(world.truth[a]),
-                initial,
-                estimate: result.pose,
-                f: result.f,
-                f_initial: result.f_initial,
-                pairs: result.pairs as u32,
-                iterations: result.iterations,
-                evaluations: result.evaluations,
-                fallback: result.fallback,
-                stop: format!("{:?}", result.stop),
-                time_s,
-            }
-        };
     for (k, pair) in pairs.iter().enumerate() {
         let (a, b) = (node_steps.len() - 1, node_steps.len());
         let current = prepared(scan_at(pair.current_step), &geometry, &segmentation);
@@ -340,7 +323,7 @@ pub fn pose_graph(
             match_seed(seed, k),
         );
         let time_s = clock() - t0;
-        matches.push(record(pair.reference_step, pair.current_step, pair.initial, &result, time_s));
+        matches.push(record(world, pair, &result, time_s));
         let z = if result.pose.is_finite() { result.pose } else { pair.initial };
         graph.add_pose(graph.poses()[a].compose(z));
         graph.add_relative(a, b, z, cov, c);
@@ -370,7 +353,12 @@ pub fn pose_graph(
                 && inlier_fraction(&points[j], &points[b], &result.pose, params.inlier_distance_m)
                     >= params.min_inlier_fraction;
             if kept {
-                closures.push(record(node_steps[j], node_steps[b], guess, &result, time_s));
+                let pair = Pair {
+                    reference_step: node_steps[j],
+                    current_step: node_steps[b],
+                    initial: guess,
+                };
+                closures.push(record(world, &pair, &result, time_s));
                 graph.add_relative(j, b, result.pose, cov, c);
                 closed = true;
             }

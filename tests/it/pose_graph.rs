@@ -7,7 +7,7 @@
 
 use crate::util::repo;
 use slamlab::dataset::intel_lab;
-use slamlab::metrics::{ATE_RMSE, WRONG_CLOSURE, trajectory_metrics};
+use slamlab::metrics::{ATE_RMSE, loop_closure_metrics, trajectory_metrics};
 use slamlab::scanmatch::plicp::PlIcpParams;
 use slamlab::scanmatch::track::{self, Matcher, ScanMatchingParams};
 use slamlab::slam::graph::GraphParams;
@@ -49,13 +49,8 @@ fn the_pose_graph_closes_loops_on_the_intel_log() {
     };
     let (ate_chained, ate_graph) = (ate(&chained.trace.estimate), ate(&graph.trace.estimate));
     let closures = graph.trace.loop_closures.as_deref().unwrap();
-    let wrong = closures
-        .iter()
-        .filter(|m| {
-            let (ax, ay, at) = m.error();
-            ax.hypot(ay) > WRONG_CLOSURE.0 || at.abs().to_degrees() > WRONG_CLOSURE.1
-        })
-        .count();
+    let counts = loop_closure_metrics(closures);
+    let wrong = counts.iter().find(|(k, _)| *k == "loop_closures_wrong").unwrap().1 as usize;
     eprintln!(
         "pose_graph: ATE {ate_graph:.3} m against PL-ICP chained {ate_chained:.3} m; {} closures, {wrong} wrong",
         closures.len()

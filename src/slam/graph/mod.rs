@@ -349,19 +349,7 @@ impl Graph {
         let k = self.poses.len() - 1;
         let (mut delta, mut cov) = (Pose2::IDENTITY, Matrix3::zeros());
         for u in increments {
-            // ∂(Δ ⊕ u)/∂Δ at heading θ of Δ
-            let (s, c) = delta.theta.sin_cos();
-            let ja = Matrix3::new(
-                1.0,
-                0.0,
-                -s * u.x - c * u.y,
-                0.0,
-                1.0,
-                c * u.x - s * u.y,
-                0.0,
-                0.0,
-                1.0,
-            );
+            let ja = motion.jacobian(&delta, u); // ∂(Δ ⊕ u)/∂Δ
             cov = ja * cov * ja.transpose() + motion.covariance(&delta, u);
             delta = delta.compose(*u);
         }
@@ -372,18 +360,8 @@ impl Graph {
         if self.params.association == GraphAssociation::NearestNeighbour {
             // x_new = x_k ⊕ Δ: Σ ← J_a Σ J_aᵀ + R(θ_k) Σ_Δ R(θ_k)ᵀ
             let p = self.poses[k];
+            let ja = motion.jacobian(&p, &delta);
             let (s, c) = p.theta.sin_cos();
-            let ja = Matrix3::new(
-                1.0,
-                0.0,
-                -s * delta.x - c * delta.y,
-                0.0,
-                1.0,
-                c * delta.x - s * delta.y,
-                0.0,
-                0.0,
-                1.0,
-            );
             let r = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
             self.pose_cov = ja * self.pose_cov * ja.transpose() + r * cov * r.transpose();
             self.cross_cov.iter_mut().for_each(|c| *c = ja * *c);
