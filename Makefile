@@ -58,7 +58,7 @@ memcheck: build
 
 ## Benchmarks: criterion micro-benchmarks, then the whole pipeline from scratch.
 bench: build
-	$(CARGO) bench --locked --bench world --bench slam --bench landmark_filters --bench scanmatch --bench graph_slam
+	$(CARGO) bench --locked --bench world --bench slam --bench landmark_filters --bench scanmatch --bench graph_slam --bench fastslam_scaling
 	tests/tools/plan_bench.sh $(BIN)
 	tests/tools/memory_bench.sh $(BIN)
 	@tmp=$$(mktemp -d); \

@@ -345,6 +345,11 @@ pub struct FastSlam1<'a> {
     best: usize,
     ln_p0: f64,
     motion_sigma: [f64; 3],
+    /// Which landmarks an earlier feature of the scan being applied to a particle corrected:
+    /// `corrected[kind][landmark] == stamp` (lines, corners); the stamp changes for every
+    /// (particle, scan), so nothing is cleared.
+    corrected: [Vec<u64>; 2],
+    stamp: u64,
     pub numerical_failures: u64,
     pub resamples: u64,
     pub weighted_steps: u64,
@@ -359,6 +364,8 @@ impl<'a> FastSlam1<'a> {
             best: 0,
             ln_p0: params.p0.ln(),
             motion_sigma: params.motion_sigmas(),
+            corrected: [Vec::new(), Vec::new()],
+            stamp: 0,
             numerical_failures: 0,
             resamples: 0,
             weighted_steps: 0,
@@ -425,8 +432,7 @@ impl<'a> FastSlam1<'a> {
                 let landmarks = p.map.of(m.model);
                 if known {
                     // Known association: the landmark created from this identity, else a new one.
-                    return match landmarks.iter().position(|l| l.id.is_some() && l.id == m.landmark)
-                    {
+                    return match m.landmark.and_then(|id| p.map.find_id(m.model, id)) {
                         None => (Association::New, None),
                         Some(j) => match evaluate(m, &landmarks[j], &pose, &m.r) {
                             Some(mt) => (
@@ -473,12 +479,20 @@ impl<'a> FastSlam1<'a> {
         let p = &mut self.particles[i];
         if needs_write {
             let map = p.map_mut();
-            for (k, (m, (d, matched))) in z.iter().zip(&decisions).enumerate() {
+            // the landmarks an earlier feature of this scan went to, by stamp: O(1) per feature,
+            // where comparing with every earlier feature was O(z²) per scan
+            self.stamp += 1;
+            let stamp = self.stamp;
+            for (m, (d, matched)) in z.iter().zip(&decisions) {
                 match (d, matched) {
                     (Association::Known { landmark, .. }, Some(mt)) => {
                         // a landmark an earlier feature of this scan already corrected is evaluated
                         // afresh against its corrected state (a sequential EKF update and factor)
-                        let again = z[..k].iter().zip(&decisions[..k]).any(|(m2, (d2, _))| m2.model == m.model && matches!(d2, Association::Known { landmark: l, .. } if l == landmark));
+                        let seen = &mut self.corrected[usize::from(m.model == Model::Point)];
+                        if seen.len() <= *landmark {
+                            seen.resize(*landmark + 1, 0);
+                        }
+                        let again = std::mem::replace(&mut seen[*landmark], stamp) == stamp;
                         let fresh = if again {
                             evaluate(m, &map.of(m.model)[*landmark], &pose, &m.r)
                         } else {
@@ -497,8 +511,10 @@ impl<'a> FastSlam1<'a> {
                     (Association::New, _) => match initialise(m, &pose, &m.r) {
                         Some(l) => {
                             // identities are kept only when the filter uses them
-                            map.of_mut(m.model)
-                                .push(Landmark { id: if known { l.id } else { None }, ..l });
+                            map.push(
+                                m.model,
+                                Landmark { id: if known { l.id } else { None }, ..l },
+                            );
                             log_weight += ln_p0;
                         }
                         None => failures += 1,
@@ -732,15 +748,15 @@ impl Estimator {
 
 /// A particle map as a [`LandmarkMap`].
 pub fn landmark_map(m: &particle::Map, points_as_corners: bool) -> LandmarkMap {
-    let points = m.corners.iter().map(|l| Point2::new(l.mean[0], l.mean[1])).collect();
-    let lines = m.lines.iter().map(|l| Line::normalised(l.mean[0], l.mean[1])).collect();
+    let points = m.corners().iter().map(|l| Point2::new(l.mean[0], l.mean[1])).collect();
+    let lines = m.lines().iter().map(|l| Line::normalised(l.mean[0], l.mean[1])).collect();
     if points_as_corners {
         LandmarkMap { lines, corners: points, ..LandmarkMap::default() }
     } else {
         LandmarkMap {
             lines,
             points,
-            point_ids: m.corners.iter().map(|l| l.id).collect(),
+            point_ids: m.corners().iter().map(|l| l.id).collect(),
             ..LandmarkMap::default()
         }
     }
@@ -947,7 +963,7 @@ mod tests {
             landmark: Some(0),
         };
         let mut f = FastSlam1::new(&p, None, pose);
-        f.particles[0].map_mut().corners.push(l);
+        f.particles[0].map_mut().push(Model::Point, l);
         f.weigh_and_update(0, &[o, o]);
         let (mut expected, mut log_weight) = (l, 0.0);
         for _ in 0..2 {
@@ -955,7 +971,7 @@ mod tests {
             log_weight += m.log_likelihood;
             assert!(correct(&mut expected, Model::Point, &m, &r));
         }
-        let got = f.particles[0].map.corners[0];
+        let got = f.particles[0].map.corners()[0];
         assert!(
             (got.mean - expected.mean).norm() < 1e-12,
             "{} vs sequential {}",
@@ -975,7 +991,7 @@ mod tests {
         let stream = [StepObservations { step: 0, observations: vec![o, o] }];
         let mut f = FastSlam1::new(&p, None, pose);
         f.weigh_and_update(0, observations::Cursor::new(&stream, true).at(0));
-        assert_eq!(f.particles[0].map.corners.len(), 1);
+        assert_eq!(f.particles[0].map.corners().len(), 1);
         assert!(
             (f.particles[0].log_weight - p.p0.ln()).abs() < 1e-12,
             "one new landmark, one P0 factor"

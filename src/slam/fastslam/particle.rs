@@ -37,26 +37,82 @@ impl Landmark {
     }
 }
 
-/// A particle's map: lines and corners kept apart (association only compares like with like).
+/// A particle's map: lines and corners kept apart (association only compares like with like),
+/// and for each list an index from landmark identity to the first landmark created from it, so
+/// that known association finds a landmark in O(1) rather than by a search of the map. Landmarks
+/// are only ever added ([`Map::push`]), and a landmark's identity never changes, so the index
+/// stays that of the first.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Map {
-    pub lines: Vec<Landmark>,
-    pub corners: Vec<Landmark>,
+    lines: Vec<Landmark>,
+    corners: Vec<Landmark>,
+    /// Per list (lines, corners): `index[id]` = 1 + the first landmark with identity `id`, or 0.
+    index: [Vec<u32>; 2],
 }
 
+/// Identities at or above this are not indexed (the index is a vector as long as the largest
+/// identity) and are found by searching the list: every dataset's identities are landmark
+/// numbers, far below it.
+const INDEXED_IDS: usize = 1 << 24;
+
 impl Map {
+    fn slot(model: Model) -> usize {
+        match model {
+            Model::Line => 0,
+            Model::Point => 1,
+        }
+    }
+
     pub fn of(&self, model: Model) -> &[Landmark] {
         match model {
             Model::Line => &self.lines,
             Model::Point => &self.corners,
         }
     }
-    pub fn of_mut(&mut self, model: Model) -> &mut Vec<Landmark> {
+
+    /// The landmarks of one list, for updating in place (adding goes through [`Map::push`]).
+    pub fn of_mut(&mut self, model: Model) -> &mut [Landmark] {
         match model {
             Model::Line => &mut self.lines,
             Model::Point => &mut self.corners,
         }
     }
+
+    pub fn lines(&self) -> &[Landmark] {
+        &self.lines
+    }
+
+    pub fn corners(&self) -> &[Landmark] {
+        &self.corners
+    }
+
+    /// Adds a landmark to `model`'s list.
+    pub fn push(&mut self, model: Model, landmark: Landmark) {
+        let list = match model {
+            Model::Line => &mut self.lines,
+            Model::Point => &mut self.corners,
+        };
+        if let Some(id) = landmark.id.filter(|&id| id < INDEXED_IDS) {
+            let index = &mut self.index[Self::slot(model)];
+            if index.len() <= id {
+                index.resize(id + 1, 0);
+            }
+            if index[id] == 0 {
+                index[id] = list.len() as u32 + 1;
+            }
+        }
+        list.push(landmark);
+    }
+
+    /// The first landmark of `model`'s list created from identity `id`.
+    pub fn find_id(&self, model: Model, id: usize) -> Option<usize> {
+        if id >= INDEXED_IDS {
+            return self.of(model).iter().position(|l| l.id == Some(id));
+        }
+        let at = *self.index[Self::slot(model)].get(id)?;
+        (at > 0).then(|| at as usize - 1)
+    }
+
     pub fn len(&self) -> usize {
         self.lines.len() + self.corners.len()
     }
@@ -208,11 +264,11 @@ mod tests {
     #[test]
     fn resampled_copies_share_their_map_until_one_writes() {
         let mut a = Particle::new(Pose2::IDENTITY);
-        a.map_mut().lines.push(Landmark::new(Vector2::new(1.0, 0.0), Matrix2::identity()));
+        a.map_mut().push(Model::Line, Landmark::new(Vector2::new(1.0, 0.0), Matrix2::identity()));
         let mut b = a.clone();
         assert!(Arc::ptr_eq(&a.map, &b.map), "a copy shares the map");
-        b.map_mut().lines[0].mean[0] = 2.0;
+        b.map_mut().of_mut(Model::Line)[0].mean[0] = 2.0;
         assert!(!Arc::ptr_eq(&a.map, &b.map));
-        assert_eq!(a.map.lines[0].mean[0], 1.0, "the original is untouched");
+        assert_eq!(a.map.lines()[0].mean[0], 1.0, "the original is untouched");
     }
 }

@@ -419,8 +419,7 @@ impl<'a> FastSlam2<'a> {
                 if known {
                     // the landmark created from this identity, else a new one (`run` checked
                     // that every observation has an identity)
-                    return match landmarks.iter().position(|l| l.id.is_some() && l.id == o.landmark)
-                    {
+                    return match o.landmark.and_then(|id| map.find_id(o.model, id)) {
                         None => Association::New,
                         Some(j) => match evaluate(o, &landmarks[j], pose, pose_cov) {
                             Some(m) => {
@@ -556,7 +555,7 @@ impl<'a> FastSlam2<'a> {
                         let id = if known { o.landmark } else { None };
                         match initialise(o, &pose, id) {
                             Some(l) => {
-                                map.of_mut(o.model).push(l);
+                                map.push(o.model, l);
                                 log_weight += ln_p0; // Eq. (8)
                             }
                             None => failures += 1,

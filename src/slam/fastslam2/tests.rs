@@ -485,7 +485,7 @@ fn one_particle<'a>(p: &'a FastSlamParams, motion: &'a MotionModel) -> (FastSlam
         id: Some(0),
         ..Landmark::new(Vector2::new(3.0, 2.5), Matrix2::new(4e-4, 1e-4, 1e-4, 2e-4))
     };
-    f.particles[0].map_mut().corners.push(l);
+    f.particles[0].map_mut().push(Model::Point, l);
     (f, l)
 }
 
@@ -537,7 +537,7 @@ fn one_step_weights_at_the_prediction_and_updates_from_the_sample() {
         let k =
             l.cov * h.h.transpose() * (h.h * l.cov * h.h.transpose() + r).try_inverse().unwrap();
         let mean = l.mean + k * Model::Point.innovation(&z[0].z, &h.z);
-        let map = &f.particles[0].map.corners;
+        let map = f.particles[0].map.corners();
         assert_eq!(map.len(), 2);
         assert!((map[0].mean - mean).norm() < 1e-12, "{association:?}: {} vs {mean}", map[0].mean);
         let cov = (Matrix2::identity() - k * h.h) * l.cov; // the standard form, equal to Joseph's
@@ -657,7 +657,7 @@ fn two_matched_observations_weigh_by_their_joint_density() {
         id: Some(2),
         ..Landmark::new(Vector2::new(-1.5, 3.0), Matrix2::new(3e-5, 0.0, 0.0, 3e-5))
     };
-    f.particles[0].map_mut().corners.push(l2);
+    f.particles[0].map_mut().push(Model::Point, l2);
     let seen = |l: &Landmark| Observation {
         model: Model::Point,
         z: Model::Point.predict(&l.mean, &truth).z,
@@ -749,7 +749,7 @@ fn one_landmark_read_twice_weighs_by_the_joint_density() {
     let p = params(1, DataAssociation::Known);
     let (mut f, l) = one_particle(&p, &motion);
     let loose = Landmark { cov: Matrix2::new(0.04, 0.0, 0.0, 0.04), ..l }; // an uncertain landmark
-    f.particles[0].map_mut().corners[0] = loose;
+    f.particles[0].map_mut().of_mut(Model::Point)[0] = loose;
     let reading = |dz: f64| Observation {
         model: Model::Point,
         z: Model::Point.predict(&loose.mean, &truth).z + Vector2::new(dz, -dz / 10.0),
@@ -784,7 +784,7 @@ fn one_landmark_read_twice_weighs_by_the_joint_density() {
         (w - joint).abs() < 0.05 * joint.abs().max(1.0),
         "log weight + common factor {w}, joint density {joint}"
     );
-    assert_eq!(f.particles[0].map.corners.len(), 1);
+    assert_eq!(f.particles[0].map.corners().len(), 1);
 }
 
 /// Two features of one scan that maximum-likelihood association sends to the same landmark
@@ -805,7 +805,7 @@ fn two_features_on_one_landmark_fold_into_the_proposal_once_each() {
     };
     let (mut f, l) = one_particle(&p, &motion);
     let loose = Landmark { cov: Matrix2::new(0.04, 0.0, 0.0, 0.04), id: None, ..l };
-    f.particles[0].map_mut().corners[0] = loose;
+    f.particles[0].map_mut().of_mut(Model::Point)[0] = loose;
     let reading = |dz: f64| Observation {
         model: Model::Point,
         z: Model::Point.predict(&loose.mean, &truth).z + Vector2::new(dz, -dz / 10.0),
@@ -816,7 +816,7 @@ fn two_features_on_one_landmark_fold_into_the_proposal_once_each() {
     let previous = f.particles[0].pose;
     f.advance(0, Some(&u), &[z1, z2], &mut ChaCha8Rng::seed_from_u64(1));
     assert_eq!(f.numerical_failures, 0);
-    assert_eq!(f.particles[0].map.corners.len(), 1, "both readings went to the one landmark");
+    assert_eq!(f.particles[0].map.corners().len(), 1, "both readings went to the one landmark");
 
     let predicted = previous.compose(u);
     let q = motion.covariance(&previous, &u);
