@@ -211,7 +211,8 @@ pub fn render_all(
         let data = store::read_study(&dir)?;
         let trace_error = std::cell::RefCell::new(None);
         let traces = |ids: &[String]| {
-            let keep = |id: &str| ids.iter().any(|i| i == id);
+            let wanted: std::collections::HashSet<&str> = ids.iter().map(String::as_str).collect();
+            let keep = |id: &str| wanted.contains(id);
             match store::read_traces(&dir, &keep).and_then(|t| {
                 Ok((t, store::read_landmarks(&dir, &keep)?, store::read_matches(&dir, &keep)?))
             }) {

@@ -392,9 +392,16 @@ pub(super) fn read_traces(
     );
     let neff: Vec<Option<f64>> = df.column("neff").map_err(e)?.f64().map_err(e)?.iter().collect();
     let mut out: Vec<TraceRows> = Vec::new();
+    // a run's rows are consecutive: `keep` is asked once per run, not once per step
+    let mut last: Option<(&str, bool)> = None;
     for i in 0..df.height() {
         let id = ids.get(i).unwrap_or_default();
-        if !keep(id) {
+        let kept = match last {
+            Some((prev, kept)) if prev == id => kept,
+            _ => keep(id),
+        };
+        last = Some((id, kept));
+        if !kept {
             continue;
         }
         if out.last().is_none_or(|r| r.run_id != id) {
