@@ -621,35 +621,11 @@ impl Graph {
             }
             Factor::Odometry { k, between, w } => {
                 let (e, ja, jb) = between.residual(&poses[k], &poses[k + 1]);
-                let (r, ja, jb) = (w * e, w * ja, w * jb);
-                let row_major = |m: Matrix3<f64>| {
-                    let mut out = [0.0; 9];
-                    out.copy_from_slice(m.transpose().as_slice());
-                    out
-                };
-                Linear {
-                    cost: 0.0,
-                    r: [r[0], r[1], r[2]],
-                    rows: 3,
-                    blocks: [(3 * k, 3, row_major(ja)), (3 * (k + 1), 3, row_major(jb))],
-                    nblocks: 2,
-                }
+                two_pose_linear(k, k + 1, &w, e, ja, jb)
             }
             Factor::Relative { a, b, z, w, .. } => {
                 let (e, ja, jb) = relative_residual(&poses[a], &poses[b], &z);
-                let (r, ja, jb) = (w * e, w * ja, w * jb);
-                let row_major = |m: Matrix3<f64>| {
-                    let mut out = [0.0; 9];
-                    out.copy_from_slice(m.transpose().as_slice());
-                    out
-                };
-                Linear {
-                    cost: 0.0,
-                    r: [r[0], r[1], r[2]],
-                    rows: 3,
-                    blocks: [(3 * a, 3, row_major(ja)), (3 * b, 3, row_major(jb))],
-                    nblocks: 2,
-                }
+                two_pose_linear(a, b, &w, e, ja, jb)
             }
             Factor::RangeBearing { k, j, z, w, .. } => {
                 let (x, m) = (poses[k], landmarks[j]);
@@ -889,6 +865,30 @@ impl Graph {
             },
             ..LandmarkMap::default()
         }
+    }
+}
+
+/// A factor on poses a and b with residual `e` and Jacobians `ja`, `jb`, whitened by `w`.
+fn two_pose_linear(
+    a: usize,
+    b: usize,
+    w: &Matrix3<f64>,
+    e: Vector3<f64>,
+    ja: Matrix3<f64>,
+    jb: Matrix3<f64>,
+) -> Linear {
+    let (r, ja, jb) = (w * e, w * ja, w * jb);
+    let row_major = |m: Matrix3<f64>| {
+        let mut out = [0.0; 9];
+        out.copy_from_slice(m.transpose().as_slice());
+        out
+    };
+    Linear {
+        cost: 0.0,
+        r: [r[0], r[1], r[2]],
+        rows: 3,
+        blocks: [(3 * a, 3, row_major(ja)), (3 * b, 3, row_major(jb))],
+        nblocks: 2,
     }
 }
 
