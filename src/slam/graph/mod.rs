@@ -440,14 +440,7 @@ impl Graph {
                 let mut best: Option<(f64, usize)> = None;
                 for (j, m) in self.landmarks.iter().enumerate() {
                     let p = point_predict(m, &pose);
-                    let hx = nalgebra::Matrix2x3::new(
-                        -p.h[(0, 0)],
-                        -p.h[(0, 1)],
-                        0.0,
-                        -p.h[(1, 0)],
-                        -p.h[(1, 1)],
-                        -1.0,
-                    );
+                    let hx = range_bearing_pose_jacobian(&p.h);
                     let hph = hx * self.cross_cov[j] * p.h.transpose();
                     let s = hx * self.pose_cov * hx.transpose()
                         + hph
@@ -633,14 +626,7 @@ impl Graph {
                 let e = Vector2::new(p.z[0] - z[0], wrap_angle(p.z[1] - z[1]));
                 // ∂h/∂m = H; ∂h/∂(x, y) = −H; ∂bearing/∂θ = −1
                 let hm = w * p.h;
-                let hx = w * nalgebra::Matrix2x3::new(
-                    -p.h[(0, 0)],
-                    -p.h[(0, 1)],
-                    0.0,
-                    -p.h[(1, 0)],
-                    -p.h[(1, 1)],
-                    -1.0,
-                );
+                let hx = w * range_bearing_pose_jacobian(&p.h);
                 let r = w * e;
                 let mut jx = [0.0; 9];
                 for row in 0..2 {
@@ -866,6 +852,12 @@ impl Graph {
             ..LandmarkMap::default()
         }
     }
+}
+
+/// ∂(range, bearing)/∂(x, y, θ) of a point reading, from H = ∂(range, bearing)/∂m: −H on the
+/// position, and −1 of the bearing on the heading.
+fn range_bearing_pose_jacobian(h: &Matrix2<f64>) -> nalgebra::Matrix2x3<f64> {
+    nalgebra::Matrix2x3::new(-h[(0, 0)], -h[(0, 1)], 0.0, -h[(1, 0)], -h[(1, 1)], -1.0)
 }
 
 /// A factor on poses a and b with residual `e` and Jacobians `ja`, `jb`, whitened by `w`.

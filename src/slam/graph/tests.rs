@@ -144,7 +144,7 @@ fn mean_nees_with(
     (sums.map(|(sum, n)| sum / n as f64), mapped)
 }
 
-/// The pose model's own noise, drawn as in the test above.
+/// [FT] Eq. 7.18's world-frame pose noise, drawn as the model states it: x' = x ⊕ u + ε.
 fn drive_pose_model(sigma: [f64; 3]) -> impl Fn(Pose2, Pose2, &mut ChaCha8Rng) -> (Pose2, Pose2) {
     move |pose, u, rng| {
         let p = pose.compose(u);
@@ -220,15 +220,7 @@ fn on_a_consistent_simulation_the_pose_nees_is_about_three() {
     let sigma = [0.05, 0.02, 0.01];
     let motion =
         MotionModel::Pose { sigma_x_m: sigma[0], sigma_y_m: sigma[1], sigma_theta_rad: sigma[2] };
-    let nees = mean_nees(&motion, |pose, u, rng| {
-        let p = pose.compose(u);
-        let next = Pose2::new(
-            p.x + sigma[0] * normal(rng),
-            p.y + sigma[1] * normal(rng),
-            wrap_angle(p.theta + sigma[2] * normal(rng)),
-        );
-        (next, u)
-    });
+    let nees = mean_nees(&motion, drive_pose_model(sigma));
     for (name, mean) in ["batch", "online"].iter().zip(nees) {
         assert!((2.5..=3.5).contains(&mean), "{name}: mean NEES {mean}");
     }
