@@ -61,6 +61,7 @@ bench: build
 	$(CARGO) bench --locked --bench world --bench slam --bench landmark_filters --bench scanmatch --bench graph_slam --bench fastslam_scaling
 	tests/tools/plan_bench.sh $(BIN)
 	tests/tools/memory_bench.sh $(BIN)
+	tests/tools/report_bench.sh $(BIN)
 	@tmp=$$(mktemp -d); \
 	start=$$(date +%s.%N); \
 	$(BIN) run --quiet --results $$tmp/results --cache $$tmp/cache $(SPECS); \

@@ -294,8 +294,7 @@ fn dispatch(command: Command) -> Result<()> {
                 crate::report::render_all(&results, &out, &keep, published.as_deref(), prune)
                     .context("rendering reports")?;
             eprintln!("rendered {} studies into {}", summary.studies.len(), out.display());
-            let timed =
-                crate::report::render_timings(&results).context("writing the timing pages")?;
+            let timed = crate::report::write_timings(&summary.timing_pages);
             if !timed.written.is_empty() {
                 eprintln!(
                     "timing pages (machine-dependent, not in the reports): {}/<study>/{} for {}",

@@ -132,18 +132,17 @@ fn drawn_cells(
     mut cell: f64,
 ) -> (f64, Vec<(f64, f64)>) {
     loop {
-        let mut bins: Vec<(i64, i64)> = im
-            .cells
-            .iter()
-            .map(|&(i, j)| {
-                (
-                    (((f64::from(i) + 0.5) * im.cell_m) / cell).floor() as i64,
-                    (((f64::from(j) + 0.5) * im.cell_m) / cell).floor() as i64,
-                )
-            })
-            .collect();
-        bins.sort_unstable();
-        bins.dedup();
+        // A bin of side `cell` holds at most `per_axis²` cell centres (spaced `cell_m`; one more
+        // per axis for rounding), so a size whose bound exceeds the limit cannot pass: skip it
+        // without binning. The size chosen is the same.
+        let per_axis = (cell / im.cell_m).floor() + 2.0;
+        if cell.is_finite()
+            && (im.cells.len() as f64) / (per_axis * per_axis) > MAP_MAX_POINTS as f64
+        {
+            cell *= 1.25;
+            continue;
+        }
+        let bins = rebinned(&im.cells, im.cell_m, cell);
         if bins.len() <= MAP_MAX_POINTS || !cell.is_finite() {
             return (
                 cell,
@@ -154,6 +153,34 @@ fn drawn_cells(
         }
         cell *= 1.25;
     }
+}
+
+/// The distinct bins of side `cell` holding the centres of `cells` (side `cell_m`), sorted.
+/// The cells are stored sorted, and binning is monotone, so the bins come out ordered by their
+/// first index: only each column's second indices need sorting.
+fn rebinned(cells: &[(i32, i32)], cell_m: f64, cell: f64) -> Vec<(i64, i64)> {
+    let bin = |v: i32| (((f64::from(v) + 0.5) * cell_m) / cell).floor() as i64;
+    if !cells.is_sorted() {
+        let mut bins: Vec<(i64, i64)> = cells.iter().map(|&(i, j)| (bin(i), bin(j))).collect();
+        bins.sort_unstable();
+        bins.dedup();
+        return bins;
+    }
+    let mut bins = Vec::new();
+    let mut column: Vec<i64> = Vec::new();
+    let mut at = 0;
+    while at < cells.len() {
+        let bi = bin(cells[at].0);
+        column.clear();
+        while at < cells.len() && bin(cells[at].0) == bi {
+            column.push(bin(cells[at].1));
+            at += 1;
+        }
+        column.sort_unstable();
+        column.dedup();
+        bins.extend(column.iter().map(|&bj| (bi, bj)));
+    }
+    bins
 }
 
 fn reproduction(d: &Diagnostics) -> String {
@@ -541,4 +568,34 @@ fn iteration_views(
         });
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// Column-wise re-binning equals binning every cell, sorting and removing repeats.
+    #[test]
+    fn rebinning_by_columns_equals_a_full_sort() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..50 {
+            let mut cells: Vec<(i32, i32)> = (0..2000)
+                .map(|_| (rng.random_range(-300..300), rng.random_range(-300..300)))
+                .collect();
+            let cell_m = 0.01 * rng.random_range(1..6) as f64;
+            let cell = cell_m * rng.random_range(1.0..40.0);
+            let naive = |cells: &[(i32, i32)]| {
+                let bin = |v: i32| (((f64::from(v) + 0.5) * cell_m) / cell).floor() as i64;
+                let mut b: Vec<(i64, i64)> = cells.iter().map(|&(i, j)| (bin(i), bin(j))).collect();
+                b.sort_unstable();
+                b.dedup();
+                b
+            };
+            assert_eq!(rebinned(&cells, cell_m, cell), naive(&cells), "unsorted input");
+            cells.sort_unstable();
+            cells.dedup();
+            assert_eq!(rebinned(&cells, cell_m, cell), naive(&cells), "sorted input");
+        }
+    }
 }

@@ -18,7 +18,7 @@ pub mod view;
 use crate::judge::claims::ClaimResult;
 use crate::store::{self, StoreError};
 use minijinja::{AutoEscape, Environment, UndefinedBehavior};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
@@ -156,6 +156,70 @@ fn render(
     })
 }
 
+/// A study's built pages, the data they came from, and its timing page (scan matching only).
+type Built = (model::StudyPages, store::StudyData, Option<timings::TimingPage>);
+
+/// Reads and builds one study's pages; `None` for a study of `keep` whose previous report is
+/// carried over (results that predate checksums and cannot be rewritten here).
+fn build_study(
+    dir: &Path,
+    keep: &[String],
+    reports_dir: &Path,
+) -> Result<Option<Built>, ReportError> {
+    // results that predate checksums and cannot be rewritten here (a real-data study whose
+    // data is absent: `run` skips it) keep their previous report, like a study without results
+    let id = dir.file_name().unwrap_or_default().to_string_lossy().into_owned();
+    if keep.contains(&id)
+        && reports_dir.join(&id).join(ENTRY).is_file()
+        && matches!(store::check_seal(dir), Ok(store::Seal::Unsealed))
+    {
+        return Ok(None);
+    }
+    let data = store::read_study(dir)?;
+    let trace_error = std::cell::RefCell::new(None);
+    let files = store::RunFiles::new(dir);
+    let traces = |ids: &[String], parts: view::Parts| {
+        let wanted: store::RunIds<'_> = ids.iter().map(String::as_str).collect();
+        let read = || -> Result<_, StoreError> {
+            Ok((
+                if parts.traces { files.traces(&wanted)? } else { Vec::new() },
+                if parts.landmarks { files.landmarks(&wanted)? } else { Vec::new() },
+                if parts.matches { files.matches(&wanted)? } else { Vec::new() },
+            ))
+        };
+        match read() {
+            Ok(x) => x,
+            Err(e) => {
+                trace_error.borrow_mut().get_or_insert(e);
+                (Vec::new(), Vec::new(), Vec::new())
+            }
+        }
+    };
+    let diagnostics = store::read_diagnostics(dir)?;
+    let built = view::build(&data, &traces, diagnostics.as_ref());
+    if let Some(e) = trace_error.into_inner() {
+        return Err(e.into());
+    }
+    if let Some(c) = built.view.claims.iter().find(|c| c.cause.contains('⟨')) {
+        let at = c.cause.find('⟨').unwrap_or(0);
+        let end = c.cause[at..].find('⟩').map_or(c.cause.len(), |k| at + k + '⟩'.len_utf8());
+        return Err(ReportError::Cause {
+            study: c.study.clone(),
+            claim: c.id.clone(),
+            message: c.cause[at..end].to_string(),
+        });
+    }
+    let catalogue = data.resolved.catalogue();
+    let timing =
+        if data.resolved.spec.algorithms.iter().any(|a| catalogue.algorithm(a).is_scan_matcher()) {
+            let all: store::RunIds<'_> = data.runs.iter().map(|r| r.run_id.as_str()).collect();
+            timings::build(&data, &files.matches(&all)?)
+        } else {
+            None
+        };
+    Ok(Some((built, data, timing)))
+}
+
 /// What was rendered.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReportSummary {
@@ -164,6 +228,9 @@ pub struct ReportSummary {
     pub kept: Vec<String>,
     /// Reports removed by `--prune` (no results and no spec).
     pub pruned: Vec<String>,
+    /// The timing page of every scan-matching study (study, results folder, HTML), for
+    /// [`write_timings`]: machine-dependent, so never in the reports.
+    pub timing_pages: Vec<(String, PathBuf, String)>,
 }
 
 /// Renders every study under `results_dir` into `reports_dir` (replaced atomically as a whole),
@@ -196,49 +263,39 @@ pub fn render_all(
         }
         None => Vec::new(),
     };
-    let mut pages = Vec::new();
-    let mut studies = Vec::new();
-    for dir in study_dirs {
-        // results that predate checksums and cannot be rewritten here (a real-data study whose
-        // data is absent: `run` skips it) keep their previous report, like a study without results
-        let id = dir.file_name().unwrap_or_default().to_string_lossy().into_owned();
-        if keep.contains(&id)
-            && reports_dir.join(&id).join(ENTRY).is_file()
-            && matches!(store::check_seal(&dir), Ok(store::Seal::Unsealed))
-        {
-            continue;
-        }
-        let data = store::read_study(&dir)?;
-        let trace_error = std::cell::RefCell::new(None);
-        let traces = |ids: &[String]| {
-            let wanted: std::collections::HashSet<&str> = ids.iter().map(String::as_str).collect();
-            let keep = |id: &str| wanted.contains(id);
-            match store::read_traces(&dir, &keep).and_then(|t| {
-                Ok((t, store::read_landmarks(&dir, &keep)?, store::read_matches(&dir, &keep)?))
-            }) {
-                Ok(x) => x,
-                Err(e) => {
-                    trace_error.borrow_mut().get_or_insert(e);
-                    (Vec::new(), Vec::new(), Vec::new())
+    // Studies are built on plain threads (Parquet IO may not run on rayon's workers), each taking
+    // the next unbuilt study; pages keep the studies' order, so the output does not depend on the
+    // thread count, and the first failing study (in order) is the error reported.
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    let threads = cores.clamp(1, study_dirs.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let slots: Vec<std::sync::Mutex<Option<Result<Option<Built>, ReportError>>>> =
+        study_dirs.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            scope.spawn(|| {
+                loop {
+                    let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    let Some(dir) = study_dirs.get(k) else { break };
+                    let built = build_study(dir, keep, reports_dir);
+                    *slots[k].lock().expect("a builder panicked") = Some(built);
                 }
-            }
-        };
-        let diagnostics = store::read_diagnostics(&dir)?;
-        let built = view::build(&data, &traces, diagnostics.as_ref());
-        if let Some(e) = trace_error.into_inner() {
-            return Err(e.into());
-        }
-        if let Some(c) = built.view.claims.iter().find(|c| c.cause.contains('⟨')) {
-            let at = c.cause.find('⟨').unwrap_or(0);
-            let end = c.cause[at..].find('⟩').map_or(c.cause.len(), |k| at + k + '⟩'.len_utf8());
-            return Err(ReportError::Cause {
-                study: c.study.clone(),
-                claim: c.id.clone(),
-                message: c.cause[at..end].to_string(),
             });
         }
-        pages.push(built);
-        studies.push(data);
+    });
+    let mut pages = Vec::new();
+    let mut studies = Vec::new();
+    let mut timing_pages = Vec::new();
+    for slot in slots {
+        let built = slot.into_inner().expect("a builder panicked").expect("every study is built");
+        if let Some((page, data, timing)) = built? {
+            if let Some(timing) = timing {
+                let html = render(&env, "timings.html", minijinja::context! { page => timing })?;
+                timing_pages.push((data.resolved.spec.id.clone(), data.dir.clone(), html));
+            }
+            pages.push(page);
+            studies.push(data);
+        }
     }
     let mut files: Vec<(String, Vec<u8>)> = Vec::new();
     let rendered: Vec<&str> = pages.iter().map(|p| p.view.id.as_str()).collect();
@@ -386,6 +443,15 @@ pub fn render_all(
                 std::fs::create_dir_all(parent)
                     .map_err(|e| StoreError::Io { path: parent.to_path_buf(), source: e })?;
             }
+            // A file the previous report holds byte for byte is linked, not written again: a
+            // report with little changed is mostly links (its old tree is then removed).
+            let previous = reports_dir.join(rel);
+            let unchanged = std::fs::metadata(&previous)
+                .is_ok_and(|m| m.is_file() && m.len() == bytes.len() as u64)
+                && std::fs::read(&previous).is_ok_and(|old| old == *bytes);
+            if unchanged && std::fs::hard_link(&previous, &path).is_ok() {
+                continue;
+            }
             std::fs::write(&path, bytes)
                 .map_err(|e| StoreError::Io { path: path.clone(), source: e })?;
         }
@@ -395,6 +461,7 @@ pub fn render_all(
         studies: pages.iter().map(|p| p.view.id.clone()).collect(),
         kept: kept.into_iter().map(|(id, _)| id).collect(),
         pruned: dropped,
+        timing_pages,
     })
 }
 
@@ -406,34 +473,21 @@ pub struct TimingPages {
     pub unwritable: Vec<(String, String)>,
 }
 
-/// Writes `timings.html` into every scan-matching study's results folder under `results_dir`
-/// (see [`timings`]). Machine-dependent, so never into `reports/`.
-pub fn render_timings(results_dir: &Path) -> Result<TimingPages, ReportError> {
-    let env = environment();
-    let mut pages = TimingPages::default();
-    for dir in store::list_studies(results_dir)? {
-        if !matches!(store::check_seal(&dir), Ok(store::Seal::Intact)) {
-            continue; // `render_all` has said what is wrong with it, or kept its report
-        }
-        let data = store::read_study(&dir)?;
-        let catalogue = data.resolved.catalogue();
-        if !data.resolved.spec.algorithms.iter().any(|a| catalogue.algorithm(a).is_scan_matcher()) {
-            continue;
-        }
-        let matches = store::read_matches(&dir, &|_| true)?;
-        let Some(page) = timings::build(&data, &matches) else { continue };
-        let html = render(&env, "timings.html", minijinja::context! { page => page })?;
+/// Writes each timing page of [`ReportSummary::timing_pages`] as `timings.html` into its study's
+/// results folder (see [`timings`]).
+pub fn write_timings(pages: &[(String, PathBuf, String)]) -> TimingPages {
+    let mut out = TimingPages::default();
+    for (id, dir, html) in pages {
         let (path, tmp) = (dir.join(TIMINGS), dir.join(format!(".{TIMINGS}.tmp")));
-        let id = data.resolved.spec.id.clone();
         match std::fs::write(&tmp, html).and_then(|()| std::fs::rename(&tmp, &path)) {
-            Ok(()) => pages.written.push(id),
+            Ok(()) => out.written.push(id.clone()),
             Err(e) => {
                 let _ = std::fs::remove_file(&tmp);
-                pages.unwritable.push((id, format!("cannot write {}: {e}", path.display())));
+                out.unwritable.push((id.clone(), format!("cannot write {}: {e}", path.display())));
             }
         }
     }
-    Ok(pages)
+    out
 }
 
 /// The timing page's file name in a study's results folder.

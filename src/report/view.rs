@@ -56,10 +56,7 @@ impl Study<'_> {
         algorithm: &'b str,
         point: &'b str,
     ) -> impl Iterator<Item = &'b RunRow> + 'b {
-        self.data
-            .runs
-            .iter()
-            .filter(move |r| r.map == map && r.algorithm == algorithm && r.point == point)
+        self.data.runs_in(map, algorithm, point)
     }
     /// Summary of a metric over a cell's successful runs (run-id order), and (failed, n).
     fn cell(
@@ -171,7 +168,23 @@ impl Study<'_> {
 
 /// Reads the traces and final maps of the given runs.
 /// Reads the stored traces, final maps and per-match rows of the given runs.
-pub type Fetch<'a> = dyn Fn(&[String]) -> (Vec<TraceRows>, Vec<RunLandmarks>, Vec<MatchRows>) + 'a;
+/// Only the kinds of rows `Parts` asks for are read; the others come back empty.
+pub type Fetch<'a> =
+    dyn Fn(&[String], Parts) -> (Vec<TraceRows>, Vec<RunLandmarks>, Vec<MatchRows>) + 'a;
+
+/// Which of a run's stored rows a [`Fetch`] reads: traces, final maps, matches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Parts {
+    pub traces: bool,
+    pub landmarks: bool,
+    pub matches: bool,
+}
+
+impl Parts {
+    pub const ALL: Parts = Parts { traces: true, landmarks: true, matches: true };
+    const LANDMARKS: Parts = Parts { traces: false, landmarks: true, matches: false };
+    const MATCHES: Parts = Parts { traces: false, landmarks: false, matches: true };
+}
 
 pub fn build(
     data: &StudyData,
@@ -1123,7 +1136,7 @@ fn trajectory_views(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<FigureView> {
                     .map(|r| r.run_id.clone())
             })
             .collect();
-        let (rows, maps, matches) = traces(&ids);
+        let (rows, maps, matches) = traces(&ids, Parts::ALL);
         let Some(truth) = rows.first() else { continue };
         // Real data may lack truth at some steps: the path joins the known positions.
         let finite = |p: &&crate::geom::Pose2| p.x.is_finite() && p.y.is_finite();
@@ -1301,7 +1314,7 @@ fn match_distribution(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> 
         .filter(|r| r.status == RunStatus::Ok)
         .map(|r| r.run_id.clone())
         .collect();
-    let (_, _, matches) = traces(&ids);
+    let (_, _, matches) = traces(&ids, Parts::MATCHES);
     let by_run: BTreeMap<&str, &MatchRows> =
         matches.iter().map(|m| (m.run_id.as_str(), m)).collect();
     let mut out = Vec::new();
@@ -1383,7 +1396,7 @@ fn landmark_tables(study: &Study<'_>, traces: &Fetch<'_>) -> Vec<NamedTable> {
             if ids.is_empty() || map.point_landmarks.is_empty() {
                 continue;
             }
-            let (_, maps, _) = traces(&ids);
+            let (_, maps, _) = traces(&ids, Parts::LANDMARKS);
             let cm =
                 |v: f64| if v.is_finite() { format!("{:.1}", v * 100.0) } else { "—".into() };
             let rows = map

@@ -74,8 +74,15 @@ impl Reason {
 /// the study's previous results (by run id).
 pub fn reasons(plan: &ExperimentPlan, opts: &RunOptions) -> Vec<Reason> {
     let cache = Cache::new(&opts.cache_dir);
-    let previous = store::read_runs(&opts.results_dir.join(plan.id())).unwrap_or_default();
-    explain(&plan.runs, &|h| cache.contains(h), &previous, opts.force)
+    let cached: std::collections::BTreeSet<&str> =
+        plan.runs.iter().map(|r| r.hash.as_str()).filter(|h| cache.contains(h)).collect();
+    // the previous results only explain runs that are not cached
+    let previous = if opts.force || !plan.runs.iter().all(|r| cached.contains(r.hash.as_str())) {
+        store::read_runs(&opts.results_dir.join(plan.id())).unwrap_or_default()
+    } else {
+        Vec::new()
+    };
+    explain(&plan.runs, &|h| cached.contains(h), &previous, opts.force)
 }
 
 /// The pure part of [`reasons`].
@@ -161,8 +168,8 @@ pub fn run_study(
     if to_compute == 0 {
         let ids: Vec<(String, String)> =
             plan.runs.iter().map(|r| (r.run_id.clone(), r.hash.clone())).collect();
-        let stored = store::read_runs(&dir).unwrap_or_default();
-        let bad = stored.iter().filter(|r| r.status != RunStatus::Ok).count();
+        let stored = store::read_run_keys(&dir).unwrap_or_default();
+        let bad = stored.iter().filter(|(_, _, s)| *s != RunStatus::Ok).count();
         let manifest = manifest(plan, provenance, plan.runs.len(), bad);
         let diagnosed = plan.has_scan_matcher();
         if store::is_up_to_date(
@@ -174,7 +181,7 @@ pub fn run_study(
             plan.reference.as_deref(),
             diagnosed,
         ) {
-            let count = |s: RunStatus| stored.iter().filter(|r| r.status == s).count();
+            let count = |s: RunStatus| stored.iter().filter(|(_, _, r)| *r == s).count();
             return Ok(StudySummary {
                 study: plan.id().to_string(),
                 dir,

@@ -63,7 +63,7 @@ impl RunStatus {
             RunStatus::Diverged => "diverged",
         }
     }
-    fn parse(s: &str) -> RunStatus {
+    pub(crate) fn parse(s: &str) -> RunStatus {
         match s {
             "ok" => RunStatus::Ok,
             "diverged" => RunStatus::Diverged,
@@ -487,9 +487,9 @@ pub fn is_up_to_date(
     if !matches!(check_seal(dir), Ok(Seal::Intact)) {
         return false;
     }
-    let Ok(stored) = read_runs(dir) else { return false };
+    let Ok(stored) = read_run_keys(dir) else { return false };
     let mut stored: Vec<(String, String)> =
-        stored.into_iter().map(|r| (r.run_id, r.run_hash)).collect();
+        stored.into_iter().map(|(id, hash, _)| (id, hash)).collect();
     let mut wanted = runs.to_vec();
     stored.sort();
     wanted.sort();
@@ -502,14 +502,34 @@ pub struct StudyData {
     pub dir: PathBuf,
     pub resolved: ResolvedStudy,
     pub manifest: Manifest,
+    /// Never changed after reading: [`StudyData::runs_in`] indexes it.
     pub runs: Vec<RunRow>,
     /// (map name, file text), sorted by name.
     pub maps: Vec<(String, String)>,
     /// Published results shown beside these (parsed `reference.csv`).
     pub reference: Vec<reference::ReferenceRow>,
+    /// Indices into `runs` of each cell's runs (key [`cell_key`]), in run order: reports and
+    /// verdicts look cells up thousands of times.
+    cells: std::collections::HashMap<String, Vec<usize>>,
+}
+
+/// The key of a cell (map, algorithm, sweep point) in [`StudyData`]'s index.
+fn cell_key(map: &str, algorithm: &str, point: &str) -> String {
+    format!("{map}\u{0}{algorithm}\u{0}{point}")
 }
 
 impl StudyData {
+    /// The runs of one cell (map, algorithm, sweep point), in run order.
+    pub fn runs_in<'a>(
+        &'a self,
+        map: &str,
+        algorithm: &str,
+        point: &str,
+    ) -> impl Iterator<Item = &'a RunRow> + 'a {
+        let at = self.cells.get(&cell_key(map, algorithm, point)).map_or(&[][..], Vec::as_slice);
+        at.iter().map(|&k| &self.runs[k])
+    }
+
     /// Replicate → value of `metric` over the successful runs of one cell (map, algorithm, sweep
     /// point): what every verdict compares (replicate k of two cells saw the same world).
     pub fn replicate_values(
@@ -519,14 +539,8 @@ impl StudyData {
         point: &str,
         metric: &str,
     ) -> std::collections::BTreeMap<u32, f64> {
-        self.runs
-            .iter()
-            .filter(|r| {
-                r.map == map
-                    && r.algorithm == algorithm
-                    && r.point == point
-                    && r.status == RunStatus::Ok
-            })
+        self.runs_in(map, algorithm, point)
+            .filter(|r| r.status == RunStatus::Ok)
             .filter_map(|r| r.metric(metric).map(|v| (r.replicate, v)))
             .collect()
     }
@@ -575,7 +589,11 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
     };
     let mut runs = runs;
     derive_metrics(dir, &resolved, &maps, &mut runs)?;
-    Ok(StudyData { dir: dir.to_path_buf(), resolved, manifest, runs, maps, reference })
+    let mut cells: std::collections::HashMap<String, Vec<usize>> = Default::default();
+    for (k, r) in runs.iter().enumerate() {
+        cells.entry(cell_key(&r.map, &r.algorithm, &r.point)).or_default().push(k);
+    }
+    Ok(StudyData { dir: dir.to_path_buf(), resolved, manifest, runs, maps, reference, cells })
 }
 
 /// Adds the metrics derived from the stored final maps ([`crate::metrics::LANDMARK_ERROR_GROWTH`])
@@ -656,12 +674,77 @@ pub fn read_matches(dir: &Path, keep: &dyn Fn(&str) -> bool) -> Result<Vec<Match
     parquet::read_matches(&path, keep)
 }
 
+/// A set of run ids.
+pub type RunIds<'a> = std::collections::BTreeSet<&'a str>;
+
+/// A study's per-run files — traces, final maps, matches — for a reader that asks for a few runs
+/// at a time (the report). Each file's checksum is verified once, on first use, and an index of
+/// where each run's rows lie is kept, so every later request decodes only the rows it wants.
+pub struct RunFiles {
+    dir: PathBuf,
+    traces: std::cell::OnceCell<parquet::RunIndex>,
+    landmarks: std::cell::OnceCell<parquet::RunIndex>,
+    matches: std::cell::OnceCell<parquet::RunIndex>,
+}
+
+impl RunFiles {
+    pub fn new(dir: &Path) -> Self {
+        Self {
+            dir: dir.to_path_buf(),
+            traces: Default::default(),
+            landmarks: Default::default(),
+            matches: Default::default(),
+        }
+    }
+
+    /// The verified index of `file`, built on first use.
+    fn index<'a>(
+        &self,
+        cell: &'a std::cell::OnceCell<parquet::RunIndex>,
+        file: &str,
+    ) -> Result<&'a parquet::RunIndex, StoreError> {
+        if cell.get().is_none() {
+            verified(&self.dir, Some(file))?;
+            let _ = cell.set(parquet::RunIndex::build(&self.dir.join(file))?);
+        }
+        Ok(cell.get().expect("set above"))
+    }
+
+    /// The traces of the runs `ids`, as [`read_traces`] reads them.
+    pub fn traces(&self, ids: &RunIds<'_>) -> Result<Vec<TraceRows>, StoreError> {
+        let file = "traces.parquet";
+        self.index(&self.traces, file)?.traces(&self.dir.join(file), ids)
+    }
+
+    /// The final maps of the runs `ids`, as [`read_landmarks`] reads them.
+    pub fn landmarks(&self, ids: &RunIds<'_>) -> Result<Vec<RunLandmarks>, StoreError> {
+        let file = "landmarks.parquet";
+        self.index(&self.landmarks, file)?.landmarks(&self.dir.join(file), ids)
+    }
+
+    /// The matches of the runs `ids`, as [`read_matches`] reads them.
+    pub fn matches(&self, ids: &RunIds<'_>) -> Result<Vec<MatchRows>, StoreError> {
+        let file = "matches.parquet";
+        if !self.dir.join(file).is_file() {
+            return Ok(Vec::new());
+        }
+        self.index(&self.matches, file)?.matches(&self.dir.join(file), ids)
+    }
+}
+
 pub fn read_timings(dir: &Path) -> Result<Vec<Timing>, StoreError> {
     verified(dir, Some("timings.parquet"))?;
     parquet::read_timings(&dir.join("timings.parquet"))
 }
 
 /// Reads `runs.parquet` alone (e.g. to compare a new plan with the previous results).
+/// `(run_id, run_hash, status)` of every stored run, in row order: what deciding whether a study
+/// is up to date needs, without parsing parameters and metrics.
+pub fn read_run_keys(dir: &Path) -> Result<Vec<(String, String, RunStatus)>, StoreError> {
+    verified(dir, Some("runs.parquet"))?;
+    parquet::read_run_keys(&dir.join("runs.parquet"))
+}
+
 pub fn read_runs(dir: &Path) -> Result<Vec<RunRow>, StoreError> {
     verified(dir, Some("runs.parquet"))?;
     let path = dir.join("runs.parquet");
@@ -925,12 +1008,11 @@ fn files_under(root: &Path) -> Result<Vec<(String, PathBuf)>, StoreError> {
     Ok(out)
 }
 
-/// The blake3 of a file, read in pieces (a study's traces can be larger than the memory it may
-/// use).
+/// The blake3 of a file, memory-mapped (a study's traces can be larger than the memory it may
+/// use) and hashed on every core: the reports verify every results file they read.
 fn file_hash(path: &Path) -> Result<String, StoreError> {
-    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
     let mut hasher = blake3::Hasher::new();
-    hasher.update_reader(file).map_err(|e| StoreError::io(path, e))?;
+    hasher.update_mmap_rayon(path).map_err(|e| StoreError::io(path, e))?;
     Ok(hasher.finalize().to_hex().to_string())
 }
 
@@ -1286,6 +1368,9 @@ mod tests {
         let path = dir.path().join("runs.parquet");
         parquet::write(&path, &mut df).unwrap();
         assert_eq!(parquet::read_runs(&path).unwrap(), rows);
+        let keys: Vec<(String, String, RunStatus)> =
+            rows.iter().map(|r| (r.run_id.clone(), r.run_hash.clone(), r.status)).collect();
+        assert_eq!(parquet::read_run_keys(&path).unwrap(), keys);
     }
 
     #[test]
@@ -1314,6 +1399,11 @@ mod tests {
         assert!(back[1].neff.iter().all(Option::is_none));
         assert!((back[0].dt_s - 0.1).abs() < 1e-12);
         assert_eq!(parquet::read_traces(&path, &|id| id == "b").unwrap().len(), 1);
+        // a one-row run ending the file (its Δt is unknown: 0) — this read used to panic
+        let mut df = parquet::traces_frame(&[t("a", 5), t("c", 1)]).unwrap();
+        parquet::write(&path, &mut df).unwrap();
+        let back = parquet::read_traces(&path, &|_| true).unwrap();
+        assert_eq!((back[1].truth.len(), back[1].dt_s), (1, 0.0));
     }
 
     #[test]

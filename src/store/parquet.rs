@@ -217,6 +217,31 @@ fn union_of_names<'a, R: Iterator<Item = &'a str>>(rows: impl Iterator<Item = R>
     names
 }
 
+/// `(run_id, run_hash, status)` of every row of `runs.parquet`, reading those columns only.
+pub(super) fn read_run_keys(path: &Path) -> Result<Vec<(String, String, RunStatus)>, StoreError> {
+    assert_off_worker_pool(path);
+    let e = |x: PolarsError| err(path, x);
+    let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+    let df = ParquetReader::new(file)
+        .with_columns(Some(vec!["run_id".into(), "run_hash".into(), "status".into()]))
+        .finish()
+        .map_err(e)?;
+    let column = |name: &str| df.column(name).map_err(e)?.str().map_err(e).cloned();
+    let (id, hash, status) = (column("run_id")?, column("run_hash")?, column("status")?);
+    Ok(id
+        .iter()
+        .zip(hash.iter())
+        .zip(status.iter())
+        .map(|((id, hash), status)| {
+            (
+                id.unwrap_or_default().to_string(),
+                hash.unwrap_or_default().to_string(),
+                RunStatus::parse(status.unwrap_or_default()),
+            )
+        })
+        .collect())
+}
+
 pub(super) fn read_runs(path: &Path) -> Result<Vec<RunRow>, StoreError> {
     let df = read(path)?;
     let e = |x: PolarsError| err(path, x);
@@ -368,7 +393,18 @@ pub(super) fn read_traces(
     path: &Path,
     keep: &dyn Fn(&str) -> bool,
 ) -> Result<Vec<TraceRows>, StoreError> {
-    let df = read(path)?;
+    let mut out = Vec::new();
+    parse_traces(path, &read(path)?, keep, &mut out)?;
+    Ok(finish_traces(out))
+}
+
+/// Appends the rows of `df` (whole runs, in file order) whose run `keep` accepts to `out`.
+fn parse_traces(
+    path: &Path,
+    df: &DataFrame,
+    keep: &dyn Fn(&str) -> bool,
+    out: &mut Vec<TraceRows>,
+) -> Result<(), StoreError> {
     let e = |x: PolarsError| err(path, x);
     let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
     let t = df.column("t_s").map_err(e)?.f64().map_err(e)?;
@@ -391,11 +427,11 @@ pub(super) fn read_traces(
         f("est_theta_rad")?,
     );
     let neff: Vec<Option<f64>> = df.column("neff").map_err(e)?.f64().map_err(e)?.iter().collect();
-    let mut out: Vec<TraceRows> = Vec::new();
+    let ids: Vec<&str> = ids.iter().map(Option::unwrap_or_default).collect();
     // a run's rows are consecutive: `keep` is asked once per run, not once per step
     let mut last: Option<(&str, bool)> = None;
     for i in 0..df.height() {
-        let id = ids.get(i).unwrap_or_default();
+        let id = ids[i];
         let kept = match last {
             Some((prev, kept)) if prev == id => kept,
             _ => keep(id),
@@ -405,8 +441,10 @@ pub(super) fn read_traces(
             continue;
         }
         if out.last().is_none_or(|r| r.run_id != id) {
-            let dt_s = match (t.get(i), t.get(i + 1), ids.get(i + 1)) {
-                (Some(a), Some(b), Some(next)) if next == id => b - a,
+            // (polars' `get` panics past the end: a one-row run may end the frame)
+            let next = (i + 1 < df.height()).then(|| (t.get(i + 1), ids[i + 1]));
+            let dt_s = match (t.get(i), next) {
+                (Some(a), Some((Some(b), next))) if next == id => b - a,
                 _ => 0.0,
             };
             out.push(TraceRows { dt_s, ..TraceRows::empty(id) });
@@ -416,13 +454,17 @@ pub(super) fn read_traces(
         r.estimate.push(Pose2::new(ex[i], ey[i], et[i]));
         r.neff.push(neff[i]);
     }
-    // A run without any N̂eff (no particle filter) keeps an empty series.
+    Ok(())
+}
+
+/// A run without any N̂eff (no particle filter) keeps an empty series.
+fn finish_traces(mut out: Vec<TraceRows>) -> Vec<TraceRows> {
     for r in &mut out {
         if r.neff.iter().all(Option::is_none) {
             r.neff.clear();
         }
     }
-    Ok(out)
+    out
 }
 
 /// Final maps: one row per landmark; lines fill `rho_m`/`theta_rad`, corners `x_m`/`y_m`.
@@ -494,7 +536,18 @@ pub(super) fn read_landmarks(
     path: &Path,
     keep: &dyn Fn(&str) -> bool,
 ) -> Result<Vec<RunLandmarks>, StoreError> {
-    let df = read(path)?;
+    let mut out = Vec::new();
+    parse_landmarks(path, &read(path)?, keep, &mut out)?;
+    Ok(out)
+}
+
+/// Appends the rows of `df` (whole runs, in file order) whose run `keep` accepts to `out`.
+fn parse_landmarks(
+    path: &Path,
+    df: &DataFrame,
+    keep: &dyn Fn(&str) -> bool,
+    out: &mut Vec<RunLandmarks>,
+) -> Result<(), StoreError> {
     let e = |x: PolarsError| err(path, x);
     let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
     let kind = df.column("kind").map_err(e)?.str().map_err(e)?;
@@ -514,23 +567,28 @@ pub(super) fn read_landmarks(
         Ok(c) => c.u32().map_err(e)?.iter().collect(),
         Err(_) => vec![None; df.height()],
     };
-    let mut out: Vec<RunLandmarks> = Vec::new();
-    for i in 0..df.height() {
-        let id = ids.get(i).unwrap_or_default();
-        if !keep(id) {
+    let mut last: Option<(&str, bool)> = None;
+    for (i, (id, kind)) in ids.iter().zip(kind.iter()).enumerate() {
+        let id = id.unwrap_or_default();
+        let kept = match last {
+            Some((prev, kept)) if prev == id => kept,
+            _ => keep(id),
+        };
+        last = Some((id, kept));
+        if !kept {
             continue;
         }
         if out.last().is_none_or(|m| m.run_id != id) {
             out.push(RunLandmarks { run_id: id.to_string(), landmarks: Vec::new() });
         }
-        let l = match kind.get(i) {
+        let l = match kind {
             Some("line") => LandmarkRow::Line { rho_m: rho[i], theta_rad: theta[i] },
             Some("point") => LandmarkRow::Point { x_m: x[i], y_m: y[i], id: landmark_id[i] },
             _ => LandmarkRow::Corner { x_m: x[i], y_m: y[i] },
         };
         out.last_mut().expect("just pushed").landmarks.push(l);
     }
-    Ok(out)
+    Ok(())
 }
 
 /// Scan matches: one row per match, poses of the current scan in the reference frame.
@@ -598,7 +656,18 @@ pub(super) fn read_matches(
     path: &Path,
     keep: &dyn Fn(&str) -> bool,
 ) -> Result<Vec<MatchRows>, StoreError> {
-    let df = read(path)?;
+    let mut out = Vec::new();
+    parse_matches(path, &read(path)?, keep, &mut out)?;
+    Ok(out)
+}
+
+/// Appends the rows of `df` (whole runs, in file order) whose run `keep` accepts to `out`.
+fn parse_matches(
+    path: &Path,
+    df: &DataFrame,
+    keep: &dyn Fn(&str) -> bool,
+    out: &mut Vec<MatchRows>,
+) -> Result<(), StoreError> {
     let e = |x: PolarsError| err(path, x);
     let ids = df.column("run_id").map_err(e)?.str().map_err(e)?;
     let f = |name: &str| -> Result<Vec<f64>, StoreError> {
@@ -635,7 +704,6 @@ pub(super) fn read_matches(
         .map(|v| v.unwrap_or(false))
         .collect();
     let stop = df.column("stop").map_err(e)?.str().map_err(e)?;
-    let mut out: Vec<MatchRows> = Vec::new();
     for i in 0..df.height() {
         let id = ids.get(i).unwrap_or_default();
         if !keep(id) {
@@ -661,7 +729,7 @@ pub(super) fn read_matches(
             time_s: time[i],
         });
     }
-    Ok(out)
+    Ok(())
 }
 
 pub(super) fn timings_frame(timings: &[Timing]) -> PolarsResult<DataFrame> {
@@ -694,4 +762,240 @@ pub(super) fn read_timings(path: &Path) -> Result<Vec<Timing>, StoreError> {
             cached: cached.get(i).unwrap_or(false),
         })
         .collect())
+}
+
+/// Where the runs lie in a per-run file (traces, final maps, matches), so that a reader wanting a
+/// few runs decodes only their rows. Each row group's statistics bound the run ids it holds; the
+/// `run_id` column of a row group that may hold a wanted run is read (once) to find each run's
+/// block of consecutive rows, and only those blocks are decoded.
+pub(super) struct RunIndex {
+    metadata: std::sync::Arc<polars::io::parquet::read::FileMetadata>,
+    groups: Vec<RowGroup>,
+}
+
+struct RowGroup {
+    /// First row and number of rows.
+    start: usize,
+    rows: usize,
+    /// The smallest and largest run id in the group; `None` without statistics (may hold any).
+    bounds: Option<(String, String)>,
+    /// `(run_id, first row, rows)` of each block of consecutive rows of one run, in file order;
+    /// read when first needed.
+    blocks: std::cell::OnceCell<Vec<(String, usize, usize)>>,
+}
+
+/// Kept blocks closer than this many rows are read as one slice (the rows between are decoded and
+/// dropped): fewer, larger reads.
+const MERGE_GAP_ROWS: usize = 4096;
+
+impl RunIndex {
+    /// Reads the file's metadata only.
+    pub(super) fn build(path: &Path) -> Result<Self, StoreError> {
+        assert_off_worker_pool(path);
+        let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+        let metadata = ParquetReader::new(file).get_metadata().map_err(|x| err(path, x))?.clone();
+        let mut start = 0;
+        let groups = metadata
+            .row_groups
+            .iter()
+            .map(|g| {
+                let bounds = g
+                    .columns_under_root_iter("run_id")
+                    .and_then(|mut c| c.next())
+                    .and_then(|c| c.statistics(&metadata.footer_buf))
+                    .and_then(Result::ok)
+                    .and_then(|s| match s {
+                        polars_parquet::parquet::statistics::Statistics::Binary(b) => {
+                            let text = |v: Option<Vec<u8>>| String::from_utf8(v?).ok();
+                            Some((text(b.min_value)?, text(b.max_value)?))
+                        }
+                        _ => None,
+                    });
+                let group =
+                    RowGroup { start, rows: g.num_rows(), bounds, blocks: Default::default() };
+                start += g.num_rows();
+                group
+            })
+            .collect();
+        Ok(Self { metadata, groups })
+    }
+
+    /// Reads `rows` rows from `start` (of the columns `columns`, or all).
+    fn slice(
+        &self,
+        path: &Path,
+        (start, rows): (usize, usize),
+        columns: Option<Vec<String>>,
+    ) -> Result<DataFrame, StoreError> {
+        assert_off_worker_pool(path);
+        let file = std::fs::File::open(path).map_err(|e| StoreError::io(path, e))?;
+        let mut reader = ParquetReader::new(file);
+        reader.set_metadata(self.metadata.clone());
+        reader
+            .with_columns(columns)
+            .with_slice(Some((start, rows)))
+            .finish()
+            .map_err(|x| err(path, x))
+    }
+
+    /// The blocks of runs of row group `g`, reading its `run_id` column the first time.
+    fn blocks<'a>(
+        &self,
+        path: &Path,
+        g: &'a RowGroup,
+    ) -> Result<&'a [(String, usize, usize)], StoreError> {
+        if g.blocks.get().is_none() {
+            let df = self.slice(path, (g.start, g.rows), Some(vec!["run_id".into()]))?;
+            let ids = df.column("run_id").map_err(|x| err(path, x))?;
+            let mut blocks: Vec<(String, usize, usize)> = Vec::new();
+            for (k, id) in ids.str().map_err(|x| err(path, x))?.iter().enumerate() {
+                let id = id.unwrap_or_default();
+                match blocks.last_mut() {
+                    Some((last, _, n)) if last == id => *n += 1,
+                    _ => blocks.push((id.to_string(), g.start + k, 1)),
+                }
+            }
+            let _ = g.blocks.set(blocks);
+        }
+        Ok(g.blocks.get().expect("set above"))
+    }
+
+    /// The row ranges holding every run of `ids`, merged where close, in file order.
+    fn ranges(
+        &self,
+        path: &Path,
+        ids: &std::collections::BTreeSet<&str>,
+    ) -> Result<Vec<(usize, usize)>, StoreError> {
+        let mut out: Vec<(usize, usize)> = Vec::new();
+        for g in &self.groups {
+            let may_hold = match &g.bounds {
+                Some((lo, hi)) => ids.range(lo.as_str()..=hi.as_str()).next().is_some(),
+                None => !ids.is_empty(),
+            };
+            if !may_hold {
+                continue;
+            }
+            for (_, start, n) in
+                self.blocks(path, g)?.iter().filter(|(id, _, _)| ids.contains(id.as_str()))
+            {
+                match out.last_mut() {
+                    Some((s, len)) if *s + *len + MERGE_GAP_ROWS >= *start => *len = start + n - *s,
+                    _ => out.push((*start, *n)),
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Hands the slices of the file holding the runs of `ids` to `parse`, in file order.
+    fn read(
+        &self,
+        path: &Path,
+        ids: &std::collections::BTreeSet<&str>,
+        mut parse: impl FnMut(&DataFrame) -> Result<(), StoreError>,
+    ) -> Result<(), StoreError> {
+        for range in self.ranges(path, ids)? {
+            parse(&self.slice(path, range, None)?)?;
+        }
+        Ok(())
+    }
+
+    pub(super) fn traces(
+        &self,
+        path: &Path,
+        ids: &std::collections::BTreeSet<&str>,
+    ) -> Result<Vec<TraceRows>, StoreError> {
+        let mut out = Vec::new();
+        let keep = |id: &str| ids.contains(id);
+        self.read(path, ids, |df| parse_traces(path, df, &keep, &mut out))?;
+        Ok(finish_traces(out))
+    }
+
+    pub(super) fn landmarks(
+        &self,
+        path: &Path,
+        ids: &std::collections::BTreeSet<&str>,
+    ) -> Result<Vec<RunLandmarks>, StoreError> {
+        let mut out = Vec::new();
+        let keep = |id: &str| ids.contains(id);
+        self.read(path, ids, |df| parse_landmarks(path, df, &keep, &mut out))?;
+        Ok(out)
+    }
+
+    pub(super) fn matches(
+        &self,
+        path: &Path,
+        ids: &std::collections::BTreeSet<&str>,
+    ) -> Result<Vec<MatchRows>, StoreError> {
+        let mut out = Vec::new();
+        let keep = |id: &str| ids.contains(id);
+        self.read(path, ids, |df| parse_matches(path, df, &keep, &mut out))?;
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::seq::SliceRandom;
+    use rand::{Rng, SeedableRng};
+
+    fn trace(id: &str, n: usize) -> TraceRows {
+        TraceRows {
+            run_id: id.into(),
+            dt_s: 0.5,
+            truth: (0..n).map(|k| Pose2::new(k as f64, 1.0, 0.0)).collect(),
+            estimate: (0..n).map(|k| Pose2::new(k as f64, 2.0, 0.1)).collect(),
+            neff: if n % 2 == 0 { (0..n).map(|k| Some(k as f64)).collect() } else { Vec::new() },
+        }
+    }
+
+    /// Reading some runs through the index gives exactly what a whole-file read filtered to them
+    /// gives: runs of 1–40 rows over many row groups, written sorted and shuffled (overlapping
+    /// statistics), asking for absent ids, none, one and all.
+    #[test]
+    fn run_index_reads_what_a_full_read_filters() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let ids: Vec<String> = (0..60).map(|k| format!("map--alg--p{k:03}--r00")).collect();
+        for shuffled in [false, true] {
+            let mut order = ids.clone();
+            if shuffled {
+                order.shuffle(&mut rng);
+            }
+            let traces: Vec<TraceRows> =
+                order.iter().map(|id| trace(id, rng.random_range(1..40))).collect();
+            let maps: Vec<RunLandmarks> = order
+                .iter()
+                .map(|id| RunLandmarks {
+                    run_id: id.clone(),
+                    landmarks: (0..rng.random_range(0..4))
+                        .map(|k| LandmarkRow::Corner { x_m: k as f64, y_m: 1.0 })
+                        .collect(),
+                })
+                .collect();
+            let (tp, lp) =
+                (dir.path().join("traces.parquet"), dir.path().join("landmarks.parquet"));
+            for (path, mut df) in
+                [(&tp, traces_frame(&traces).unwrap()), (&lp, landmarks_frame(&maps).unwrap())]
+            {
+                let file = std::fs::File::create(path).unwrap();
+                ParquetWriter::new(file).with_row_group_size(Some(37)).finish(&mut df).unwrap();
+            }
+            let (ti, li) = (RunIndex::build(&tp).unwrap(), RunIndex::build(&lp).unwrap());
+            assert!(ti.groups.len() > 10, "the test needs many row groups");
+            let mut asks: Vec<Vec<&str>> = vec![vec![], vec!["absent"], vec![ids[0].as_str()]];
+            asks.push(ids.iter().map(String::as_str).collect());
+            for _ in 0..20 {
+                let n = rng.random_range(1..8);
+                asks.push((0..n).map(|_| ids[rng.random_range(0..ids.len())].as_str()).collect());
+            }
+            for ask in asks {
+                let set: std::collections::BTreeSet<&str> = ask.iter().copied().collect();
+                let keep = |id: &str| set.contains(id);
+                assert_eq!(ti.traces(&tp, &set).unwrap(), read_traces(&tp, &keep).unwrap());
+                assert_eq!(li.landmarks(&lp, &set).unwrap(), read_landmarks(&lp, &keep).unwrap());
+            }
+        }
+    }
 }

@@ -90,6 +90,7 @@ fn each_dependency_stays_in_its_layer() {
     let src = repo().join("src");
     let rules = [
         ("polars", "store"),
+        ("polars_parquet", "store"),
         ("plotters", "report"),
         ("minijinja", "report"),
         ("rayon", "run"),

@@ -101,7 +101,12 @@ fn smoke_study_end_to_end_then_fully_cached() {
     // second run: nothing to compute, the results are left untouched, reports identical
     let before = tree(&reports);
     let results_before = tree(&results);
+    let inode = |p: &Path| std::os::unix::fs::MetadataExt::ino(&std::fs::metadata(p).unwrap());
+    let page = reports.join("smoke/index.html");
+    let page_inode = inode(&page);
     run_and_report("experiments/smoke.toml", work.path(), "2");
+    // an unchanged file is linked from the previous report, not written again
+    assert_eq!(inode(&page), page_inode, "an unchanged report file was rewritten");
     assert!(
         tree(&results) == results_before,
         "the second run rewrote results although nothing changed"
