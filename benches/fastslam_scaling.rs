@@ -7,11 +7,12 @@
 //! and start-up) ÷ observations. FastSLAM's promise (Montemerlo et al. 2002) is a cost per
 //! observation that barely grows with the map: the goal is ≤ 3× from 35 to 10 000.
 //!
-//! A plain harness (`harness = false`): each case is the median of 9 runs (3 at 10 000 landmarks,
-//! whose runs take tens of seconds), and the table is printed as Markdown. Skipped with a message when
-//! `../shared/data/bailey-sim-maps` is absent. 100 000 landmarks is not run: at the 10 000 world's
-//! density it would hold about 3 000 readings per reading step and 100 copies of a 78 000-landmark
-//! map (about 5 GB at the review's 250 MB for 7 868).
+//! A plain harness (`harness = false`): each case is the median of 9 runs (3 above 100 000
+//! observations, 1 above a million), timed in CPU seconds of the running thread (so waiting for a
+//! core on a shared machine is not counted), and the table is printed as Markdown. Skipped with a
+//! message when `../shared/data/bailey-sim-maps` is absent. 100 000 landmarks (about 3 000
+//! readings per reading step, 100 maps of up to 78 000 landmarks) runs because the maps share
+//! their blocks (`particle::Map`): before, it needed about 5 GB (the review's 250 MB for 7 868).
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -81,7 +82,14 @@ fn seconds(world: &World, which: u8, repeats: usize) -> f64 {
     s[repeats / 2]
 }
 
-/// Wall seconds of one run (single-threaded, CPU-bound).
+/// Seconds this thread has run on a CPU (`/proc/thread-self/schedstat`, nanoseconds): time spent
+/// waiting for a core on a shared machine is not counted. `None` where the kernel lacks it.
+fn thread_cpu_seconds() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    Some(text.split_whitespace().next()?.parse::<f64>().ok()? * 1e-9)
+}
+
+/// CPU seconds of one run (single-threaded, CPU-bound); wall seconds without schedstat.
 fn one_run(world: &World, which: u8) -> f64 {
     let z = stream(world, Source::Points).unwrap();
     let motion = MotionModel::Pose {
@@ -94,17 +102,20 @@ fn one_run(world: &World, which: u8) -> f64 {
         p0: 0.005,
         neff_threshold: 75.0,
         association: DataAssociation::Known,
-        max_landmarks: 20_000,
+        max_landmarks: 200_000,
         ..FastSlamParams::default()
     };
     let mut rng = ChaCha8Rng::seed_from_u64(1);
-    let start = Instant::now();
+    let (start, cpu) = (Instant::now(), thread_cpu_seconds());
     let trace = match which {
         1 => fastslam::run_on(world, &params, Some(&motion), &z, false, &mut rng),
         _ => fastslam2::run(world, &params, &motion, &z, false, &mut rng),
     }
     .unwrap();
-    let s = start.elapsed().as_secs_f64();
+    let s = match (cpu, thread_cpu_seconds()) {
+        (Some(a), Some(b)) => b - a,
+        _ => start.elapsed().as_secs_f64(),
+    };
     std::hint::black_box(trace);
     s
 }
@@ -122,8 +133,12 @@ fn main() {
         (0..n).map(|_| (rng.random_range(-130.0..105.0), rng.random_range(-100.0..95.0))).collect()
     };
     let far = world(&[(10_000.0, 10_000.0)], &waypoints);
-    let cases =
-        [("35 (webmap)", webmap), ("1 000", synthetic(1_000)), ("10 000", synthetic(10_000))];
+    let cases = [
+        ("35 (webmap)", webmap),
+        ("1 000", synthetic(1_000)),
+        ("10 000", synthetic(10_000)),
+        ("100 000", synthetic(100_000)),
+    ];
     println!(
         "\n| landmarks | observations | FastSLAM 1.0 µs/observation | FastSLAM 2.0 µs/observation |"
     );
@@ -135,7 +150,11 @@ fn main() {
         let w = world(&landmarks, &waypoints);
         let n: usize =
             stream(&w, Source::Points).unwrap().iter().map(|s| s.observations.len()).sum();
-        let repeats = if n > 100_000 { 3 } else { 9 };
+        let repeats = match n {
+            ..=100_000 => 9,
+            ..=1_000_000 => 3,
+            _ => 1,
+        };
         let per = [1, 2].map(|f| (seconds(&w, f, repeats) - base[f as usize - 1]) / n as f64 * 1e6);
         let first = *first.get_or_insert(per);
         println!(

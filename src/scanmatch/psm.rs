@@ -311,15 +311,20 @@ impl<T: Real> Frame<T> {
 struct Ranges<'a, T> {
     r: Vec<T>,
     valid: &'a [bool],
-    seg: &'a [u32],
+    /// The beams i ≥ 1 that close a pair (i − 1, i) of valid points of one segment: what the
+    /// projection interpolates between (v0.3 tests these flags in every projection).
+    pairs: Vec<usize>,
 }
 
 impl<'a, T: Real> Ranges<'a, T> {
     fn new(scan: &'a PolarScan) -> Self {
+        let (valid, seg) = (&scan.valid[..], &scan.segment[..]);
         Self {
             r: scan.ranges.iter().map(|&r| T::from_f64(r * M_TO_CM)).collect(),
-            valid: &scan.valid,
-            seg: &scan.segment,
+            valid,
+            pairs: (1..scan.len())
+                .filter(|&i| seg[i] != 0 && seg[i] == seg[i - 1] && valid[i] && valid[i - 1])
+                .collect(),
         }
     }
 }
@@ -494,49 +499,69 @@ fn project<T: Real>(
     out: &mut Projected<T>,
 ) {
     let n = frame.fi.len();
-    let (r, fi) = (&mut out.points_r, &mut out.points_fi);
-    for i in 0..n {
-        let delta = ath + frame.fi[i];
-        let x = current.r[i] * delta.cos() + ax;
-        let y = current.r[i] * delta.sin() + ay;
-        r[i] = (x * x + y * y).sqrt();
-        fi[i] = y.atan2(x);
+    let (r, fi) = (&mut out.points_r[..n], &mut out.points_fi[..n]);
+    for (((r, fi), &f), &range) in
+        r.iter_mut().zip(fi.iter_mut()).zip(&frame.fi).zip(&current.r[..n])
+    {
+        let delta = ath + f;
+        let x = range * delta.cos() + ax;
+        let y = range * delta.sin() + ay;
+        *r = (x * x + y * y).sqrt();
+        *fi = y.atan2(x);
         if x < T::ZERO && y < T::ZERO {
-            fi[i] = T::from_f64(fi[i].to_f64() + 2.0 * std::f64::consts::PI);
+            *fi = T::from_f64(fi.to_f64() + 2.0 * std::f64::consts::PI);
         }
     }
-    out.r.fill(T::from_f64(EMPTY_RANGE_CM));
-    out.usable.fill(false);
-    for i in 1..n {
-        if current.seg[i] == 0
-            || current.seg[i] != current.seg[i - 1]
-            || !current.valid[i]
-            || !current.valid[i - 1]
-        {
+    let (out_r, usable) = (&mut out.r[..n], &mut out.usable[..n]);
+    out_r.fill(T::from_f64(EMPTY_RANGE_CM));
+    usable.fill(false);
+    let last = (n - 1) as f64;
+    // (the pairs of consecutive valid points of one segment do not depend on the pose)
+    for &i in &current.pairs {
+        let (fa, fb, ra, rb) = (fi[i - 1], fi[i], r[i - 1], r[i]);
+        if (fb - fa).abs().to_f64() >= std::f64::consts::PI {
             continue;
         }
-        if (fi[i] - fi[i - 1]).abs().to_f64() >= std::f64::consts::PI {
+        let (a0, a1, r0, r1, occluded) =
+            if fb > fa { (fa, fb, ra, rb, false) } else { (fb, fa, rb, ra, true) };
+        let (q0, q1) = (
+            ((a0 - frame.fi_min) / frame.dfi).to_f64(),
+            ((a1 - frame.fi_min) / frame.dfi).to_f64(),
+        );
+        if !(q0.is_finite() && q1.is_finite()) {
             continue;
         }
-        let (a0, a1, r0, r1, occluded) = if fi[i] > fi[i - 1] {
-            (fi[i - 1], fi[i], r[i - 1], r[i], false)
-        } else {
-            (fi[i], fi[i - 1], r[i], r[i - 1], true)
-        };
-        let j0 = ((a0 - frame.fi_min) / frame.dfi).to_f64().ceil();
-        let j1 = ((a1 - frame.fi_min) / frame.dfi).to_f64().floor();
-        if !(j0.is_finite() && j1.is_finite()) || j1 < 0.0 || j0 > (n - 1) as f64 {
+        let (j0, j1) = (ceil(q0), floor(q1));
+        if j1 < 0.0 || j0 > last {
             continue;
         }
-        for j in (j0.max(0.0) as usize)..=(j1.min((n - 1) as f64) as usize) {
+        for j in (j0.max(0.0) as usize)..=(j1.min(last) as usize) {
             let ri =
                 (r1 - r0) / (a1 - a0) * ((T::from_usize(j) * frame.dfi + frame.fi_min) - a0) + r0;
-            if out.r[j] > ri {
-                out.r[j] = ri;
-                out.usable[j] = !occluded;
+            if out_r[j] > ri {
+                out_r[j] = ri;
+                usable[j] = !occluded;
             }
         }
     }
+}
+
+/// ⌈x⌉ of a finite `x`, as `f64::ceil` but without a libm call (x86-64's baseline has no rounding
+/// instruction): truncation toward zero, then one up where that fell below. Exact: every finite
+/// value below 2⁶³ in magnitude truncates exactly, and beyond, `as` saturates to a value past
+/// either end of the scan, which the caller treats as `ceil` would (only −0.0 becomes +0.0, the
+/// same index).
+#[inline]
+fn ceil(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t < x { t + 1.0 } else { t }
+}
+
+/// ⌊x⌋ of a finite `x`, as `f64::floor`, without a libm call (see [`ceil`]).
+#[inline]
+fn floor(x: f64) -> f64 {
+    let t = x as i64 as f64;
+    if t > x { t - 1.0 } else { t }
 }
 
 /// `pm_orientation_search`: the shift di ∈ [−W, W] minimising e(di) = mean |r̂ᵢ − r_ref,i+di| over
@@ -561,7 +586,7 @@ fn orientation_errors<T: Real>(
 ) -> Vec<T> {
     let n = reference.r.len() as isize;
     let w = params.search_window_beams as isize;
-    let (one, zero) = (T::from_f64(1.0), T::ZERO);
+    let zero = T::ZERO;
     (-w..=w)
         .map(|di| {
             // pairs (i, i + di) with both indices inside the scan, summed in v0.3's order; the
@@ -572,13 +597,16 @@ fn orientation_errors<T: Real>(
             let len = (n - shift) as usize;
             let (cur, usable) = (&projected.r[i0..i0 + len], &projected.usable[i0..i0 + len]);
             let (refr, valid) = (&reference.r[k0..k0 + len], &reference.valid[k0..k0 + len]);
-            let (mut e, mut count) = (zero, zero);
+            // (v0.3 skips an unusable pair rather than adding a zero: the sum's dependency chain
+            // is only as long as the pairs; adding +0.0 would not change it, so either is exact)
+            let (mut e, mut count) = (zero, 0usize);
             for t in 0..len {
-                let pair = usable[t] & valid[t];
-                e += if pair { (cur[t] - refr[t]).abs() } else { zero };
-                count += if pair { one } else { zero };
+                if usable[t] & valid[t] {
+                    e += (cur[t] - refr[t]).abs();
+                    count += 1;
+                }
             }
-            if count > zero { e / count } else { T::from_f64(NO_OVERLAP_ERROR_CM) }
+            if count > 0 { e / T::from_usize(count) } else { T::from_f64(NO_OVERLAP_ERROR_CM) }
         })
         .collect()
 }
@@ -695,6 +723,24 @@ fn translation_step<T: Real>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The libm-free ⌈·⌉ and ⌊·⌋ equal `f64::ceil` and `f64::floor` (as indices: −0.0 = +0.0).
+    #[test]
+    fn ceil_and_floor_without_libm_are_exact() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut values = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 180.0, 1e-300, -1e-300, 4.5e15];
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let unit = (x >> 11) as f64 / (1u64 << 53) as f64;
+            values.push((unit - 0.5) * [4.0, 400.0, 1e6, 1e15][(x % 4) as usize]);
+        }
+        for v in values {
+            assert_eq!(ceil(v), v.ceil(), "ceil {v:e}");
+            assert_eq!(floor(v), v.floor(), "floor {v:e}");
+        }
+    }
     use crate::scanmatch::objective::{Objective, ObjectiveParams};
     use crate::scanmatch::scan::testing::*;
     use crate::scanmatch::segment::{Segmentation, SegmentationParams, prepare};
@@ -896,7 +942,7 @@ mod tests {
         };
         let n = ranges_cm.len();
         let reference =
-            Ranges { r: ranges_cm.to_vec(), valid: vec![true; n].leak(), seg: vec![1; n].leak() };
+            Ranges { r: ranges_cm.to_vec(), valid: vec![true; n].leak(), pairs: (1..n).collect() };
         let projected = Projected {
             r: projected_cm.to_vec(),
             usable: vec![true; projected_cm.len()],

@@ -1,6 +1,7 @@
 //! A FastSLAM particle: a pose hypothesis and its own landmark map — one 2 × 2 EKF per landmark
 //! ([FT] Eq. 3.7). Maps are shared copy-on-write between particles (`Arc`): resampling copies
-//! pointers, and a particle copies a map only when it changes a map it shares.
+//! pointers, and a particle that changes a map it shares copies the map's block pointers and only
+//! the blocks of 64 landmarks it changes ([`Blocks`]).
 
 use super::models::Model;
 use crate::geom::Pose2;
@@ -42,15 +43,87 @@ impl Landmark {
 /// that known association finds a landmark in O(1) rather than by a search of the map. Landmarks
 /// are only ever added ([`Map::push`]), and a landmark's identity never changes, so the index
 /// stays that of the first.
+///
+/// Every list is stored in shared blocks of [`BLOCK`] entries (copy-on-write, like FastSLAM's
+/// tree of landmarks shared between particles, Montemerlo et al. 2002 §4): copying a map — a
+/// particle that changes a map it shares after resampling — copies K / `BLOCK` pointers, and
+/// changing a landmark copies the one block that holds it, not the K landmarks.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Map {
-    lines: Vec<Landmark>,
-    corners: Vec<Landmark>,
+    lines: Blocks<Landmark>,
+    corners: Blocks<Landmark>,
     /// Per list (lines, corners): `index[id]` = 1 + the first landmark with identity `id`, or 0.
-    index: [Vec<u32>; 2],
+    index: [Blocks<u32>; 2],
 }
 
-/// Identities at or above this are not indexed (the index is a vector as long as the largest
+/// Entries per shared block of a [`Map`]'s lists: a change copies one block (64 landmarks, 4 KiB),
+/// a map copy K / 64 pointers.
+pub const BLOCK: usize = 64;
+
+/// A list stored in shared blocks of [`BLOCK`] entries (all full but the last), copied on write
+/// one block at a time. Indexing and iteration are those of the list.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Blocks<T> {
+    blocks: Vec<Arc<Vec<T>>>,
+    len: usize,
+}
+
+impl<T> Default for Blocks<T> {
+    fn default() -> Self {
+        Self { blocks: Vec::new(), len: 0 }
+    }
+}
+
+impl<T: Clone> Blocks<T> {
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    pub fn get(&self, k: usize) -> Option<&T> {
+        (k < self.len).then(|| &self.blocks[k / BLOCK][k % BLOCK])
+    }
+
+    /// Entry `k` for writing: its block is copied first if another list shares it.
+    pub fn get_mut(&mut self, k: usize) -> Option<&mut T> {
+        (k < self.len).then(|| &mut Arc::make_mut(&mut self.blocks[k / BLOCK])[k % BLOCK])
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = &T> + '_ {
+        self.blocks.iter().flat_map(|b| b.iter())
+    }
+
+    pub fn push(&mut self, value: T) {
+        match self.blocks.last_mut() {
+            Some(last) if last.len() < BLOCK => Arc::make_mut(last).push(value),
+            _ => self.blocks.push(Arc::new({
+                let mut block = Vec::with_capacity(BLOCK);
+                block.push(value);
+                block
+            })),
+        }
+        self.len += 1;
+    }
+}
+
+impl<T: Clone> std::ops::Index<usize> for Blocks<T> {
+    type Output = T;
+    fn index(&self, k: usize) -> &T {
+        self.get(k).unwrap_or_else(|| panic!("index {k} out of a list of {}", self.len))
+    }
+}
+
+impl<T: Clone> std::ops::IndexMut<usize> for Blocks<T> {
+    fn index_mut(&mut self, k: usize) -> &mut T {
+        let len = self.len;
+        self.get_mut(k).unwrap_or_else(|| panic!("index {k} out of a list of {len}"))
+    }
+}
+
+/// Identities at or above this are not indexed (the index is a list as long as the largest
 /// identity) and are found by searching the list: every dataset's identities are landmark
 /// numbers, far below it.
 const INDEXED_IDS: usize = 1 << 24;
@@ -63,26 +136,27 @@ impl Map {
         }
     }
 
-    pub fn of(&self, model: Model) -> &[Landmark] {
+    pub fn of(&self, model: Model) -> &Blocks<Landmark> {
         match model {
             Model::Line => &self.lines,
             Model::Point => &self.corners,
         }
     }
 
-    /// The landmarks of one list, for updating in place (adding goes through [`Map::push`]).
-    pub fn of_mut(&mut self, model: Model) -> &mut [Landmark] {
+    /// The landmarks of one list, for updating in place (adding goes through [`Map::push`]);
+    /// indexing copies the landmark's block first if another map shares it.
+    pub fn of_mut(&mut self, model: Model) -> &mut Blocks<Landmark> {
         match model {
             Model::Line => &mut self.lines,
             Model::Point => &mut self.corners,
         }
     }
 
-    pub fn lines(&self) -> &[Landmark] {
+    pub fn lines(&self) -> &Blocks<Landmark> {
         &self.lines
     }
 
-    pub fn corners(&self) -> &[Landmark] {
+    pub fn corners(&self) -> &Blocks<Landmark> {
         &self.corners
     }
 
@@ -94,8 +168,8 @@ impl Map {
         };
         if let Some(id) = landmark.id.filter(|&id| id < INDEXED_IDS) {
             let index = &mut self.index[Self::slot(model)];
-            if index.len() <= id {
-                index.resize(id + 1, 0);
+            while index.len() <= id {
+                index.push(0);
             }
             if index[id] == 0 {
                 index[id] = list.len() as u32 + 1;
@@ -238,6 +312,55 @@ pub fn argmax(w: &[f64]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A block list behaves as a list (push, index, change, iterate) under random operations,
+    /// and a copy shares every block until one changes: then only that block is copied.
+    #[test]
+    fn blocks_are_a_list_shared_block_by_block() {
+        let (mut list, mut plain) = (Blocks::<u64>::default(), Vec::<u64>::new());
+        let mut x = 1u64;
+        for step in 0..5_000u64 {
+            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            if plain.is_empty() || x % 3 == 0 {
+                list.push(step);
+                plain.push(step);
+            } else {
+                let k = (x >> 33) as usize % plain.len();
+                list[k] += 7;
+                plain[k] += 7;
+            }
+        }
+        assert_eq!(list.len(), plain.len());
+        assert!(list.iter().copied().eq(plain.iter().copied()));
+        assert!((0..plain.len()).all(|k| list[k] == plain[k] && list.get(k) == Some(&plain[k])));
+        assert_eq!(list.get(plain.len()), None);
+        let mut copy = list.clone();
+        copy[BLOCK + 1] = 0;
+        let shared = list.blocks.iter().zip(&copy.blocks).filter(|(a, b)| Arc::ptr_eq(a, b));
+        assert_eq!(shared.count(), list.blocks.len() - 1, "only the changed block is copied");
+        assert_eq!(list[BLOCK + 1], plain[BLOCK + 1], "the original is unchanged");
+    }
+
+    /// Maps find a landmark by identity whatever the block it sits in, the first one created from
+    /// an identity wins, and a copy's change does not reach the original.
+    #[test]
+    fn map_identity_index_across_blocks_and_copies() {
+        let mut map = Map::default();
+        let at = |k: usize| Landmark {
+            id: Some(3 * k),
+            ..Landmark::new(Vector2::new(k as f64, 0.0), Matrix2::identity())
+        };
+        for k in 0..300 {
+            map.push(Model::Point, at(k));
+        }
+        map.push(Model::Point, Landmark { mean: Vector2::new(-1.0, 0.0), ..at(5) });
+        assert_eq!(map.find_id(Model::Point, 15), Some(5));
+        assert_eq!(map.find_id(Model::Point, 3 * 299), Some(299));
+        assert_eq!((map.find_id(Model::Point, 16), map.find_id(Model::Line, 15)), (None, None));
+        let mut copy = map.clone();
+        copy.of_mut(Model::Point)[200].mean[1] = 9.0;
+        assert_eq!((map.corners()[200].mean[1], copy.corners()[200].mean[1]), (0.0, 9.0));
+    }
 
     /// Copies share their ancestry: two descendants of one particle see its past, then their
     /// own steps; a path of 100 000 poses drops without recursion.

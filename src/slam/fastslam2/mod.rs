@@ -73,6 +73,7 @@ use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
 pub const CODE_VERSION: &str = "fastslam2-4";
@@ -484,6 +485,14 @@ impl<'a> FastSlam2<'a> {
         // the shared-landmark rule) is folded once, with its readings stacked: they share the
         // landmark's error, which folding each against the unchanged landmark would count once
         // per reading. The group's factor goes to its first reading.
+        // The readings that chose each landmark, in reading order: reading k's group is the rest
+        // of its landmark's list from k on (found in O(z), not by a scan of the later readings).
+        let mut chose: BTreeMap<(bool, usize), Vec<usize>> = BTreeMap::new();
+        for (k, d) in decisions.iter().enumerate() {
+            if let Association::Known { landmark, .. } = *d {
+                chose.entry((z[k].model == Model::Point, landmark)).or_default().push(k);
+            }
+        }
         let mut folded = vec![false; z.len()];
         for k in 0..z.len() {
             let Association::Known { landmark, .. } = decisions[k] else { continue };
@@ -491,12 +500,8 @@ impl<'a> FastSlam2<'a> {
                 continue;
             }
             let o = &z[k];
-            let group: Vec<usize> = (k..z.len())
-                .filter(|&g| {
-                    z[g].model == o.model
-                        && matches!(decisions[g], Association::Known { landmark: j, .. } if j == landmark)
-                })
-                .collect();
+            let list = &chose[&(o.model == Model::Point, landmark)];
+            let group: Vec<usize> = list[list.partition_point(|&g| g < k)..].to_vec();
             let l = &map.of(o.model)[landmark];
             let factor = if group.len() == 1 {
                 refine(&mut mu, &mut sigma, o, l)
