@@ -132,16 +132,6 @@ fn drawn_cells(
     mut cell: f64,
 ) -> (f64, Vec<(f64, f64)>) {
     loop {
-        // A bin of side `cell` holds at most `per_axis²` cell centres (spaced `cell_m`; one more
-        // per axis for rounding), so a size whose bound exceeds the limit cannot pass: skip it
-        // without binning. The size chosen is the same.
-        let per_axis = (cell / im.cell_m).floor() + 2.0;
-        if cell.is_finite()
-            && (im.cells.len() as f64) / (per_axis * per_axis) > MAP_MAX_POINTS as f64
-        {
-            cell *= 1.25;
-            continue;
-        }
         let bins = rebinned(&im.cells, im.cell_m, cell);
         if bins.len() <= MAP_MAX_POINTS || !cell.is_finite() {
             return (

@@ -393,9 +393,21 @@ pub(super) fn read_traces(
     path: &Path,
     keep: &dyn Fn(&str) -> bool,
 ) -> Result<Vec<TraceRows>, StoreError> {
+    Ok(finish_traces(read_whole(path, keep, parse_traces)?))
+}
+
+/// Appends the rows of a frame of whole runs (in file order) whose run `keep` accepts.
+type Parse<T> = fn(&Path, &DataFrame, &dyn Fn(&str) -> bool, &mut Vec<T>) -> Result<(), StoreError>;
+
+/// Every row of the file at `path` whose run `keep` accepts, parsed by `parse`.
+fn read_whole<T>(
+    path: &Path,
+    keep: &dyn Fn(&str) -> bool,
+    parse: Parse<T>,
+) -> Result<Vec<T>, StoreError> {
     let mut out = Vec::new();
-    parse_traces(path, &read(path)?, keep, &mut out)?;
-    Ok(finish_traces(out))
+    parse(path, &read(path)?, keep, &mut out)?;
+    Ok(out)
 }
 
 /// Appends the rows of `df` (whole runs, in file order) whose run `keep` accepts to `out`.
@@ -536,9 +548,7 @@ pub(super) fn read_landmarks(
     path: &Path,
     keep: &dyn Fn(&str) -> bool,
 ) -> Result<Vec<RunLandmarks>, StoreError> {
-    let mut out = Vec::new();
-    parse_landmarks(path, &read(path)?, keep, &mut out)?;
-    Ok(out)
+    read_whole(path, keep, parse_landmarks)
 }
 
 /// Appends the rows of `df` (whole runs, in file order) whose run `keep` accepts to `out`.
@@ -656,9 +666,7 @@ pub(super) fn read_matches(
     path: &Path,
     keep: &dyn Fn(&str) -> bool,
 ) -> Result<Vec<MatchRows>, StoreError> {
-    let mut out = Vec::new();
-    parse_matches(path, &read(path)?, keep, &mut out)?;
-    Ok(out)
+    read_whole(path, keep, parse_matches)
 }
 
 /// Appends the rows of `df` (whole runs, in file order) whose run `keep` accepts to `out`.
@@ -887,17 +895,19 @@ impl RunIndex {
         Ok(out)
     }
 
-    /// Hands the slices of the file holding the runs of `ids` to `parse`, in file order.
-    fn read(
+    /// The rows of the runs `ids`, parsed by `parse` from the slices that hold them, in file
+    /// order.
+    fn rows<T>(
         &self,
         path: &Path,
         ids: &std::collections::BTreeSet<&str>,
-        mut parse: impl FnMut(&DataFrame) -> Result<(), StoreError>,
-    ) -> Result<(), StoreError> {
+        parse: Parse<T>,
+    ) -> Result<Vec<T>, StoreError> {
+        let (keep, mut out) = (|id: &str| ids.contains(id), Vec::new());
         for range in self.ranges(path, ids)? {
-            parse(&self.slice(path, range, None)?)?;
+            parse(path, &self.slice(path, range, None)?, &keep, &mut out)?;
         }
-        Ok(())
+        Ok(out)
     }
 
     pub(super) fn traces(
@@ -905,10 +915,7 @@ impl RunIndex {
         path: &Path,
         ids: &std::collections::BTreeSet<&str>,
     ) -> Result<Vec<TraceRows>, StoreError> {
-        let mut out = Vec::new();
-        let keep = |id: &str| ids.contains(id);
-        self.read(path, ids, |df| parse_traces(path, df, &keep, &mut out))?;
-        Ok(finish_traces(out))
+        Ok(finish_traces(self.rows(path, ids, parse_traces)?))
     }
 
     pub(super) fn landmarks(
@@ -916,10 +923,7 @@ impl RunIndex {
         path: &Path,
         ids: &std::collections::BTreeSet<&str>,
     ) -> Result<Vec<RunLandmarks>, StoreError> {
-        let mut out = Vec::new();
-        let keep = |id: &str| ids.contains(id);
-        self.read(path, ids, |df| parse_landmarks(path, df, &keep, &mut out))?;
-        Ok(out)
+        self.rows(path, ids, parse_landmarks)
     }
 
     pub(super) fn matches(
@@ -927,10 +931,7 @@ impl RunIndex {
         path: &Path,
         ids: &std::collections::BTreeSet<&str>,
     ) -> Result<Vec<MatchRows>, StoreError> {
-        let mut out = Vec::new();
-        let keep = |id: &str| ids.contains(id);
-        self.read(path, ids, |df| parse_matches(path, df, &keep, &mut out))?;
-        Ok(out)
+        self.rows(path, ids, parse_matches)
     }
 }
 
