@@ -247,8 +247,12 @@ pub fn psm_observed<C: Cost + ?Sized>(
         && !reference.is_empty()
     {
         match params.precision {
-            Precision::Single => iterate::<f32>(reference, current, initial, params, observe),
-            Precision::Double => iterate::<f64>(reference, current, initial, params, observe),
+            Precision::Single => {
+                iterate_fastest::<f32>(reference, current, initial, params, observe)
+            }
+            Precision::Double => {
+                iterate_fastest::<f64>(reference, current, initial, params, observe)
+            }
         }
     } else {
         Run { outcome: Err(Stop::TooFewPairs), passes: 0 }
@@ -314,17 +318,24 @@ struct Ranges<'a, T> {
     /// The beams i ≥ 1 that close a pair (i − 1, i) of valid points of one segment: what the
     /// projection interpolates between (v0.3 tests these flags in every projection).
     pairs: Vec<usize>,
+    /// The beams of those pairs, ascending: the only points the projection uses (v0.3 projects
+    /// every beam; the others' values are never read).
+    paired_points: Vec<usize>,
 }
 
 impl<'a, T: Real> Ranges<'a, T> {
     fn new(scan: &'a PolarScan) -> Self {
         let (valid, seg) = (&scan.valid[..], &scan.segment[..]);
+        let pairs: Vec<usize> = (1..scan.len())
+            .filter(|&i| seg[i] != 0 && seg[i] == seg[i - 1] && valid[i] && valid[i - 1])
+            .collect();
+        let mut paired_points: Vec<usize> = pairs.iter().flat_map(|&i| [i - 1, i]).collect();
+        paired_points.dedup(); // (ascending, so each repeat is adjacent)
         Self {
             r: scan.ranges.iter().map(|&r| T::from_f64(r * M_TO_CM)).collect(),
             valid,
-            pairs: (1..scan.len())
-                .filter(|&i| seg[i] != 0 && seg[i] == seg[i - 1] && valid[i] && valid[i - 1])
-                .collect(),
+            pairs,
+            paired_points,
         }
     }
 }
@@ -352,7 +363,41 @@ impl<T: Real> Projected<T> {
     }
 }
 
+/// [`iterate`] compiled for the newest instruction set this CPU has (x86-64-v3 where present).
+/// The result is the same bit for bit: Rust never fuses a multiply and an add, and every operation
+/// is an IEEE basic operation or the same libm call either way; only the instructions differ.
+fn iterate_fastest<T: Real>(
+    reference: &PolarScan,
+    current: &PolarScan,
+    initial: Pose2,
+    params: &PsmParams,
+    observe: &mut dyn FnMut(Pose2),
+) -> Run {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2")
+        && std::is_x86_feature_detected!("fma")
+        && std::is_x86_feature_detected!("sse4.1")
+    {
+        // SAFETY: the CPU has every feature the function is compiled for (detected above).
+        return unsafe { iterate_x86_64_v3::<T>(reference, current, initial, params, observe) };
+    }
+    iterate::<T>(reference, current, initial, params, observe)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,avx2,fma,sse3,ssse3,sse4.1,sse4.2,popcnt,bmi1,bmi2,lzcnt")]
+unsafe fn iterate_x86_64_v3<T: Real>(
+    reference: &PolarScan,
+    current: &PolarScan,
+    initial: Pose2,
+    params: &PsmParams,
+    observe: &mut dyn FnMut(Pose2),
+) -> Run {
+    iterate::<T>(reference, current, initial, params, observe)
+}
+
 /// `pm_psm`'s loop, in PSM's frame and units (see the module doc).
+#[inline(always)]
 fn iterate<T: Real>(
     reference: &PolarScan,
     current: &PolarScan,
@@ -486,12 +531,14 @@ pub fn orientation_profile(
     }
 }
 
-/// `pm_scan_project`: every current point into the reference frame at (X, Y, θ), in polar
-/// coordinates (φ ∈ (−π/2, 3π/2]: the seam is straight behind the laser); then, for each pair of
+/// `pm_scan_project`: the current points into the reference frame at (X, Y, θ), in polar
+/// coordinates (φ ∈ (−π/2, 3π/2]: the seam is straight behind the laser; only the points of some
+/// pair, since no other is read: v0.3 converts all, to the same values); then, for each pair of
 /// consecutive points of one segment (both good), every reference bearing between their bearings
 /// gets the range interpolated linearly in bearing, and the closest value wins. A pair whose
 /// bearings run backwards is a surface seen from behind: its values still hide farther ones but
 /// are tagged unusable. Pairs spanning π or more are skipped (v0.3's seam guard).
+#[inline(always)]
 fn project<T: Real>(
     frame: &Frame<T>,
     current: &Ranges<T>,
@@ -500,22 +547,20 @@ fn project<T: Real>(
 ) {
     let n = frame.fi.len();
     let (r, fi) = (&mut out.points_r[..n], &mut out.points_fi[..n]);
-    for (((r, fi), &f), &range) in
-        r.iter_mut().zip(fi.iter_mut()).zip(&frame.fi).zip(&current.r[..n])
-    {
-        let delta = ath + f;
-        let x = range * delta.cos() + ax;
-        let y = range * delta.sin() + ay;
-        *r = (x * x + y * y).sqrt();
-        *fi = y.atan2(x);
+    for &k in &current.paired_points {
+        let delta = ath + frame.fi[k];
+        let x = current.r[k] * delta.cos() + ax;
+        let y = current.r[k] * delta.sin() + ay;
+        r[k] = (x * x + y * y).sqrt();
+        fi[k] = y.atan2(x);
         if x < T::ZERO && y < T::ZERO {
-            *fi = T::from_f64(fi.to_f64() + 2.0 * std::f64::consts::PI);
+            fi[k] = T::from_f64(fi[k].to_f64() + 2.0 * std::f64::consts::PI);
         }
     }
     let (out_r, usable) = (&mut out.r[..n], &mut out.usable[..n]);
     out_r.fill(T::from_f64(EMPTY_RANGE_CM));
     usable.fill(false);
-    let last = (n - 1) as f64;
+    let last = n - 1;
     // (the pairs of consecutive valid points of one segment do not depend on the pose)
     for &i in &current.pairs {
         let (fa, fb, ra, rb) = (fi[i - 1], fi[i], r[i - 1], r[i]);
@@ -524,50 +569,51 @@ fn project<T: Real>(
         }
         let (a0, a1, r0, r1, occluded) =
             if fb > fa { (fa, fb, ra, rb, false) } else { (fb, fa, rb, ra, true) };
-        let (q0, q1) = (
+        let Some((j0, j1)) = bearing_span(
             ((a0 - frame.fi_min) / frame.dfi).to_f64(),
             ((a1 - frame.fi_min) / frame.dfi).to_f64(),
-        );
-        if !(q0.is_finite() && q1.is_finite()) {
+            last,
+        ) else {
             continue;
-        }
-        let (j0, j1) = (ceil(q0), floor(q1));
-        if j1 < 0.0 || j0 > last {
-            continue;
-        }
-        for j in (j0.max(0.0) as usize)..=(j1.min(last) as usize) {
-            let ri =
-                (r1 - r0) / (a1 - a0) * ((T::from_usize(j) * frame.dfi + frame.fi_min) - a0) + r0;
-            if out_r[j] > ri {
-                out_r[j] = ri;
-                usable[j] = !occluded;
+        };
+        // v0.3's (r1 − r0)/(a1 − a0)·(φⱼ − a0) + r0, with φⱼ = j·Δφ + φ_min as `Frame` holds it
+        let slope = (r1 - r0) / (a1 - a0);
+        let bearings = &frame.fi[j0..=j1];
+        for ((out, usable), &f) in out_r[j0..=j1].iter_mut().zip(&mut usable[j0..=j1]).zip(bearings)
+        {
+            let ri = slope * (f - a0) + r0;
+            if *out > ri {
+                *out = ri;
+                *usable = !occluded;
             }
         }
     }
 }
 
-/// ⌈x⌉ of a finite `x`, as `f64::ceil` but without a libm call (x86-64's baseline has no rounding
-/// instruction): truncation toward zero, then one up where that fell below. Exact: every finite
-/// value below 2⁶³ in magnitude truncates exactly, and beyond, `as` saturates to a value past
-/// either end of the scan, which the caller treats as `ceil` would (only −0.0 becomes +0.0, the
-/// same index).
+/// The reference beams j with q0 ≤ j ≤ q1 (fractional beam indices of a pair's bearings), clipped
+/// to 0..=`last`: v0.3's ⌈q0⌉..=⌊q1⌋ with its range test; `None` when no beam of the scan lies in
+/// it or either end is not finite. The rounding is exact without a libm call (x86-64's baseline
+/// has no rounding instruction): a finite q within the scan truncates exactly to an integer.
 #[inline]
-fn ceil(x: f64) -> f64 {
-    let t = x as i64 as f64;
-    if t < x { t + 1.0 } else { t }
-}
-
-/// ⌊x⌋ of a finite `x`, as `f64::floor`, without a libm call (see [`ceil`]).
-#[inline]
-fn floor(x: f64) -> f64 {
-    let t = x as i64 as f64;
-    if t > x { t - 1.0 } else { t }
+fn bearing_span(q0: f64, q1: f64, last: usize) -> Option<(usize, usize)> {
+    let end = last as f64;
+    // (NaN fails every comparison; ±∞ fails the finiteness bounds)
+    if !(q0 <= end && q1 >= 0.0 && q0 > f64::NEG_INFINITY && q1 < f64::INFINITY) {
+        return None;
+    }
+    // ⌈max(q0, 0)⌉ = max(⌈q0⌉, 0) and ⌊min(q1, last)⌋ = min(⌊q1⌋, last); both now in 0..=last
+    // (signed conversions: one instruction each way, where usize's take several)
+    let (q0, q1) = (if q0 < 0.0 { 0.0 } else { q0 }, if q1 > end { end } else { q1 });
+    let (t0, t1) = (q0 as i64, q1 as i64);
+    let j0 = if (t0 as f64) < q0 { t0 + 1 } else { t0 };
+    (j0 <= t1).then_some((j0 as usize, t1 as usize))
 }
 
 /// `pm_orientation_search`: the shift di ∈ [−W, W] minimising e(di) = mean |r̂ᵢ − r_ref,i+di| over
 /// the bearings usable in both (a mean *absolute* residual), refined by [`parabolic_refinement`];
 /// returns dθ = (di + d)·Δφ [rad], or `None` when no shift has a pair. Assumes that a rotation is a
 /// pure shift of the range array (the invariance [EP] L151 drops).
+#[inline(always)]
 fn orientation_search<T: Real>(
     frame: &Frame<T>,
     reference: &Ranges<T>,
@@ -579,40 +625,66 @@ fn orientation_search<T: Real>(
 }
 
 /// e(di) for di = −W..=W (see [`orientation_search`]); [`NO_OVERLAP_ERROR_CM`] where no pair.
+///
+/// Each e(di) is v0.3's sum over the pairs (i, i + di) with both indices inside the scan, in v0.3's
+/// order (i ascending); [`SHIFT_LANES`] consecutive shifts are summed side by side, one
+/// accumulator each, so the compiler can keep them in one vector register. Every accumulator
+/// still adds its own terms one after another in v0.3's order, so each e(di) is bit for bit v0.3's:
+/// the lanes only interleave independent sums. A pair that is not usable adds an exact +0.0 (e is
+/// never −0.0), which is v0.3's skip.
+#[inline(always)]
 fn orientation_errors<T: Real>(
     reference: &Ranges<T>,
     projected: &Projected<T>,
     params: &PsmParams,
 ) -> Vec<T> {
-    let n = reference.r.len() as isize;
-    let w = params.search_window_beams as isize;
-    let zero = T::ZERO;
-    (-w..=w)
-        .map(|di| {
-            // pairs (i, i + di) with both indices inside the scan, summed in v0.3's order; the
-            // branch-free select adds an exact zero for an unusable pair
-            // (a window wider than the scan leaves no pair at the outer shifts)
-            let shift = di.abs().min(n);
-            let (i0, k0) = if di <= 0 { (shift as usize, 0) } else { (0, shift as usize) };
-            let len = (n - shift) as usize;
-            let (cur, usable) = (&projected.r[i0..i0 + len], &projected.usable[i0..i0 + len]);
-            let (refr, valid) = (&reference.r[k0..k0 + len], &reference.valid[k0..k0 + len]);
-            // (v0.3 skips an unusable pair rather than adding a zero: the sum's dependency chain
-            // is only as long as the pairs; adding +0.0 would not change it, so either is exact)
-            let (mut e, mut count) = (zero, 0usize);
-            for t in 0..len {
-                if usable[t] & valid[t] {
-                    e += (cur[t] - refr[t]).abs();
-                    count += 1;
-                }
+    let n = reference.r.len();
+    let w = params.search_window_beams;
+    let shifts = 2 * w + 1;
+    // the reference ranges with `w` invalid beams before and `w + SHIFT_LANES` after, so that
+    // every lane's partner i + di (di ∈ −W..W + SHIFT_LANES) has a slot; outside the scan, none.
+    // Validity as 1 or 0 in the working type: the lanes then count in it too (exact integers),
+    // and the compiler keeps the whole block in vector registers.
+    let (one, zero) = (T::from_f64(1.0), T::ZERO);
+    let mut weight = vec![zero; n + 2 * w + SHIFT_LANES];
+    let mut refr = vec![zero; weight.len()];
+    for (k, (&valid, &r)) in reference.valid.iter().zip(&reference.r).enumerate() {
+        (weight[w + k], refr[w + k]) = (if valid { one } else { zero }, r);
+    }
+    let (cur, usable) = (&projected.r[..n], &projected.usable[..n]);
+    let mut errors = Vec::with_capacity(shifts + SHIFT_LANES);
+    // lane k of a block sums shift di = first − W + k; its partner of beam i is slot i + first + k
+    for first in (0..shifts).step_by(SHIFT_LANES) {
+        let (refr, weight) =
+            (&refr[first..first + n + SHIFT_LANES], &weight[first..][..n + SHIFT_LANES]);
+        let mut e = [zero; SHIFT_LANES];
+        let mut count = [zero; SHIFT_LANES];
+        for i in 0..n {
+            if !usable[i] {
+                continue;
             }
-            if count > 0 { e / T::from_usize(count) } else { T::from_f64(NO_OVERLAP_ERROR_CM) }
-        })
-        .collect()
+            let r: [T; SHIFT_LANES] = refr[i..i + SHIFT_LANES].try_into().unwrap();
+            let v: [T; SHIFT_LANES] = weight[i..i + SHIFT_LANES].try_into().unwrap();
+            for k in 0..SHIFT_LANES {
+                let d = (cur[i] - r[k]).abs();
+                e[k] += if v[k] != zero { d } else { zero };
+                count[k] += v[k];
+            }
+        }
+        errors.extend(e.iter().zip(count).map(|(&e, count)| {
+            if count > zero { e / count } else { T::from_f64(NO_OVERLAP_ERROR_CM) }
+        }));
+    }
+    errors.truncate(shifts);
+    errors
 }
+
+/// Shifts of [`orientation_errors`] summed side by side (one 256-bit register of f32).
+const SHIFT_LANES: usize = 8;
 
 /// The first smallest e(di) refined by the parabola: (dθ [rad], whether refined); `None` when no
 /// shift has a pair.
+#[inline(always)]
 fn orientation_pick<T: Real>(
     frame: &Frame<T>,
     errors: &[T],
@@ -673,6 +745,7 @@ struct TranslationStep<T> {
 /// w = C/(C + e²). Pairs: both usable, min_range < r̂ < max_range and |e| < max_error. Fails with
 /// [`Stop::TooFewPairs`] below `min_valid_points` and [`Stop::Singular`] when the determinant
 /// (per `params.inverse`) is below `min_determinant`.
+#[inline(always)]
 fn translation_step<T: Real>(
     frame: &Frame<T>,
     reference: &Ranges<T>,
@@ -724,22 +797,118 @@ fn translation_step<T: Real>(
 mod tests {
     use super::*;
 
-    /// The libm-free ⌈·⌉ and ⌊·⌋ equal `f64::ceil` and `f64::floor` (as indices: −0.0 = +0.0).
+    /// [`orientation_errors`] equals v0.3's loop, one shift after another, bit for bit: random
+    /// scans with invalid and unusable beams, in both precisions, windows narrower and wider than
+    /// the scan.
     #[test]
-    fn ceil_and_floor_without_libm_are_exact() {
-        let mut x = 0x9e37_79b9_7f4a_7c15u64;
-        let mut values = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 180.0, 1e-300, -1e-300, 4.5e15];
-        for _ in 0..100_000 {
+    fn shifts_summed_side_by_side_equal_v03s_loop_bit_for_bit() {
+        fn v03<T: Real>(reference: &Ranges<T>, projected: &Projected<T>, w: usize) -> Vec<T> {
+            let n = reference.r.len() as isize;
+            (-(w as isize)..=w as isize)
+                .map(|di| {
+                    let (min_i, max_i) = if di <= 0 { (-di, n) } else { (0, n - di) };
+                    let (mut e, mut count) = (T::ZERO, 0usize);
+                    for i in min_i.max(0)..max_i.min(n) {
+                        let (i, k) = (i as usize, (i + di) as usize);
+                        if projected.usable[i] && reference.valid[k] {
+                            e += (projected.r[i] - reference.r[k]).abs();
+                            count += 1;
+                        }
+                    }
+                    if count > 0 {
+                        e / T::from_usize(count)
+                    } else {
+                        T::from_f64(NO_OVERLAP_ERROR_CM)
+                    }
+                })
+                .collect()
+        }
+        fn check<T: Real>(next: &mut dyn FnMut() -> u64) -> usize {
+            let mut distinct = 0;
+            for &(n, w) in &[(181, 20), (181, 35), (30, 20), (12, 20), (1, 3), (361, 7)] {
+                let mut unit = || (next() >> 11) as f64 / (1u64 << 53) as f64;
+                let valid: Vec<bool> = (0..n).map(|_| unit() > 0.15).collect();
+                let reference = Ranges {
+                    r: (0..n).map(|_| T::from_f64(1000.0 * unit())).collect(),
+                    valid: valid.leak(),
+                    pairs: Vec::new(),
+                    paired_points: Vec::new(),
+                };
+                let projected = Projected {
+                    r: (0..n).map(|_| T::from_f64(1000.0 * unit())).collect(),
+                    usable: (0..n).map(|_| unit() > 0.2).collect(),
+                    ..Projected::new(n)
+                };
+                let params = PsmParams { search_window_beams: w, ..PsmParams::default() };
+                let fast = orientation_errors(&reference, &projected, &params);
+                let slow = v03(&reference, &projected, w);
+                assert_eq!(fast.len(), slow.len());
+                for (k, (a, b)) in fast.iter().zip(&slow).enumerate() {
+                    assert!(
+                        a.to_f64().to_bits() == b.to_f64().to_bits(),
+                        "n {n} w {w} shift {k}: {a:?} vs {b:?}"
+                    );
+                }
+                distinct += slow.iter().filter(|e| e.to_f64() < NO_OVERLAP_ERROR_CM).count();
+            }
+            distinct
+        }
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
             x ^= x << 13;
             x ^= x >> 7;
             x ^= x << 17;
-            let unit = (x >> 11) as f64 / (1u64 << 53) as f64;
-            values.push((unit - 0.5) * [4.0, 400.0, 1e6, 1e15][(x % 4) as usize]);
+            x
+        };
+        for _ in 0..20 {
+            assert!(check::<f32>(&mut next) > 100);
+            assert!(check::<f64>(&mut next) > 100);
         }
-        for v in values {
-            assert_eq!(ceil(v), v.ceil(), "ceil {v:e}");
-            assert_eq!(floor(v), v.floor(), "floor {v:e}");
+    }
+
+    /// The beam span without libm equals v0.3's ⌈q0⌉..=⌊q1⌋ with its range test, computed with
+    /// `f64::ceil` and `f64::floor`.
+    #[test]
+    fn bearing_span_is_v03s_rounding_and_range_test() {
+        fn by_libm(q0: f64, q1: f64, last: usize) -> Option<(usize, usize)> {
+            if !(q0.is_finite() && q1.is_finite()) {
+                return None;
+            }
+            let (j0, j1) = (q0.ceil(), q1.floor());
+            if j1 < 0.0 || j0 > last as f64 {
+                return None;
+            }
+            let (j0, j1) = (j0.max(0.0) as usize, j1.min(last as f64) as usize);
+            (j0 <= j1).then_some((j0, j1))
         }
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let special =
+            [0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 179.0, 179.5, 180.0, 1e-300, -1e-300, 4.5e15];
+        let special = special.into_iter().chain([f64::NAN, f64::INFINITY, f64::NEG_INFINITY]);
+        let mut values: Vec<f64> = special.collect();
+        for _ in 0..20_000 {
+            let v = next();
+            let unit = (v >> 11) as f64 / (1u64 << 53) as f64;
+            values.push((unit - 0.3) * [4.0, 400.0, 1e6, 1e15][(v % 4) as usize]);
+        }
+        let mut nonempty = 0;
+        for k in 0..values.len() {
+            let q0 = values[k];
+            for q1 in [values[(k * 7 + 3) % values.len()], q0 + 0.7, q0 + 2.0, q0] {
+                for last in [0, 179, 180] {
+                    let span = bearing_span(q0, q1, last);
+                    assert_eq!(span, by_libm(q0, q1, last), "q0 {q0:e} q1 {q1:e} last {last}");
+                    nonempty += usize::from(span.is_some());
+                }
+            }
+        }
+        assert!(nonempty > 1000, "too few spans exercised: {nonempty}");
     }
     use crate::scanmatch::objective::{Objective, ObjectiveParams};
     use crate::scanmatch::scan::testing::*;
@@ -816,6 +985,54 @@ mod tests {
             &ObjectiveParams { max_residual_m: None, ..ObjectiveParams::default() },
         );
         psm(r, c, initial, params, &mut score).unwrap()
+    }
+
+    /// The build for x86-64-v3 (where this CPU has it) takes the same path as the baseline build,
+    /// bit for bit, pass by pass, in both precisions.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_x86_64_v3_build_matches_the_baseline_bit_for_bit() {
+        if !(std::is_x86_feature_detected!("avx2")
+            && std::is_x86_feature_detected!("fma")
+            && std::is_x86_feature_detected!("sse4.1"))
+        {
+            eprintln!("skipped: this CPU lacks x86-64-v3");
+            return;
+        }
+        let mut compared = 0;
+        for precision in [Precision::Single, Precision::Double] {
+            let params = PsmParams { precision, ..PsmParams::default() };
+            for (dx, dy, dth) in [(0.2, -0.1, 3.0), (-0.3, 0.25, -8.0), (0.05, 0.4, 12.0)] {
+                let (r, c) =
+                    prepared_pair(Pose2::new(dx, dy, deg(dth)), Segmentation::PsmHeuristics);
+                let path = |v3: bool| {
+                    let mut poses = Vec::new();
+                    let mut observe = |p: Pose2| poses.push([p.x, p.y, p.theta].map(f64::to_bits));
+                    let guess = Pose2::IDENTITY;
+                    let run = match (precision, v3) {
+                        (Precision::Single, false) => {
+                            iterate::<f32>(&r, &c, guess, &params, &mut observe)
+                        }
+                        (Precision::Double, false) => {
+                            iterate::<f64>(&r, &c, guess, &params, &mut observe)
+                        }
+                        // SAFETY: the features were detected above
+                        (Precision::Single, true) => unsafe {
+                            iterate_x86_64_v3::<f32>(&r, &c, guess, &params, &mut observe)
+                        },
+                        (Precision::Double, true) => unsafe {
+                            iterate_x86_64_v3::<f64>(&r, &c, guess, &params, &mut observe)
+                        },
+                    };
+                    (poses, run.passes)
+                };
+                let (baseline, v3) = (path(false), path(true));
+                assert!(baseline.0.len() > 4, "too short a path to compare");
+                assert_eq!(baseline, v3, "{precision:?} ({dx}, {dy}, {dth}°)");
+                compared += baseline.0.len();
+            }
+        }
+        assert!(compared > 20);
     }
 
     /// PSM as published does not recover a noise-free transform to 1 mm / 0.05°: its orientation
@@ -941,8 +1158,12 @@ mod tests {
             fi,
         };
         let n = ranges_cm.len();
-        let reference =
-            Ranges { r: ranges_cm.to_vec(), valid: vec![true; n].leak(), pairs: (1..n).collect() };
+        let reference = Ranges {
+            r: ranges_cm.to_vec(),
+            valid: vec![true; n].leak(),
+            pairs: (1..n).collect(),
+            paired_points: (0..n).collect(),
+        };
         let projected = Projected {
             r: projected_cm.to_vec(),
             usable: vec![true; projected_cm.len()],
