@@ -363,9 +363,8 @@ impl<T: Real> Projected<T> {
     }
 }
 
-/// [`iterate`] compiled for the newest instruction set this CPU has (x86-64-v3 where present).
-/// The result is the same bit for bit: Rust never fuses a multiply and an add, and every operation
-/// is an IEEE basic operation or the same libm call either way; only the instructions differ.
+/// [`iterate`] compiled for the newest instruction set this CPU has (x86-64-v3 where present;
+/// the same result bit for bit, see [`super::real::has_x86_64_v3`]).
 fn iterate_fastest<T: Real>(
     reference: &PolarScan,
     current: &PolarScan,
@@ -374,10 +373,7 @@ fn iterate_fastest<T: Real>(
     observe: &mut dyn FnMut(Pose2),
 ) -> Run {
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2")
-        && std::is_x86_feature_detected!("fma")
-        && std::is_x86_feature_detected!("sse4.1")
-    {
+    if super::real::has_x86_64_v3() {
         // SAFETY: the CPU has every feature the function is compiled for (detected above).
         return unsafe { iterate_x86_64_v3::<T>(reference, current, initial, params, observe) };
     }
@@ -992,10 +988,7 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_x86_64_v3_build_matches_the_baseline_bit_for_bit() {
-        if !(std::is_x86_feature_detected!("avx2")
-            && std::is_x86_feature_detected!("fma")
-            && std::is_x86_feature_detected!("sse4.1"))
-        {
+        if !super::super::real::has_x86_64_v3() {
             eprintln!("skipped: this CPU lacks x86-64-v3");
             return;
         }

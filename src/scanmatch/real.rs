@@ -101,6 +101,24 @@ macro_rules! impl_real {
 impl_real!(f32);
 impl_real!(f64);
 
+/// Whether this CPU runs x86-64-v3 code (AVX2, FMA, …), for the hot loops (PSM's passes, the
+/// objective's projection) that are compiled a second time for it and chosen at run time; the
+/// baseline build stays x86-64, so no CPU is excluded. Both builds give the same results bit for
+/// bit: Rust never fuses a multiply and an add (the fused instructions exist but are not
+/// emitted), every operation is an IEEE basic operation or the same libm call, and only the
+/// instructions that carry them differ. Tests run both builds on the same inputs and compare.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(crate) fn has_x86_64_v3() -> bool {
+    std::is_x86_feature_detected!("avx2")
+        && std::is_x86_feature_detected!("fma")
+        && std::is_x86_feature_detected!("bmi1")
+        && std::is_x86_feature_detected!("bmi2")
+        && std::is_x86_feature_detected!("popcnt")
+        && std::is_x86_feature_detected!("lzcnt")
+        && std::is_x86_feature_detected!("sse4.2")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
