@@ -4,8 +4,10 @@
 CARGO ?= cargo
 BIN   := $(or $(CARGO_TARGET_DIR),target)/release/slamlab
 SPECS := $(sort $(wildcard experiments/*.toml))
+MDBOOK ?= mdbook
+MDBOOK_VERSION := 0.4.52
 
-.PHONY: all build report run test test-slurm memcheck bench validate clean-results check-reports check-html pdf install-checkers
+.PHONY: all build report run test test-slurm memcheck bench validate clean-results check-reports check-html pdf install-checkers docs check-docs install-mdbook
 
 all: report
 
@@ -21,9 +23,7 @@ report: build
 	$(BIN) run $(SPECS)
 	$(BIN) report --specs experiments
 	tests/tools/readme_block.sh write README.md reports/fidelity/summary.md
-	tests/tools/readme_block.sh write README.md reports/fidelity/margins.md margins
-	@mkdir -p target && $(BIN) algorithms --markdown > target/algorithms.md
-	tests/tools/readme_block.sh write README.md target/algorithms.md algorithms
+	$(BIN) docs docs/src/reference
 
 ## Only (re)run the studies, without rendering.
 run: build
@@ -77,15 +77,15 @@ bench: build
 
 ## Regenerate the reports from the results into a temporary folder and compare them, byte for
 ## byte, with the committed reports/, and the README's fidelity block with the regenerated
-## scoreboard (run `make run` first on a fresh clone).
+## scoreboard (run `make run` first on a fresh clone). The book includes the scoreboard's margins
+## table from reports/fidelity/margins.md itself.
 check-reports: build
 	@tmp=$$(mktemp -d); trap 'rm -rf "$$tmp"' EXIT; \
 	cp -r reports "$$tmp/reports"; \
 	$(BIN) report --specs experiments --out "$$tmp/reports" >/dev/null || exit 1; \
 	if diff -r reports "$$tmp/reports" >/dev/null; then echo "check-reports: reports/ is up to date"; \
 	else diff -rq reports "$$tmp/reports"; echo "check-reports: reports/ differs from what the results give (make report)" >&2; exit 1; fi; \
-	tests/tools/readme_block.sh check README.md "$$tmp/reports/fidelity/summary.md" && \
-	tests/tools/readme_block.sh check README.md "$$tmp/reports/fidelity/margins.md" margins
+	tests/tools/readme_block.sh check README.md "$$tmp/reports/fidelity/summary.md"
 
 ## Open every report in headless Chromium: console errors or missing images fail (screenshots in
 ## target/reports-html/). Needs Debian's chromium.
@@ -100,6 +100,22 @@ pdf:
 install-checkers:
 	@SUDO=""; [ "$$(id -u)" -ne 0 ] && SUDO="sudo"; \
 	$$SUDO apt-get update -q && $$SUDO apt-get install -y -q --no-install-recommends chromium texlive-latex-extra texlive-pictures texlive-science lmodern
+
+## The book (docs/, mdBook): regenerate its generated chapters (command line, algorithms) and
+## build it into target/book (open target/book/index.html). Needs mdBook (make install-mdbook).
+docs: build
+	$(BIN) docs docs/src/reference
+	$(MDBOOK) build docs
+
+## The generated chapters are current, every relative link of the README and the book resolves,
+## the README has at most 250 lines, and the book builds (tests/tools/check_docs.sh; runs in CI).
+check-docs: build
+	MDBOOK=$(MDBOOK) tests/tools/check_docs.sh
+
+## mdBook, pinned, from crates.io (into ~/.cargo/bin) when it is not already installed.
+install-mdbook:
+	@command -v $(MDBOOK) >/dev/null && $(MDBOOK) --version | grep -q "v$(MDBOOK_VERSION)" || \
+	  $(CARGO) install mdbook --version $(MDBOOK_VERSION) --locked
 
 ## Remove generated results and the run cache (reports/ is committed and stays).
 clean-results:

@@ -1,6 +1,6 @@
 //! slamlab: a reproducible-experiment pipeline and report generator for 2-D SLAM.
 //!
-//! Data flows one way (docs/architecture.md):
+//! Data flows one way (docs/src/development/architecture.md):
 //! `spec` (TOML as written, algorithm names resolved against the `algo` catalogue) → `plan`
 //! (validated, expanded, hashed) → `run` (rayon; per run: the world → `Algorithm::run` →
 //! `metrics::compute`) → `store` (Parquet) → `judge` → `report` (HTML, LaTeX, SVG, CSV); a map

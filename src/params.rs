@@ -59,7 +59,7 @@ pub struct Params {
     /// The laser pose graph: its front end, edges and loop closures.
     pub pose_graph: PoseGraphParams,
     /// External algorithms' own parameters, `[base.external.<name>]`, handed to the program as
-    /// written (docs/external-algorithms.md). Not written out when empty, so the studies without
+    /// written (docs/src/guide/external-algorithms.md). Not written out when empty, so the studies without
     /// one keep their run hashes.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub external: BTreeMap<String, toml::Table>,

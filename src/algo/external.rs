@@ -1,5 +1,5 @@
 //! External algorithms: a program in any language, declared by `data/algorithms/<name>.toml`,
-//! started once per run through plain files (the protocol of docs/external-algorithms.md). This
+//! started once per run through plain files (the protocol of docs/src/guide/external-algorithms.md). This
 //! file is the protocol's pure half: the descriptor, the input files a run writes, and the
 //! reading of the program's output. Starting the program is the caller's
 //! ([`RunInput::launch`], `run/external.rs`): this layer does no IO.

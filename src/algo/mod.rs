@@ -11,7 +11,7 @@
 //!
 //! Adding a built-in algorithm: its core, one `impl Algorithm` (the compiler asks for every
 //! method: none has a default but the derived ones), one line in [`builtins`], and its parameter
-//! section in `Params` — docs/architecture.md walks through it.
+//! section in `Params` — docs/src/development/architecture.md walks through it.
 
 pub mod external;
 pub mod filters;
@@ -343,7 +343,7 @@ impl Catalogue {
 }
 
 /// The catalogue as a Markdown table: name, title, family, what it reads, its own `[base]`
-/// sections and what it is (`slamlab algorithms --markdown`; the README's algorithm table).
+/// sections and what it is (`slamlab algorithms --markdown`; the book's algorithm chapter, docs/src/reference/algorithms.md).
 pub fn markdown_table(catalogue: &Catalogue) -> String {
     let mut out = String::from(
         "| Name | Title | Family | Reads | Own `[base]` sections | What it is |\n|---|---|---|---|---|---|\n",

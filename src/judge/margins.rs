@@ -1,7 +1,7 @@
 //! How close is "the same": one equivalence margin per reference work, and the resolution of the
 //! metrics a work prints, below which no difference means anything. Fixed on 2026-11-26 before the
-//! scoreboard was regenerated under the equivalence rule (issue 25), and written out in the README
-//! ("How verdicts are reached"); a margin is never chosen by where a published number falls.
+//! scoreboard was regenerated under the equivalence rule (issue 25), and written out in the book
+//! (docs/src/findings/fidelity.md, "How verdicts are reached"); a margin is never chosen by where a published number falls.
 //!
 //! - A published cell is **shown equivalent** to ours when the difference lies within ± the
 //!   margin ([`WorkMargins::margin`]): the larger of `relative` × |published value| and the

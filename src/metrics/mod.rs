@@ -9,7 +9,7 @@ use crate::world::World;
 /// Bump when a metric's definition changes (part of every run's content hash).
 pub const METRICS_VERSION: &str = "metrics-3";
 
-/// A metric's documentation, shown in reports and the README.
+/// A metric's documentation, shown in reports and the book.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MetricDef {
     pub name: &'static str,
@@ -273,7 +273,7 @@ pub const METRICS: &[MetricDef] = &[
         name: "f_mean",
         title: "Mean f",
         unit: "cm²",
-        description: "[EP] Eq. 4 at the final pose, mean over the matches: mean squared range residual of the valid pairs (see the README for the units)",
+        description: "[EP] Eq. 4 at the final pose, mean over the matches: mean squared range residual of the valid pairs (units: the book, docs/src/findings/ep.md)",
         lower_is_better: true,
     },
     MetricDef {

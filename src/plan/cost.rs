@@ -7,7 +7,7 @@
 //! updates, the scan matches — each from the spec's sizes (path length, laser rate and beams,
 //! particles, landmarks, matches, evaluations), and weighted by seconds per unit of work fitted
 //! to the compute times of every run of `make report` on the reference machine (one core of
-//! the 2-core CI machine; README, "Running on a cluster"). An error of the fit moves no result.
+//! the 2-core CI machine; docs/src/guide/cluster.md). An error of the fit moves no result.
 
 use super::{ExperimentPlan, RunSpec};
 use crate::algo::RunSize;
@@ -18,7 +18,7 @@ use crate::world::WorldKind;
 /// 1/√time) over the 8 174 runs computed by `make report` from scratch on the reference machine
 /// (2-core AMD EPYC, the CI machine; measured 2026-11-25). Per algorithm the fit's total is within
 /// a factor 2.2 of the measured one for all but odometry (over-estimated: its runs take ~2 ms);
-/// the median run within a factor 1.45. Refit (README, "Running on a cluster") when an algorithm's
+/// the median run within a factor 1.45. Refit (docs/src/guide/cluster.md) when an algorithm's
 /// speed changes a lot: balance, never a result, depends on these.
 pub mod seconds_per_unit {
     pub const EXTRACTED_BEAM: f64 = 9.8e-8;

@@ -45,7 +45,7 @@ pub fn unit_rows(kind: SweepKind, design: &DesignSpec, seed: u64) -> UnitDesign 
 /// The value a unit coordinate stands for, and that value's own coordinate. An integer parameter
 /// is rounded to the nearest integer, so each end of its range takes half the weight of an
 /// interior value (the coordinates within half a step of it): the sensitivity indices are those
-/// of that distribution (README, "Global sensitivity").
+/// of that distribution (docs/src/guide/sensitivity.md).
 pub fn realise(p: &RangedParam, u: f64) -> (toml::Value, f64) {
     let x = if p.log { p.low * (p.high / p.low).powf(u) } else { p.low + u * (p.high - p.low) };
     // keep the ends exact (powf and the sum can miss them by an ulp)
@@ -91,7 +91,7 @@ mod tests {
         assert!((u - (23.0f64 / 5.0).ln() / 100f64.ln()).abs() < 1e-12 && u < 1.0 / 3.0);
     }
 
-    /// What the README states: rounding a uniform coordinate gives each end of an integer range
+    /// What the book states (docs/src/guide/sensitivity.md): rounding a uniform coordinate gives each end of an integer range
     /// half the weight of an interior value (Pmin 5–25: 1/40 at 5 and 25, 1/20 between).
     #[test]
     fn integer_range_ends_take_half_weight() {

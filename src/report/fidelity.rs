@@ -40,7 +40,7 @@ pub struct FidelityView {
     pub margins: TableView,
 }
 
-/// The margins table (`judge::margins`), as the scoreboard and the README show it.
+/// The margins table (`judge::margins`), as the scoreboard and the book show it.
 pub fn margins_table() -> TableView {
     use crate::judge::margins::WORKS;
     TableView {
@@ -212,7 +212,7 @@ pub fn markdown_table(t: &TableView) -> String {
 /// with its cause.
 pub fn readme_block(view: &FidelityView, items: &[ItemResult], claims: &[ClaimResult]) -> String {
     let mut s = String::new();
-    s.push_str("Published result items, classified from the committed runs (rule: README, *How verdicts are reached*):\n\n");
+    s.push_str("Published result items, classified from the committed runs (rule: the book, *How verdicts are reached*, docs/src/findings/fidelity.md):\n\n");
     s.push_str(&markdown_table(&view.item_counts));
     s.push_str("\nClaims by reference work, kind and verdict (only *seed* claims are the reference works' own results):\n\n");
     s.push_str(&markdown_table(&view.claim_counts));

@@ -33,7 +33,7 @@ pub enum ReportError {
     #[error("{path}: {message}")]
     Items { path: std::path::PathBuf, message: String },
     #[error(
-        "study {study}, claim {claim}: the cause's {message} (placeholders: README, \"Cause texts\")"
+        "study {study}, claim {claim}: the cause's {message} (placeholders: docs/src/findings/fidelity.md, \"Cause texts\")"
     )]
     Cause { study: String, claim: String, message: String },
     #[error(

@@ -1098,7 +1098,7 @@ fn cost_figure(
     Some(FigureView {
         panel: false,
         file: format!("{group_slug}--cost"),
-        caption: "Accuracy against cost: mean final f against mean objective evaluations per match, one point per cell of each algorithm. Evaluations stand in for time, which is not deterministic (per-match times are measured by make bench and listed in the README).".into(),
+        caption: "Accuracy against cost: mean final f against mean objective evaluations per match, one point per cell of each algorithm. Evaluations stand in for time, which is not deterministic (per-match times are measured by make bench and listed in the book, docs/src/development/benchmarks.md).".into(),
         svg: figure::line_svg(&fig),
         pgf: super::pgf::line_pgf(&fig),
     })

@@ -1,4 +1,4 @@
-//! Starts an external algorithm's program for one run (docs/external-algorithms.md): writes the
+//! Starts an external algorithm's program for one run (docs/src/guide/external-algorithms.md): writes the
 //! input files into a fresh private folder, runs the command with `{input}` and `{output}`
 //! replaced, kills it (and anything it started) past its timeout, and reads its output files
 //! back. What goes wrong becomes the run's error, with the tail of the program's standard error;

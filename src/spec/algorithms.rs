@@ -1,5 +1,5 @@
 //! `data/algorithms/<name>.toml` → the [`Catalogue`] a study's names resolve against: the
-//! built-ins and each declared external program (docs/external-algorithms.md). Every problem is
+//! built-ins and each declared external program (docs/src/guide/external-algorithms.md). Every problem is
 //! reported with file, line and key; the files a descriptor lists are read and hashed here, so
 //! that editing the program recomputes its runs.
 

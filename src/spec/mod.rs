@@ -1160,7 +1160,7 @@ pub fn parse(path: &Path, text: &str, catalogue: &Arc<Catalogue>) -> Result<Load
                 err(
                     &key("cause"),
                     format!(
-                        "literal number(s) {}: write a result as a placeholder {{mean:METRIC:MAP:POINT}}, a published number inside a citation [FT …], a setting of the runs in a code span `…` (README, \"Cause texts\")",
+                        "literal number(s) {}: write a result as a placeholder {{mean:METRIC:MAP:POINT}}, a published number inside a citation [FT …], a setting of the runs in a code span `…` (docs/src/findings/fidelity.md, \"Cause texts\")",
                         numbers.join(", ")
                     ),
                 );

@@ -1,5 +1,5 @@
 //! Typed rows ⇄ Parquet. The only polars code in slamlab. Column names and units are documented
-//! in the README ("Results schema").
+//! in the book (docs/src/reference/results-schema.md).
 
 use super::{
     LandmarkRow, MatchRows, ParamValue, RunLandmarks, RunRow, RunStatus, StoreError, Timing,

@@ -1,4 +1,4 @@
-"""Dead reckoning as an external algorithm (docs/external-algorithms.md): slamlab's test that a
+"""Dead reckoning as an external algorithm (docs/src/guide/external-algorithms.md): slamlab's test that a
 program in another language goes through the same pipeline as the built-in `odometry`.
 
 Composes the odometry increments from the start pose, x_{k+1} = x_k (+) u_k, and writes the TUM

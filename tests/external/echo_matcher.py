@@ -1,6 +1,6 @@
 """An external scan matcher that estimates each pair's pose change as its initial guess (the
 odometry increment): slamlab's test that pairs go out and per-match estimates come back through
-the protocol (docs/external-algorithms.md) and are chained like a built-in matcher's.
+the protocol (docs/src/guide/external-algorithms.md) and are chained like a built-in matcher's.
 
 Usage: echo_matcher.py INPUT_DIR OUTPUT_DIR
 """

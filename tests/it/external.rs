@@ -1,5 +1,5 @@
 //! Contract: an algorithm in another language, declared by a descriptor and run through the file
-//! protocol (docs/external-algorithms.md), goes through the same pipeline as the built-ins — run,
+//! protocol (docs/src/guide/external-algorithms.md), goes through the same pipeline as the built-ins — run,
 //! cached, stored, reported — and a program that crashes, hangs, writes garbage or cannot start
 //! is a failed run naming the cause, while the rest of the study goes on.
 //!

@@ -1,4 +1,4 @@
-//! The layering rules (docs/architecture.md §2): pure layers do no IO, printing, threading, Parquet
+//! The layering rules (docs/src/development/architecture.md §2): pure layers do no IO, printing, threading, Parquet
 //! or global randomness; only store/ touches polars, only report/ plotters and minijinja, only run/
 //! rayon; and no import circle joins two top-level modules.
 
@@ -282,7 +282,7 @@ fn circles(
     t.out
 }
 
-/// The top-level modules form floors (docs/architecture.md §2): no module reaches one that
+/// The top-level modules form floors (docs/src/development/architecture.md §2): no module reaches one that
 /// reaches back, however far round.
 #[test]
 fn no_import_circle_joins_top_level_modules() {

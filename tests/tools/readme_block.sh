@@ -4,7 +4,7 @@
 #   …
 #   <!-- fidelity:end -->
 # `readme_block.sh write README BLOCK [NAME]` replaces what lies between NAME's markers (default
-# `fidelity`; also `algorithms`, the table `slamlab algorithms --markdown` prints) with BLOCK's
+# `fidelity`, the only block the README has now) with BLOCK's
 # text; `readme_block.sh check README BLOCK [NAME]` exits 1 (naming the file) when they differ.
 set -euo pipefail
 mode=${1:?usage: readme_block.sh write|check README BLOCK}
