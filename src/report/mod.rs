@@ -12,6 +12,7 @@ pub mod model;
 pub mod pgf;
 pub mod sensitivity;
 pub mod slurm;
+pub mod summary;
 pub mod timings;
 pub mod view;
 
@@ -385,6 +386,10 @@ pub fn render_all(
     let classified = crate::judge::scoreboard::classify(&items, &by_id, &claims, &kept_cells);
     for p in &pages {
         let id = &p.view.id;
+        files.push((
+            format!("{id}/summary.md"),
+            summary::markdown(&p.index, &classified, &p.view.claims).into_bytes(),
+        ));
         let cells = crate::judge::scoreboard::cell_verdicts(&items, &classified, id);
         if !cells.is_empty() {
             files.push((
