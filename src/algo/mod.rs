@@ -342,6 +342,45 @@ impl Catalogue {
     }
 }
 
+/// The modelling choices at the default parameters, as Markdown (the book's generated chapter
+/// `reference/modelling-defaults.md`): the simulated world's sentences, then every algorithm's on
+/// each kind of world it runs on — the sentences a report states for a study that keeps the
+/// defaults (a study's report states them from the parameters it actually used).
+pub fn modelling_defaults_markdown(catalogue: &Catalogue) -> String {
+    let p = Params::default();
+    let mut out = String::from("## The simulated world\n\n");
+    let rate = crate::stats::sig(1.0 / p.sim.dt_s, 3);
+    let world = [p.sim.describe(&rate), p.odometry.describe(), p.laser.describe()];
+    let world = world.into_iter().chain(p.laser.describe_artefacts());
+    for sentence in world.chain([p.landmark_sensor.describe()]) {
+        out.push_str(&format!("- {sentence}\n"));
+    }
+    out.push_str("\n## The algorithms\n");
+    for a in catalogue.all() {
+        out.push_str(&format!("\n### `{}`: {}\n", a.name(), a.title()));
+        let mut said: Vec<String> = Vec::new();
+        for kind in WorldKind::ALL {
+            let names = [a.name()];
+            let listing = Listing { kinds: &[kind], names: &names };
+            let sentences: Vec<String> =
+                a.describe(&p, &listing).into_iter().map(|c| c.text).collect();
+            if sentences.is_empty() || sentences == said {
+                continue;
+            }
+            let world = match kind {
+                WorldKind::Laser => "laser worlds",
+                WorldKind::Points => "point-landmark worlds",
+            };
+            out.push_str(&format!("\nOn {world}:\n\n"));
+            for s in &sentences {
+                out.push_str(&format!("- {s}\n"));
+            }
+            said = sentences;
+        }
+    }
+    out
+}
+
 /// The catalogue as a Markdown table: name, title, family, what it reads, its own `[base]`
 /// sections and what it is (`slamlab algorithms --markdown`; the book's algorithm chapter, docs/src/reference/algorithms.md).
 pub fn markdown_table(catalogue: &Catalogue) -> String {

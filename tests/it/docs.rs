@@ -1,7 +1,7 @@
-//! Contract: the book's generated chapters (`docs/src/reference/cli.md`, `algorithms.md`) are what
-//! `slamlab docs` writes from the code now — the command line's own help and the algorithm
-//! registry — so that a new flag or a new algorithm cannot be missing from the book; and the
-//! README stays within its 250 lines.
+//! Contract: the book's generated chapters (`docs/src/reference/cli.md`, `algorithms.md`,
+//! `modelling-defaults.md`) are what `slamlab docs` writes from the code now — the command line's
+//! own help, the algorithm registry and each model's `describe()` — so that a new flag, algorithm
+//! or modelling choice cannot be missing from the book; and the README stays within 250 lines.
 
 use crate::util::{ok, repo};
 
@@ -9,7 +9,7 @@ use crate::util::{ok, repo};
 fn the_books_generated_chapters_are_current() {
     let dir = tempfile::tempdir().unwrap();
     ok(&["docs", dir.path().to_str().unwrap()]);
-    for name in ["cli.md", "algorithms.md"] {
+    for name in ["cli.md", "algorithms.md", "modelling-defaults.md"] {
         let generated = std::fs::read_to_string(dir.path().join(name)).unwrap();
         let committed = std::fs::read_to_string(repo().join("docs/src/reference").join(name))
             .unwrap_or_default();
@@ -30,6 +30,12 @@ fn the_books_generated_chapters_are_current() {
         assert!(cli.contains(&format!("## `slamlab {command}`")), "{command} missing");
     }
     assert!(cli.contains("--threads"), "the flags are in the chapter");
+    let models = std::fs::read_to_string(dir.path().join("modelling-defaults.md")).unwrap();
+    for heading in
+        ["### `fastslam1`", "### `psm_original`", "### `graph_slam`", "## The simulated world"]
+    {
+        assert!(models.contains(heading), "{heading} missing from the modelling chapter");
+    }
 }
 
 #[test]

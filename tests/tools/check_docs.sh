@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # `make check-docs`: the book's generated chapters are the ones the code generates now, every
-# relative link of the README and the book resolves, the README stays a five-minute read, and the
+# relative link of the README and the book resolves, the findings chapters restate no measured
+# number (they include the reports' generated summaries), the README stays a five-minute read, and the
 # book builds. Needs mdBook (MDBOOK, default `mdbook`; CI installs the pinned version).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -19,6 +20,7 @@ for f in "$tmp"/reference/*.md; do
 done
 
 python3 tests/tools/check_links.py README.md docs/src || status=1
+python3 tests/tools/check_findings_numbers.py docs/src/findings || status=1
 
 lines=$(wc -l < README.md)
 if [ "$lines" -gt 250 ]; then echo "README.md: $lines lines, more than 250 (move the detail into the book)" >&2; status=1; fi

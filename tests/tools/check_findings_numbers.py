@@ -5,7 +5,8 @@ file they include (`{{#include ../../../reports/<study>/summary.md}}`, the fidel
 Outside fenced code, headings and include lines, after removing code spans (`k = 0.1`: a setting of
 the runs), citations ([FT Table 10.2: 10.4]: a published number) and link targets, a chapter may
 not contain a decimal number, nor a number followed by a unit (m, cm, mm, cm², %, °, s, ms, µs, ×).
-Integers alone (five maps, 100 particles, Table 4) are allowed.
+Integers alone (five maps, 100 particles, Table 4) and names with versions (FastSLAM 2.0) are
+allowed.
 
 Usage: check_findings_numbers.py DIR ; exits 1 naming each file:line and number."""
 import os, re, sys
@@ -18,8 +19,12 @@ NUMBER = re.compile(
 FENCE = re.compile(r'^\s*(```|~~~)')
 
 
+NAME = re.compile(r'\b(?:FastSLAM|SALib|PSM|E-PSM)\s+v?\d+(?:\.\d+)+')
+
+
 def offending(line):
     text = LINK_TARGET.sub('](…)', CITATION.sub('[…]', CODE.sub('`…`', line)))
+    text = NAME.sub('…', text)  # names with versions: FastSLAM 1.0, SALib 1.6.0
     return [m.group(0).strip() for m in NUMBER.finditer(text)]
 
 
