@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// The resolved parameters of one sweep point. Omitted sections and keys take their defaults.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct Params {
     /// Simulation clock.
@@ -62,6 +62,7 @@ pub struct Params {
     /// written (docs/src/guide/external-algorithms.md). Not written out when empty, so the studies without
     /// one keep their run hashes.
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    #[schemars(skip)]
     pub external: BTreeMap<String, toml::Table>,
 }
 

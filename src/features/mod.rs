@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use std::ops::Range;
 
 /// Which features a filter uses ([FT] §4: points, lines or both; the thesis's experiments use both).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum FeatureKind {
     Lines,
@@ -27,7 +27,7 @@ pub enum FeatureKind {
 }
 
 /// How a line's (ρ, θ) is fitted to its points.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum LineFit {
     /// The chord through the first and last point ([FT]'s Iterative-End-Point-Fit).
@@ -37,7 +37,7 @@ pub enum LineFit {
 }
 
 /// `[base.features]`: the extraction thresholds. Defaults: [FT] Table 10.2 / §4.4.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct FeatureParams {
     /// Dmax [m]: split while the farthest point is at least this far from the chord.

@@ -9,6 +9,7 @@ pub mod fidelity;
 pub mod figure;
 pub mod latex;
 pub mod model;
+pub mod parameters;
 pub mod pgf;
 pub mod sensitivity;
 pub mod slurm;

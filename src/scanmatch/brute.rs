@@ -29,7 +29,9 @@ use serde::{Deserialize, Serialize};
 const MAX_GRID_HALF: f64 = 500.0;
 
 /// How the profile g(cell) = min_θ f(cell, θ) is minimised over the grid (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum BruteForceMode {
     /// Grid sweep at the initial guess's best θ for a start cell, then 8-neighbour descent on g.
@@ -40,7 +42,7 @@ pub enum BruteForceMode {
 }
 
 /// `[scanmatch.brute]`: the brute-force reference ([EP] §6.1).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct BruteForceParams {
     /// Half-width of the square position grid around the initial guess [m]. Default 0.4

@@ -42,7 +42,7 @@ const BOBYQA_SEED: u64 = 0;
 
 /// `[scanmatch.epsm.orientation]`: E-PSM's brute-force orientation search ([EP] §5.3.1 step 1–3),
 /// shared with the brute-force reference (§6.1).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct OrientationParams {
     /// Coarse grid step [deg]. Default 1 ([EP] L151).
@@ -99,7 +99,9 @@ impl OrientationParams {
 const MAX_GRID_HALF: f64 = 1.0e4;
 
 /// How the odd half-iterations update the position.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum PositionStep {
     /// Unweighted least squares, δ = (HᵀH)⁻¹Hᵀr with a central-difference H (Eq. 5–6, Fig 6;
@@ -111,7 +113,7 @@ pub enum PositionStep {
 }
 
 /// `[scanmatch.epsm.bobyqa]`: the BOBYQA position step (Fig 7). [EP] gives no tolerances.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct BobyqaParams {
     /// Half-width of the (x, y) box around the current position [m]. Default 0.4 (as the
@@ -163,7 +165,7 @@ impl BobyqaParams {
 
 /// `[scanmatch.epsm]`: E-PSM ([EP] §5.3.1). Defaults: [EP]'s grids, and the reference's
 /// [ASSUMPTION]s where the document is silent (§3.5, §9).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct EpsmParams {
     /// The orientation search.

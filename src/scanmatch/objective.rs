@@ -40,7 +40,7 @@ pub const M2_TO_CM2: f64 = 1.0e4;
 const INDEX_SLACK_BEAMS: f64 = 1e-9;
 
 /// How f is normalised over the valid set V (Eq. 4; the normalisation is lost in [EP]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Normalisation {
     /// f = (1/|V|) Σ e² [cm²] (default, see the module doc).
@@ -51,7 +51,7 @@ pub enum Normalisation {
 
 /// How the projected current scan is interpolated at a reference bearing φ_j between two
 /// consecutive projected points a, b of one segment.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Interpolation {
     /// Linear in bearing: r̂ = r_a + (r_b − r_a)(φ_j − φ_a)/(φ_b − φ_a) ([EP] L142, Diosi's
@@ -65,7 +65,7 @@ pub enum Interpolation {
 }
 
 /// Parameters of the objective (TOML table `objective`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ObjectiveParams {
     /// Minimum number of valid pairs |V|; below it f = +∞, so no search can "win" by discarding

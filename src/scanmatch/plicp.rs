@@ -34,7 +34,7 @@ use serde::{Deserialize, Serialize};
 pub const CODE_VERSION: &str = "plicp-1";
 
 /// `[pl_icp]`: PL-ICP's parameters; every default is CSM `sm2`'s.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct PlIcpParams {
     /// Iteration budget per ICP run. Default 1000.

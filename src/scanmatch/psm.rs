@@ -56,7 +56,9 @@ const EMPTY_RANGE_CM: f64 = 10_000.0;
 const NO_OVERLAP_ERROR_CM: f64 = 10_000.0;
 
 /// How HᵀWH is inverted in the translation step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Inverse {
     /// v0.3: determinant h11·h22 (`hwh21` is never accumulated), off-diagonals −h12/det.
@@ -67,7 +69,9 @@ pub enum Inverse {
 }
 
 /// When the weighting factor C is reduced.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum WeightSchedule {
     /// v0.3 in effect: C never changes (its `iter == 10` test sits on a branch only odd passes
@@ -81,7 +85,7 @@ pub enum WeightSchedule {
 
 /// PSM's constants ([EP] reference §2.2g, `polar_match.h` for a SICK LMS200), in SI, and the
 /// v0.3 behaviours that are options (see the module doc).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct PsmParams {
     /// Projected ranges must be below this [m] to enter the translation step; PSM's own

@@ -8,7 +8,9 @@
 use serde::{Deserialize, Serialize};
 
 /// Arithmetic of PSM (and of its preprocessing): `single` = C `float` (v0.3's `PM_TYPE`), `double`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Precision {
     /// IEEE single precision, as v0.3 ships (`PM_TYPE float`).

@@ -153,7 +153,9 @@ impl Optimizer {
 }
 
 /// The local subsolver of MLSL-LDS (NLopt requires one; [EP] does not say which it used).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum MlslLocal {
     /// `LD_MMA` (CCSA method of moving asymptotes): NLopt's default local search for the GD_MLSL
@@ -181,7 +183,7 @@ impl MlslLocal {
 /// `[scanmatch.search]`: the simultaneous search's box, stopping rules and derivatives. [EP]
 /// gives none of them (reference §3.7); the defaults are the reference's [ASSUMPTION]s, with
 /// `maxeval` tuned so that CRS2 keeps its accuracy on noise-free room scans at a few ms.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct SearchParams {
     /// Half-width of the box in x and y around the initial guess [m]. Default 0.4 (800 × 800 mm,

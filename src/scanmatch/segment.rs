@@ -20,7 +20,7 @@ use crate::config::{Checks, Violation};
 use serde::{Deserialize, Serialize};
 
 /// The preprocessing method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Segmentation {
     /// Line segmentation and filtering (E-PSM's choice of a line segmenter; our replacement for
@@ -33,7 +33,7 @@ pub enum Segmentation {
 }
 
 /// Preprocessing parameters (TOML table `seg`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct SegmentationParams {
     /// Which preprocessing. Default `lines`: E-PSM replaces PSM's heuristics by a line segmenter
@@ -80,7 +80,7 @@ impl SegmentationParams {
 }
 
 /// Diosi's preprocessing constants ([EP] §2.2a, §2.2g; PSM `polar_match.cpp`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct PsmHeuristicsParams {
     /// Median filter window [beams], odd. PSM: 5 (HALF_WINDOW = 2).
@@ -113,7 +113,7 @@ impl PsmHeuristicsParams {
 
 /// Line segmentation thresholds. [EP] gives none for Cuadra's method ([EP] reference §3.1), so each
 /// is an assumption documented here.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct LineParams {
     /// Noise model σ(r) = k·r: k [dimensionless, m per m]. `None` (default): estimated per scan,

@@ -31,7 +31,7 @@ use serde::{Deserialize, Serialize};
 pub const CODE_VERSION: &str = "scanmatch-3";
 
 /// Where a match starts from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum InitialGuess {
     /// The odometry increment since the reference scan ([EP]).
@@ -41,7 +41,7 @@ pub enum InitialGuess {
 }
 
 /// `[base.scan_matching]`: what every scan matcher shares.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct ScanMatchingParams {
     /// Match once the odometry since the reference scan has moved this far [m].

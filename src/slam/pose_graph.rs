@@ -55,7 +55,7 @@ pub const CODE_VERSION: &str = "pose-graph-1";
 const SURFACE_GAP_M: f64 = 0.5;
 
 /// `[pose_graph]`: the laser pose graph's settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct PoseGraphParams {
     /// The built-in scan matcher that makes every edge ([`FRONT_ENDS`]). Default `pl_icp`.

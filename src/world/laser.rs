@@ -13,7 +13,7 @@ use std::f64::consts::TAU;
 use std::fmt::Write;
 
 /// `[base.laser]`. Defaults fill [FT] §10's gaps for a SICK LMS-200 as simulated by Stage.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct LaserParams {
     /// Field of view [deg], centred on the heading (LMS-200: 180°).

@@ -69,7 +69,7 @@ pub const MIN_DT_S: f64 = 1e-3;
 pub const MAX_DT_S: f64 = 1.0;
 
 /// `[base.sim]`: simulation clock.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct SimParams {
     /// Odometry/control period Δt [s]. [FT] gives no rate; the per-step motion noise means the
@@ -119,7 +119,7 @@ impl SimParams {
 }
 
 /// Range noise of a range sensor.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RangeNoise {
     /// σ(r) = σ.

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 /// Whether a noise parameter is a standard deviation or a variance. [FT] is ambiguous about
 /// both its odometry noise ("variance equal to 10 % of the measured velocity", written
 /// N(0, 0.1·v)) and its motion covariance, so specs say which reading they use.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Spread {
     /// A standard deviation σ.
@@ -23,7 +23,7 @@ pub enum Spread {
 }
 
 /// `[base.odometry]`: the odometry error model of the simulated logs.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(tag = "model", rename_all = "snake_case", deny_unknown_fields)]
 pub enum OdometryNoise {
     /// Perfect odometry. (A struct variant, so that stray keys are rejected like everywhere

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 pub const POINT_SENSOR_CODE_VERSION: &str = "points-3";
 
 /// `[base.landmark_sensor]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct PointSensorParams {
     /// Observation range d_max [m]: landmarks farther away are not seen ([PF] §V).

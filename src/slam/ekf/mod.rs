@@ -47,7 +47,7 @@ const LANDMARK_DIM: usize = 2;
 const HEADING: usize = 2;
 
 /// `[base.ekf]`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct EkfParams {
     /// How observations are matched to landmarks.
@@ -157,7 +157,9 @@ impl EkfParams {
 }
 
 /// How EKF-SLAM matches observations to landmarks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum EkfAssociation {
     /// The sensor's landmark identities ([PR] Table 10.1). An observation without one is
@@ -173,7 +175,9 @@ pub enum EkfAssociation {
 }
 
 /// What the update does to the covariance.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum CovarianceUpdate {
     /// P = (I − KH) P (I − KH)ᵀ + K R Kᵀ: symmetric positive semi-definite whatever rounding.

@@ -19,7 +19,7 @@ pub enum Association {
 /// observation is ignored" and "if the same observation is associated to distinct map features,
 /// none of those associations is taken into account". The exact test is not given; these are the
 /// readings, as options.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Ambiguity {
     /// Plain ML: always take the most likely landmark.

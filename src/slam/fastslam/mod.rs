@@ -39,7 +39,7 @@ pub const CODE_VERSION: &str = "fastslam1-4";
 const LN_2PI: f64 = 1.837_877_066_409_345_5;
 
 /// `[base.fastslam]`. Defaults: [FT] Table 10.2 (the Dmax study's fixed configuration).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct FastSlamParams {
     /// M, the number of particles.
@@ -97,7 +97,9 @@ fn is_default_landmark_cap(v: &u32) -> bool {
 }
 
 /// Which trajectory a particle filter reports (see [`FastSlamParams::estimate`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Estimate {
     #[default]
@@ -138,7 +140,9 @@ impl Estimate {
 }
 
 /// How FastSLAM matches observations to landmarks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum DataAssociation {
     /// Per-particle Maximum Likelihood with the new-landmark likelihood P0 ([FT] §5.4).

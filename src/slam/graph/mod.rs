@@ -60,7 +60,7 @@ use serde::{Deserialize, Serialize};
 pub const CODE_VERSION: &str = "graph-2";
 
 /// `[graph]`: the smoother's settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct GraphParams {
     /// Online estimate: re-solve every this many odometry steps. Default 10.
@@ -97,7 +97,9 @@ pub struct GraphParams {
 }
 
 /// How the smoother matches readings to landmarks.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum GraphAssociation {
     /// The sensor's landmark identities; data without them is refused.
@@ -128,7 +130,9 @@ fn is_infinite(x: &f64) -> bool {
 }
 
 /// Which steps of a run are poses of the graph.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, schemars::JsonSchema,
+)]
 #[serde(rename_all = "snake_case")]
 pub enum Nodes {
     /// Every odometry step, joined by the motion model's own between-factor.
