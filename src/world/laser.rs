@@ -24,9 +24,9 @@ pub struct LaserParams {
     pub max_range_m: f64,
     /// Scans per second [Hz]; 1/(rate·Δt) must be a whole number of odometry steps.
     pub rate_hz: f64,
-    /// Range noise model: `constant` (σ) or `proportional` (σ·r).
+    /// Range noise model: `constant` (σ), `proportional` (σ₁·r) or `quadratic` (σ₁·r²).
     pub range_noise: RangeNoise,
-    /// σ [m] for `constant`; σ at 1 m [m/m] for `proportional`.
+    /// σ [m] for `constant`; σ₁, the σ at 1 m, for `proportional` [m/m] and `quadratic` [1/m].
     pub range_sigma_m: f64,
     /// Thickness [m] of the walls as the laser sees them: solid bars around the map's (zero-width)
     /// centrelines. [FT]'s Stage maps were bitmaps with walls 2–3 px thick (≈ 5 cm), while its

@@ -28,9 +28,9 @@ pub struct PointSensorParams {
     pub fov_deg: f64,
     /// Observations per second [Hz]; 1/(rate·Δt) must be a whole number of odometry steps.
     pub rate_hz: f64,
-    /// Range noise model: `constant` (σ) or `proportional` (σ·r).
+    /// Range noise model: `constant` (σ), `proportional` (σ₁·r) or `quadratic` (σ₁·r²).
     pub range_noise: RangeNoise,
-    /// σr [m] for `constant`; σ at 1 m [m/m] for `proportional`.
+    /// σr [m] for `constant`; σ₁, the σ at 1 m, for `proportional` [m/m] and `quadratic` [1/m].
     pub range_sigma_m: f64,
     /// σb [rad].
     pub bearing_sigma_rad: f64,
