@@ -47,7 +47,8 @@ use crate::algo::{AlgorithmId, Catalogue};
 use crate::spec::cause::{self, Piece, Placeholder, Stat};
 use crate::spec::{Across, ClaimSpec, ClaimTest, FlatDirection, Require};
 use crate::stats::compare::{paired_differences as paired, t_interval, t_one_sided_p};
-use crate::stats::hypothesis::{holm, mean};
+use crate::stats::hypothesis::{holm, mean, sample_variance};
+use crate::stats::power::{self, Replicates};
 use crate::stats::{self, Summary, sig};
 use crate::store::{ClaimCells, RunRow, RunStatus, StudyData};
 use serde::{Deserialize, Serialize};
@@ -159,6 +160,9 @@ struct MapOutcome {
     /// Comparative tests: the map's excess on the claimed side of δ relative to the compared
     /// cell's level, (mean d − δ) / |level| (for pooling over maps; NaN otherwise).
     relative: f64,
+    /// When inconclusive: the replicates that would decide the map's test at its observed mean
+    /// and spread ([`power`]); `None` where no projection applies (failures, indices).
+    replicates: Option<Replicates>,
 }
 
 impl MapOutcome {
@@ -168,8 +172,43 @@ impl MapOutcome {
             text: reason,
             direction: None,
             relative: f64::NAN,
+            replicates: None,
         }
     }
+
+    /// `text` followed by the projection, when inconclusive.
+    fn projected(mut self) -> Self {
+        if self.verdict == Verdict::Inconclusive
+            && let Some(r) = self.replicates
+        {
+            self.text.push_str(&power_text(r));
+        }
+        self
+    }
+}
+
+/// Most replicates a projection searches (beyond: "more than …").
+pub const POWER_CAP: usize = 100_000;
+
+/// The projection in words, as the evidence lines end.
+fn power_text(r: Replicates) -> String {
+    match r {
+        Replicates::Needed(n) => {
+            format!("; at this mean and spread, {n} replicates would decide it")
+        }
+        Replicates::Never => {
+            "; no number of replicates would decide it: the mean sits on the test's bound".into()
+        }
+        Replicates::BeyondCap => {
+            format!("; at this mean and spread, more than {POWER_CAP} replicates would be needed")
+        }
+        Replicates::Decided => String::new(),
+    }
+}
+
+/// Sample standard deviation (NaN below 2 values).
+fn sd(x: &[f64]) -> f64 {
+    sample_variance(x).sqrt()
 }
 
 /// A cell's 95 % CI against the range (a, b): confirmed when the CI lies inside it, refuted when
@@ -339,6 +378,7 @@ fn on_map(
                 text: format!("{k} of {n} runs failed as the claim says"),
                 direction: Some(2 * k > n),
                 relative: f64::NAN,
+                replicates: None,
             }
         }
         ClaimTest::Above | ClaimTest::Below | ClaimTest::Between => {
@@ -367,7 +407,27 @@ fn on_map(
             } else {
                 s_at.mean >= a && s_at.mean <= b
             });
-            MapOutcome { verdict, text: describe(&s_at), direction, relative: f64::NAN }
+            // the bound the interval must clear: both ends inside (a, b) when the mean is inside,
+            // else the end it lies beyond
+            let values: Vec<f64> = at.values().copied().collect();
+            let clear = |bound: f64| {
+                power::to_clear(s_at.mean, sd(&values), bound, CONFIDENCE, s_at.n, POWER_CAP)
+            };
+            let replicates = if s_at.mean < a {
+                clear(a)
+            } else if s_at.mean > b {
+                clear(b)
+            } else {
+                most([clear(a), clear(b)])
+            };
+            MapOutcome {
+                verdict,
+                text: describe(&s_at),
+                direction,
+                relative: f64::NAN,
+                replicates: Some(replicates),
+            }
+            .projected()
         }
         ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess => {
             if cells.at == cells.than && than_algorithm == algorithm {
@@ -425,7 +485,9 @@ fn on_map(
                 text,
                 direction,
                 relative: (if claimed_above { m - delta } else { delta - m }) / s_than.mean.abs(),
+                replicates: Some(power::to_clear(m, sd(&d), delta, CONFIDENCE, d.len(), POWER_CAP)),
             }
+            .projected()
         }
         ClaimTest::Flat => {
             let over: Vec<(String, BTreeMap<u32, f64>)> = cells
@@ -515,9 +577,124 @@ fn on_map(
                 sig(p_refute, 2),
                 diffs.len()
             );
-            MapOutcome { verdict, text, direction, relative: f64::NAN }
+            // confirming needs every pair's 90 % interval within the tolerance; refuting, one
+            // pair beyond it at 2.5 % one-sided after Holm (projected with Bonferroni over the
+            // pairs, which needs at least as many replicates)
+            let refute_confidence = 1.0 - 2.0 * (1.0 - CONFIDENCE) / 2.0 / diffs.len() as f64;
+            let per_pair: Vec<Replicates> = diffs
+                .iter()
+                .map(|d| {
+                    let (m, s) = (mean(d), sd(d));
+                    match claim.direction {
+                        FlatDirection::Both if m.abs() <= tol => {
+                            power::to_settle_equivalence(m, s, tol, TOST_ALPHA, d.len(), POWER_CAP)
+                        }
+                        FlatDirection::Both => {
+                            power::to_clear(m.abs(), s, tol, refute_confidence, d.len(), POWER_CAP)
+                        }
+                        _ if m >= -tol => {
+                            power::to_clear(m, s, -tol, 1.0 - 2.0 * TOST_ALPHA, d.len(), POWER_CAP)
+                        }
+                        _ => power::to_clear(m, s, -tol, refute_confidence, d.len(), POWER_CAP),
+                    }
+                })
+                .collect();
+            let beyond = diffs.iter().any(|d| match claim.direction {
+                FlatDirection::Both => mean(d).abs() > tol,
+                _ => mean(d) < -tol,
+            });
+            // refuting takes one pair beyond (the fewest); confirming takes every pair (the most)
+            let replicates = if beyond {
+                let outside: Vec<Replicates> = diffs
+                    .iter()
+                    .zip(&per_pair)
+                    .filter(|(d, _)| match claim.direction {
+                        FlatDirection::Both => mean(d).abs() > tol,
+                        _ => mean(d) < -tol,
+                    })
+                    .map(|(_, r)| *r)
+                    .collect();
+                fewest(&outside)
+            } else {
+                most(per_pair)
+            };
+            MapOutcome {
+                verdict,
+                text,
+                direction,
+                relative: f64::NAN,
+                replicates: Some(replicates),
+            }
+            .projected()
         }
     }
+}
+
+/// An inconclusive claim's projection in words: the replicates per cell (paired) that would decide
+/// its undecided units at their observed means and spreads, read by the claim's `require`.
+fn claim_projection(outcomes: &[MapOutcome], require: Require, pooled: bool, unit: &str) -> String {
+    if pooled {
+        return format!(
+            ". Pooled over the {unit}s: more {unit}s, not more replicates per {unit}, narrow its interval"
+        );
+    }
+    let undecided: Vec<Replicates> = outcomes
+        .iter()
+        .filter(|o| o.verdict == Verdict::Inconclusive)
+        .filter_map(|o| o.replicates)
+        .collect();
+    if undecided.is_empty() {
+        // (only a failure count projects nothing: it decides when all or none of the runs fail)
+        let any = outcomes.iter().any(|o| o.verdict == Verdict::Inconclusive);
+        return if any {
+            ". More replicates cannot decide it: some but not all of the runs failed".into()
+        } else {
+            String::new()
+        };
+    }
+    let words = |r: Replicates| match r {
+        Replicates::Needed(n) => format!("{n} replicates"),
+        Replicates::BeyondCap => format!("more than {POWER_CAP} replicates"),
+        Replicates::Never => "no number of replicates".into(),
+        Replicates::Decided => "the replicates run".into(),
+    };
+    let (few, many) = (fewest(&undecided), most(undecided.iter().copied()));
+    let text = match require {
+        Require::All | Require::Pooled => {
+            format!("{} would decide every undecided {unit}", words(many))
+        }
+        Require::Most | Require::Any if few == many => {
+            format!("{} would decide each undecided {unit}", words(many))
+        }
+        Require::Most | Require::Any => {
+            format!("the undecided {unit}s would need from {} to {}", words(few), words(many))
+        }
+    };
+    format!(". Projected at each {unit}'s observed mean and spread: {text}")
+}
+
+/// The projection that decides when every one of `rs` must be decided: the largest need (never,
+/// if one never is).
+fn most(rs: impl IntoIterator<Item = Replicates>) -> Replicates {
+    rs.into_iter().fold(Replicates::Decided, |acc, r| match (acc, r) {
+        (Replicates::Never, _) | (_, Replicates::Never) => Replicates::Never,
+        (Replicates::BeyondCap, _) | (_, Replicates::BeyondCap) => Replicates::BeyondCap,
+        (Replicates::Needed(a), Replicates::Needed(b)) => Replicates::Needed(a.max(b)),
+        (Replicates::Needed(a), Replicates::Decided)
+        | (Replicates::Decided, Replicates::Needed(a)) => Replicates::Needed(a),
+        (Replicates::Decided, Replicates::Decided) => Replicates::Decided,
+    })
+}
+
+/// The projection that decides when any one of `rs` is decided: the smallest need.
+fn fewest(rs: &[Replicates]) -> Replicates {
+    let rank = |r: &Replicates| match r {
+        Replicates::Decided => (0, 0),
+        Replicates::Needed(n) => (1, *n),
+        Replicates::BeyondCap => (2, 0),
+        Replicates::Never => (3, 0),
+    };
+    rs.iter().copied().min_by_key(rank).unwrap_or(Replicates::Never)
 }
 
 /// Combines per-map verdicts: untestable maps cannot confirm; all untestable ⇒ untestable.
@@ -638,6 +815,11 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
             );
             if let Some((_, text)) = &pooled {
                 summary.push_str(&format!(". {text}"));
+            }
+            if verdict == Verdict::Inconclusive && claim.index.is_some() {
+                summary.push_str(". An index's bootstrap interval narrows with more design rows (trajectories or base samples of the sweep), not with replicates");
+            } else if verdict == Verdict::Inconclusive {
+                summary.push_str(&claim_projection(&outcomes, claim.require, pooled.is_some(), unit));
             }
             let evidence: Vec<String> = maps.iter().zip(&outcomes).map(|(m, o)| format!("{m}: {} — {}", o.verdict.as_str(), o.text)).collect();
             let directions: Vec<bool> = outcomes.iter().filter_map(|o| o.direction).collect();
@@ -870,6 +1052,7 @@ fn index_on_map(
                 ),
                 direction,
                 relative: f64::NAN,
+                replicates: None, // (a bootstrap interval over the design: more rows, not replicates)
             }
         }
         _ => {
@@ -902,6 +1085,7 @@ fn index_on_map(
                 ),
                 direction,
                 relative: f64::NAN,
+                replicates: None, // (a bootstrap interval over the design: more rows, not replicates)
             }
         }
     }
@@ -1151,12 +1335,61 @@ mod tests {
         assert_eq!(combine(&[Refuted, Inconclusive, Confirmed], Require::Any), Confirmed);
     }
 
+    fn undecided(r: Replicates) -> MapOutcome {
+        MapOutcome {
+            verdict: Verdict::Inconclusive,
+            text: String::new(),
+            direction: Some(true),
+            relative: f64::NAN,
+            replicates: Some(r),
+        }
+    }
+
+    /// Every map must be decided for `require = "all"` (the largest need, never if one never is);
+    /// any one suffices for the smallest; a pooled claim needs maps, not replicates.
+    #[test]
+    fn a_claims_projection_reads_its_maps_by_require() {
+        let maps = [undecided(Replicates::Needed(12)), undecided(Replicates::Needed(40))];
+        let all = claim_projection(&maps, Require::All, false, "map");
+        assert!(all.ends_with(": 40 replicates would decide every undecided map"), "{all}");
+        let most = claim_projection(&maps, Require::Most, false, "map");
+        assert!(most.ends_with("from 12 replicates to 40 replicates"), "{most}");
+        let never = [undecided(Replicates::Needed(12)), undecided(Replicates::Never)];
+        let all = claim_projection(&never, Require::All, false, "map");
+        assert!(all.ends_with("no number of replicates would decide every undecided map"), "{all}");
+        assert!(claim_projection(&maps, Require::Pooled, true, "map").contains("more maps"));
+        // a decided map adds nothing
+        let mut decided = undecided(Replicates::Decided);
+        decided.verdict = Verdict::Confirmed;
+        assert_eq!(claim_projection(&[decided], Require::All, false, "map"), "");
+    }
+
+    /// An inconclusive comparison projects the first count whose 95 % interval clears δ; a
+    /// decided one says nothing more.
+    #[test]
+    fn an_inconclusive_map_states_the_replicates_that_would_decide_it() {
+        let d = [0.02, -0.01, 0.05, 0.0, 0.03];
+        assert_eq!(decide_margin(&d, 0.005, true), Verdict::Inconclusive);
+        let r = power::to_clear(mean(&d), sd(&d), 0.005, CONFIDENCE, d.len(), POWER_CAP);
+        let Replicates::Needed(n) = r else { panic!("{r:?}") };
+        assert!(n > d.len());
+        let outcome = MapOutcome { text: "x".into(), ..undecided(r) }.projected();
+        assert_eq!(
+            outcome.text,
+            format!("x; at this mean and spread, {n} replicates would decide it")
+        );
+        let mut confirmed = MapOutcome { text: "x".into(), ..undecided(r) };
+        confirmed.verdict = Verdict::Confirmed;
+        assert_eq!(confirmed.projected().text, "x");
+    }
+
     fn map_with(relative: f64) -> MapOutcome {
         MapOutcome {
             verdict: Verdict::Inconclusive,
             text: String::new(),
             direction: Some(relative > 0.0),
             relative,
+            replicates: None,
         }
     }
 

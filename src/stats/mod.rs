@@ -5,6 +5,7 @@
 
 pub mod compare;
 pub mod hypothesis;
+pub mod power;
 pub mod sensitivity;
 
 use statrs::distribution::{ContinuousCDF, StudentsT};

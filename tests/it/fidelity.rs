@@ -165,3 +165,35 @@ fn rendering_one_study_keeps_the_committed_scoreboard() {
         assert!(committed == rendered, "{file} changed when only smoke was rendered");
     }
 }
+
+/// Every inconclusive claim in the committed reports says how many replicates would decide it at
+/// its observed means and spreads — or why replicates would not (a pooled claim needs maps, an
+/// index claim design rows) — and every inconclusive map of it says its own count.
+#[test]
+fn every_inconclusive_claim_states_the_replicates_that_would_decide_it() {
+    let mut checked = 0;
+    for entry in std::fs::read_dir(repo().join("reports")).unwrap().flatten() {
+        let path = entry.path().join("claims.json");
+        let Ok(text) = std::fs::read_to_string(&path) else { continue };
+        let claims: Vec<serde_json::Value> = serde_json::from_str(&text).unwrap();
+        for c in claims.iter().filter(|c| c["verdict"] == "inconclusive") {
+            let summary = c["summary"].as_str().unwrap();
+            let said = [
+                "Projected at each",
+                "Pooled over the",
+                "narrows with more design rows",
+                "More replicates cannot decide it",
+            ];
+            assert!(said.iter().any(|s| summary.contains(s)), "{}: {summary}", path.display());
+            if summary.contains("Projected at each") {
+                for e in c["evidence"].as_array().unwrap().iter().filter_map(|e| e.as_str()) {
+                    if e.contains(": inconclusive — ") {
+                        assert!(e.contains("replicates would"), "{}: {e}", path.display());
+                    }
+                }
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 20, "only {checked} inconclusive claims found");
+}
