@@ -111,6 +111,10 @@ pub struct ClaimResult {
     /// For a verdict other than confirmed: the cause found (the spec's `cause`), or "not yet
     /// investigated"; empty when confirmed.
     pub cause: String,
+    /// For an inconclusive claim: what would decide it (the replicates at the observed means and
+    /// spreads, or why replicates would not; also the end of `summary`); empty otherwise.
+    #[serde(default)]
+    pub projection: String,
 }
 
 fn describe(s: &Summary) -> String {
@@ -635,7 +639,7 @@ fn on_map(
 fn claim_projection(outcomes: &[MapOutcome], require: Require, pooled: bool, unit: &str) -> String {
     if pooled {
         return format!(
-            ". Pooled over the {unit}s: more {unit}s, not more replicates per {unit}, narrow its interval"
+            "Pooled over the {unit}s: more {unit}s, not more replicates per {unit}, narrow its interval"
         );
     }
     let undecided: Vec<Replicates> = outcomes
@@ -647,7 +651,7 @@ fn claim_projection(outcomes: &[MapOutcome], require: Require, pooled: bool, uni
         // (only a failure count projects nothing: it decides when all or none of the runs fail)
         let any = outcomes.iter().any(|o| o.verdict == Verdict::Inconclusive);
         return if any {
-            ". More replicates cannot decide it: some but not all of the runs failed".into()
+            "More replicates cannot decide it: some but not all of the runs failed".into()
         } else {
             String::new()
         };
@@ -670,7 +674,7 @@ fn claim_projection(outcomes: &[MapOutcome], require: Require, pooled: bool, uni
             format!("the undecided {unit}s would need from {} to {}", words(few), words(many))
         }
     };
-    format!(". Projected at each {unit}'s observed mean and spread: {text}")
+    format!("Projected at each {unit}'s observed mean and spread: {text}")
 }
 
 /// The projection that decides when every one of `rs` must be decided: the largest need (never,
@@ -816,10 +820,15 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
             if let Some((_, text)) = &pooled {
                 summary.push_str(&format!(". {text}"));
             }
-            if verdict == Verdict::Inconclusive && claim.index.is_some() {
-                summary.push_str(". An index's bootstrap interval narrows with more design rows (trajectories or base samples of the sweep), not with replicates");
-            } else if verdict == Verdict::Inconclusive {
-                summary.push_str(&claim_projection(&outcomes, claim.require, pooled.is_some(), unit));
+            let projection = if verdict != Verdict::Inconclusive {
+                String::new()
+            } else if claim.index.is_some() {
+                "An index's bootstrap interval narrows with more design rows (trajectories or base samples of the sweep), not with replicates".into()
+            } else {
+                claim_projection(&outcomes, claim.require, pooled.is_some(), unit)
+            };
+            if !projection.is_empty() {
+                summary.push_str(&format!(". {projection}"));
             }
             let evidence: Vec<String> = maps.iter().zip(&outcomes).map(|(m, o)| format!("{m}: {} — {}", o.verdict.as_str(), o.text)).collect();
             let directions: Vec<bool> = outcomes.iter().filter_map(|o| o.direction).collect();
@@ -846,6 +855,7 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
                 direction_agrees: if verdict == Verdict::Untestable { None } else { direction_agrees },
                 why: claim.why.clone(),
                 cause,
+                projection,
             })
         })
         .collect()

@@ -482,12 +482,21 @@ fn classify_item_claims(
 }
 
 /// Classifies an item answered by claims.
+/// `s` with its first letter in lower case (a sentence quoted inside another).
+fn lower_first(s: &str) -> String {
+    let mut c = s.chars();
+    c.next().map_or_else(String::new, |f| f.to_lowercase().chain(c).collect())
+}
+
 fn classify_claims(ids: &[String], claims: &[&ClaimResult]) -> (Class, String) {
     let found: Vec<&&ClaimResult> =
         ids.iter().filter_map(|id| claims.iter().find(|c| &c.id == id)).collect();
     let listed = found
         .iter()
-        .map(|c| format!("{}: {}", c.id, c.verdict.as_str()))
+        .map(|c| match c.projection.as_str() {
+            "" => format!("{}: {}", c.id, c.verdict.as_str()),
+            p => format!("{}: {} ({})", c.id, c.verdict.as_str(), lower_first(p)),
+        })
         .collect::<Vec<_>>()
         .join("; ");
     if found.len() != ids.len() {
@@ -580,6 +589,7 @@ mod tests {
             direction_agrees: direction,
             why: String::new(),
             cause: String::new(),
+            projection: String::new(),
         }
     }
 

@@ -100,6 +100,7 @@ mod tests {
             direction_agrees: Some(true),
             why: String::new(),
             cause: cause.into(),
+            projection: String::new(),
         };
         let md = markdown(
             &entry,

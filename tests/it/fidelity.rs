@@ -197,3 +197,27 @@ fn every_inconclusive_claim_states_the_replicates_that_would_decide_it() {
     }
     assert!(checked >= 20, "only {checked} inconclusive claims found");
 }
+
+/// Every UNRESOLVED item of the committed scoreboard says what would resolve it: its cells'
+/// replicates (or that no count of ours can), or its inconclusive claims' projections.
+#[test]
+fn every_unresolved_item_states_what_would_resolve_it() {
+    let board = std::fs::read_to_string(repo().join("reports/fidelity/fidelity.md")).unwrap();
+    let rows: Vec<&str> = board
+        .lines()
+        .filter(|l| l.contains(" | UNRESOLVED | ") && !l.starts_with("| Reference work"))
+        .collect();
+    assert!(!rows.is_empty(), "the scoreboard has unresolved items");
+    let said = [
+        "would resolve at",
+        "cannot be resolved by more runs",
+        "projected at each",
+        "pooled over the",
+        "more replicates cannot",
+        "narrows with more design rows",
+    ];
+    for row in rows {
+        let lower = row.to_lowercase();
+        assert!(said.iter().any(|s| lower.contains(s)), "{row}");
+    }
+}
