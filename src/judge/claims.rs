@@ -603,22 +603,19 @@ fn on_map(
                     }
                 })
                 .collect();
-            let beyond = diffs.iter().any(|d| match claim.direction {
-                FlatDirection::Both => mean(d).abs() > tol,
-                _ => mean(d) < -tol,
-            });
-            // refuting takes one pair beyond (the fewest); confirming takes every pair (the most)
-            let replicates = if beyond {
-                let outside: Vec<Replicates> = diffs
-                    .iter()
-                    .zip(&per_pair)
-                    .filter(|(d, _)| match claim.direction {
-                        FlatDirection::Both => mean(d).abs() > tol,
-                        _ => mean(d) < -tol,
-                    })
-                    .map(|(_, r)| *r)
-                    .collect();
-                fewest(&outside)
+            // refuting takes one pair beyond the tolerance (the fewest); confirming takes every
+            // pair (the most)
+            let outside: Vec<bool> = diffs
+                .iter()
+                .map(|d| match claim.direction {
+                    FlatDirection::Both => mean(d).abs() > tol,
+                    _ => mean(d) < -tol,
+                })
+                .collect();
+            let replicates = if outside.contains(&true) {
+                let beyond: Vec<Replicates> =
+                    per_pair.iter().zip(&outside).filter(|(_, o)| **o).map(|(r, _)| *r).collect();
+                fewest(&beyond)
             } else {
                 most(per_pair)
             };

@@ -407,6 +407,7 @@ fn iterate<T: Real>(
 ) -> Run {
     let frame = Frame::<T>::new(reference);
     let (reference, current) = (Ranges::<T>::new(reference), Ranges::<T>::new(current));
+    let table = ShiftTable::new(&reference, params.search_window_beams);
     let mut projected = Projected::new(frame.fi.len());
     // our (x forward, y left) m → PSM's (X right, Y forward) cm; the heading is the same angle
     let (mut ax, mut ay, mut ath) = (
@@ -427,7 +428,7 @@ fn iterate<T: Real>(
         };
         project(&frame, &current, (ax, ay, ath), &mut projected);
         if pass.is_multiple_of(2) {
-            match orientation_search(&frame, &reference, &projected, params) {
+            match orientation_search(&frame, &table, &projected, params) {
                 Some(d) => dth = d,
                 None => return Run { outcome: Err(Stop::TooFewPairs), passes: pass + 1 },
             }
@@ -500,7 +501,10 @@ pub fn orientation_profile(
             (T::from_f64(-M_TO_CM * at.y), T::from_f64(M_TO_CM * at.x), T::from_f64(at.theta)),
             &mut projected,
         );
-        let errors = orientation_errors(&reference, &projected, params);
+        let errors = orientation_errors(
+            &ShiftTable::new(&reference, params.search_window_beams),
+            &projected,
+        );
         let w = params.search_window_beams as isize;
         let pick = orientation_pick(&frame, &errors, params);
         OrientationProfile {
@@ -616,12 +620,11 @@ fn bearing_span(q0: f64, q1: f64, last: usize) -> Option<(usize, usize)> {
 #[inline(always)]
 fn orientation_search<T: Real>(
     frame: &Frame<T>,
-    reference: &Ranges<T>,
+    table: &ShiftTable<T>,
     projected: &Projected<T>,
     params: &PsmParams,
 ) -> Option<T> {
-    orientation_pick(frame, &orientation_errors(reference, projected, params), params)
-        .map(|(d, _)| d)
+    orientation_pick(frame, &orientation_errors(table, projected), params).map(|(d, _)| d)
 }
 
 /// e(di) for di = −W..=W (see [`orientation_search`]); [`NO_OVERLAP_ERROR_CM`] where no pair.
@@ -633,24 +636,9 @@ fn orientation_search<T: Real>(
 /// the lanes only interleave independent sums. A pair that is not usable adds an exact +0.0 (e is
 /// never −0.0), which is v0.3's skip.
 #[inline(always)]
-fn orientation_errors<T: Real>(
-    reference: &Ranges<T>,
-    projected: &Projected<T>,
-    params: &PsmParams,
-) -> Vec<T> {
-    let n = reference.r.len();
-    let w = params.search_window_beams;
-    let shifts = 2 * w + 1;
-    // the reference ranges with `w` invalid beams before and `w + SHIFT_LANES` after, so that
-    // every lane's partner i + di (di ∈ −W..W + SHIFT_LANES) has a slot; outside the scan, none.
-    // Validity as 1 or 0 in the working type: the lanes then count in it too (exact integers),
-    // and the compiler keeps the whole block in vector registers.
-    let (one, zero) = (T::from_f64(1.0), T::ZERO);
-    let mut weight = vec![zero; n + 2 * w + SHIFT_LANES];
-    let mut refr = vec![zero; weight.len()];
-    for (k, (&valid, &r)) in reference.valid.iter().zip(&reference.r).enumerate() {
-        (weight[w + k], refr[w + k]) = (if valid { one } else { zero }, r);
-    }
+fn orientation_errors<T: Real>(table: &ShiftTable<T>, projected: &Projected<T>) -> Vec<T> {
+    let (n, shifts, zero) = (table.beams, 2 * table.window + 1, T::ZERO);
+    let (refr, weight) = (&table.r, &table.weight);
     let (cur, usable) = (&projected.r[..n], &projected.usable[..n]);
     let mut errors = Vec::with_capacity(shifts + SHIFT_LANES);
     // lane k of a block sums shift di = first − W + k; its partner of beam i is slot i + first + k
@@ -681,6 +669,31 @@ fn orientation_errors<T: Real>(
 
 /// Shifts of [`orientation_errors`] summed side by side (one 256-bit register of f32).
 const SHIFT_LANES: usize = 8;
+
+/// The reference ranges as [`orientation_errors`] reads them, made once per match: `window`
+/// invalid beams before and `window + SHIFT_LANES` after, so that every lane's partner i + di
+/// (di ∈ −W..W + SHIFT_LANES) has a slot (outside the scan, none); validity as 1 or 0 in the
+/// working type, so that the lanes count in it too (exact integers) and the compiler keeps a whole
+/// block in vector registers.
+struct ShiftTable<T> {
+    r: Vec<T>,
+    weight: Vec<T>,
+    beams: usize,
+    window: usize,
+}
+
+impl<T: Real> ShiftTable<T> {
+    fn new(reference: &Ranges<T>, window: usize) -> Self {
+        let beams = reference.r.len();
+        let (one, zero) = (T::from_f64(1.0), T::ZERO);
+        let mut weight = vec![zero; beams + 2 * window + SHIFT_LANES];
+        let mut r = vec![zero; weight.len()];
+        for (k, (&valid, &range)) in reference.valid.iter().zip(&reference.r).enumerate() {
+            (weight[window + k], r[window + k]) = (if valid { one } else { zero }, range);
+        }
+        Self { r, weight, beams, window }
+    }
+}
 
 /// The first smallest e(di) refined by the parabola: (dθ [rad], whether refined); `None` when no
 /// shift has a pair.
@@ -839,8 +852,7 @@ mod tests {
                     usable: (0..n).map(|_| unit() > 0.2).collect(),
                     ..Projected::new(n)
                 };
-                let params = PsmParams { search_window_beams: w, ..PsmParams::default() };
-                let fast = orientation_errors(&reference, &projected, &params);
+                let fast = orientation_errors(&ShiftTable::new(&reference, w), &projected);
                 let slow = v03(&reference, &projected, w);
                 assert_eq!(fast.len(), slow.len());
                 for (k, (a, b)) in fast.iter().zip(&slow).enumerate() {
@@ -1245,6 +1257,7 @@ mod tests {
     fn orientation_search_finds_a_shift_of_the_range_array() {
         let (r, _) = prepared_pair(Pose2::IDENTITY, Segmentation::PsmHeuristics);
         let (frame, reference) = (Frame::<f64>::new(&r), Ranges::<f64>::new(&r));
+        let table = ShiftTable::new(&reference, PsmParams::default().search_window_beams);
         // current scan rotated by +4 beams seen at θ = 0: r̂[i] = r_ref[i + 4]
         let n = r.len();
         let shifted = Projected {
@@ -1254,7 +1267,7 @@ mod tests {
             usable: (0..n).map(|i| i + 4 < n).collect(),
             ..Projected::new(n)
         };
-        let d = orientation_search(&frame, &reference, &shifted, &PsmParams::default()).unwrap();
+        let d = orientation_search(&frame, &table, &shifted, &PsmParams::default()).unwrap();
         // (the parabolic refinement moves it by a fraction of a beam: the V-shape bias)
         assert!(
             (d - 4.0 * r.angle_increment_rad).abs() < 0.02 * r.angle_increment_rad,
@@ -1263,7 +1276,7 @@ mod tests {
         );
         let empty =
             Projected { r: vec![EMPTY_RANGE_CM; n], usable: vec![false; n], ..Projected::new(n) };
-        assert_eq!(orientation_search(&frame, &reference, &empty, &PsmParams::default()), None);
+        assert_eq!(orientation_search(&frame, &table, &empty, &PsmParams::default()), None);
     }
 
     /// v0.3 never reduces C: its `iter == 10` test is on the translation branch, which only odd
