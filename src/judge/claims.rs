@@ -63,6 +63,27 @@ pub const DEFAULT_MIN_EFFECT_REL: f64 = 0.05;
 /// Fewest paired replicates a test accepts.
 pub const MIN_REPLICATES: usize = 3;
 
+/// The levels a look judges at: the fixed design's ([`Levels::FIXED`]), or a sequential look's
+/// nominal levels ([`super::sequential`]), which are stricter.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Levels {
+    /// Two-sided confidence of the intervals of greater/less/threshold tests (and of pooling):
+    /// each side spends (1 − confidence) / 2.
+    pub confidence: f64,
+    /// One-sided α of the equivalence and non-inferiority halves of `flat`.
+    pub tost_alpha: f64,
+}
+
+impl Levels {
+    /// The fixed design's levels: [`CONFIDENCE`] and [`TOST_ALPHA`].
+    pub const FIXED: Levels = Levels { confidence: CONFIDENCE, tost_alpha: TOST_ALPHA };
+
+    /// The one-sided α of each side of a 2.5 %-per-side test.
+    pub fn side(self) -> f64 {
+        (1.0 - self.confidence) / 2.0
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
@@ -157,16 +178,16 @@ fn identical(a: &BTreeMap<u32, f64>, b: &BTreeMap<u32, f64>) -> bool {
 
 /// One map's outcome.
 #[derive(Debug, Clone)]
-struct MapOutcome {
-    verdict: Verdict,
-    text: String,
+pub(super) struct MapOutcome {
+    pub verdict: Verdict,
+    pub text: String,
     direction: Option<bool>,
     /// Comparative tests: the map's excess on the claimed side of δ relative to the compared
     /// cell's level, (mean d − δ) / |level| (for pooling over maps; NaN otherwise).
     relative: f64,
     /// When inconclusive: the replicates that would decide the map's test at its observed mean
     /// and spread ([`power`]); `None` where no projection applies (failures, indices).
-    replicates: Option<Replicates>,
+    pub replicates: Option<Replicates>,
 }
 
 impl MapOutcome {
@@ -210,6 +231,16 @@ fn power_text(r: Replicates) -> String {
     }
 }
 
+/// A confidence level in words: "95 %", "90 %", "97.9 %".
+pub fn percent(level: f64) -> String {
+    let p = level * 100.0;
+    if (p - p.round()).abs() < 1e-9 {
+        format!("{} %", p.round())
+    } else {
+        format!("{} %", sig(p, 3))
+    }
+}
+
 /// Sample standard deviation (NaN below 2 values).
 fn sd(x: &[f64]) -> f64 {
     sample_variance(x).sqrt()
@@ -237,7 +268,12 @@ pub fn decide_range((lo, hi): (f64, f64), (a, b): (f64, f64), strict: bool) -> V
 /// (d > δ) or below (d < δ), at [`CONFIDENCE`]: the interval rule of [`decide_range`], strict, so
 /// a constant difference equal to δ is not "more than δ" (refuted) nor "less than δ".
 pub fn decide_margin(d: &[f64], delta: f64, claimed_above: bool) -> Verdict {
-    let ci = t_interval(d, CONFIDENCE);
+    decide_margin_at(d, delta, claimed_above, CONFIDENCE)
+}
+
+/// [`decide_margin`] with the interval at `confidence`.
+pub fn decide_margin_at(d: &[f64], delta: f64, claimed_above: bool, confidence: f64) -> Verdict {
+    let ci = t_interval(d, confidence);
     if ci.0.is_nan() {
         return Verdict::Untestable;
     }
@@ -248,21 +284,22 @@ pub fn decide_margin(d: &[f64], delta: f64, claimed_above: bool) -> Verdict {
 /// The decision of a two-sided equivalence claim over paired-difference samples (one per pair of
 /// cells) with tolerance `tol`: TOST per pair, Holm over the pairs to refute.
 pub fn decide_flat(pairs: &[Vec<f64>], tol: f64) -> Verdict {
+    decide_flat_at(pairs, tol, Levels::FIXED)
+}
+
+/// [`decide_flat`] at `levels`.
+pub fn decide_flat_at(pairs: &[Vec<f64>], tol: f64, levels: Levels) -> Verdict {
     if pairs.is_empty() {
         return Verdict::Untestable;
     }
     let equivalent = pairs.iter().all(|d| {
-        let (lo, hi) = t_interval(d, 1.0 - 2.0 * TOST_ALPHA);
+        let (lo, hi) = t_interval(d, 1.0 - 2.0 * levels.tost_alpha);
         lo > -tol && hi < tol
     });
     if equivalent {
         return Verdict::Confirmed;
     }
-    if beyond_p(pairs, tol) < (1.0 - CONFIDENCE) / 2.0 {
-        Verdict::Refuted
-    } else {
-        Verdict::Inconclusive
-    }
+    if beyond_p(pairs, tol) < levels.side() { Verdict::Refuted } else { Verdict::Inconclusive }
 }
 
 /// The smallest Holm-adjusted one-sided p that a pair's difference lies beyond ±tol (what refutes
@@ -285,26 +322,29 @@ pub fn below_p(diffs: &[Vec<f64>], tol: f64) -> f64 {
 /// The decision of a one-sided flat claim: each sample d (a cell minus the reference cell) must
 /// not fall below −tol (`no_decrease`; for `no_increase` pass −d).
 pub fn decide_no_decrease(diffs: &[Vec<f64>], tol: f64) -> Verdict {
+    decide_no_decrease_at(diffs, tol, Levels::FIXED)
+}
+
+/// [`decide_no_decrease`] at `levels`.
+pub fn decide_no_decrease_at(diffs: &[Vec<f64>], tol: f64, levels: Levels) -> Verdict {
     if diffs.is_empty() {
         return Verdict::Untestable;
     }
-    if diffs.iter().all(|d| t_one_sided_p(d, -tol, true) < TOST_ALPHA) {
+    if diffs.iter().all(|d| t_one_sided_p(d, -tol, true) < levels.tost_alpha) {
         return Verdict::Confirmed;
     }
-    if below_p(diffs, tol) < (1.0 - CONFIDENCE) / 2.0 {
-        Verdict::Refuted
-    } else {
-        Verdict::Inconclusive
-    }
+    if below_p(diffs, tol) < levels.side() { Verdict::Refuted } else { Verdict::Inconclusive }
 }
 
-/// Evaluates one claim on one map.
+/// Evaluates one claim on one map: decided at `levels`, and projected (the replicates that would
+/// decide it) at `project`.
 fn on_map(
     data: &StudyData,
     claim: &ClaimSpec,
     cells: &ClaimCells,
     map: &str,
     algorithm: &str,
+    (levels, project): (Levels, Levels),
 ) -> MapOutcome {
     let values = |point: &Option<String>, alg: &str| {
         point
@@ -398,7 +438,12 @@ fn on_map(
                     describe(&s_at)
                 ));
             }
-            let (lo, hi) = (s_at.ci_low, s_at.ci_high);
+            let values: Vec<f64> = at.values().copied().collect();
+            let (lo, hi) = if levels == Levels::FIXED {
+                (s_at.ci_low, s_at.ci_high)
+            } else {
+                t_interval(&values, levels.confidence)
+            };
             let (a, b) = match claim.test {
                 ClaimTest::Above => (claim.value.unwrap_or(f64::NAN), f64::INFINITY),
                 ClaimTest::Below => (f64::NEG_INFINITY, claim.value.unwrap_or(f64::NAN)),
@@ -413,9 +458,15 @@ fn on_map(
             });
             // the bound the interval must clear: both ends inside (a, b) when the mean is inside,
             // else the end it lies beyond
-            let values: Vec<f64> = at.values().copied().collect();
             let clear = |bound: f64| {
-                power::to_clear(s_at.mean, sd(&values), bound, CONFIDENCE, s_at.n, POWER_CAP)
+                power::to_clear(
+                    s_at.mean,
+                    sd(&values),
+                    bound,
+                    project.confidence,
+                    s_at.n,
+                    POWER_CAP,
+                )
             };
             let replicates = if s_at.mean < a {
                 clear(a)
@@ -424,9 +475,21 @@ fn on_map(
             } else {
                 most([clear(a), clear(b)])
             };
+            let text = if levels == Levels::FIXED {
+                describe(&s_at)
+            } else {
+                format!(
+                    "{} [{}, {}] (n = {}, {} interval)",
+                    sig(s_at.mean, 3),
+                    sig(lo, 3),
+                    sig(hi, 3),
+                    s_at.n,
+                    percent(levels.confidence)
+                )
+            };
             MapOutcome {
                 verdict,
-                text: describe(&s_at),
+                text,
                 direction,
                 relative: f64::NAN,
                 replicates: Some(replicates),
@@ -466,8 +529,8 @@ fn on_map(
                     claim.min_effect_rel.unwrap_or(DEFAULT_MIN_EFFECT_REL) * s_than.mean.abs()
                 })
                 .max(resolution);
-            let verdict = decide_margin(&d, delta, claimed_above);
-            let (lo, hi) = t_interval(&d, CONFIDENCE);
+            let verdict = decide_margin_at(&d, delta, claimed_above, levels.confidence);
+            let (lo, hi) = t_interval(&d, levels.confidence);
             let m = mean(&d);
             let direction = Some(if claimed_above { m > delta } else { m < delta });
             let word = if matches!(claim.test, ClaimTest::Greater | ClaimTest::NotGreater) {
@@ -489,7 +552,14 @@ fn on_map(
                 text,
                 direction,
                 relative: (if claimed_above { m - delta } else { delta - m }) / s_than.mean.abs(),
-                replicates: Some(power::to_clear(m, sd(&d), delta, CONFIDENCE, d.len(), POWER_CAP)),
+                replicates: Some(power::to_clear(
+                    m,
+                    sd(&d),
+                    delta,
+                    project.confidence,
+                    d.len(),
+                    POWER_CAP,
+                )),
             }
             .projected()
         }
@@ -545,8 +615,8 @@ fn on_map(
                 ));
             }
             let verdict = match claim.direction {
-                FlatDirection::Both => decide_flat(&diffs, tol),
-                _ => decide_no_decrease(&diffs, tol),
+                FlatDirection::Both => decide_flat_at(&diffs, tol, levels),
+                _ => decide_no_decrease_at(&diffs, tol, levels),
             };
             let (lo, hi) = means
                 .iter()
@@ -559,14 +629,15 @@ fn on_map(
             let worst = diffs
                 .iter()
                 .map(|d| {
-                    let (l, h) = t_interval(d, 1.0 - 2.0 * TOST_ALPHA);
+                    let (l, h) = t_interval(d, 1.0 - 2.0 * levels.tost_alpha);
                     if claim.direction == FlatDirection::Both { l.abs().max(h.abs()) } else { -l }
                 })
                 .fold(f64::NEG_INFINITY, f64::max);
+            let tost = percent(1.0 - 2.0 * levels.tost_alpha);
             let bound = if claim.direction == FlatDirection::Both {
-                "widest 90 % CI bound of a difference"
+                format!("widest {tost} CI bound of a difference")
             } else {
-                "largest change against the claim within the 90 % CIs"
+                format!("largest change against the claim within the {tost} CIs")
             };
             let p_refute = if claim.direction == FlatDirection::Both {
                 beyond_p(&diffs, tol)
@@ -574,31 +645,42 @@ fn on_map(
                 below_p(&diffs, tol)
             };
             let text = format!(
-                "means {listed}; range {}; {bound} {} (tolerance {}); smallest Holm-adjusted p of a difference beyond the tolerance {} over {} pairs (refutes below 0.025)",
+                "means {listed}; range {}; {bound} {} (tolerance {}); smallest Holm-adjusted p of a difference beyond the tolerance {} over {} pairs (refutes below {})",
                 sig(hi - lo, 3),
                 sig(worst, 3),
                 sig(tol, 3),
                 sig(p_refute, 2),
-                diffs.len()
+                diffs.len(),
+                if levels == Levels::FIXED { "0.025".to_string() } else { sig(levels.side(), 2) }
             );
             // confirming needs every pair's 90 % interval within the tolerance; refuting, one
             // pair beyond it at 2.5 % one-sided after Holm (projected with Bonferroni over the
             // pairs, which needs at least as many replicates)
-            let refute_confidence = 1.0 - 2.0 * (1.0 - CONFIDENCE) / 2.0 / diffs.len() as f64;
+            let refute_confidence = 1.0 - 2.0 * project.side() / diffs.len() as f64;
             let per_pair: Vec<Replicates> = diffs
                 .iter()
                 .map(|d| {
                     let (m, s) = (mean(d), sd(d));
                     match claim.direction {
-                        FlatDirection::Both if m.abs() <= tol => {
-                            power::to_settle_equivalence(m, s, tol, TOST_ALPHA, d.len(), POWER_CAP)
-                        }
+                        FlatDirection::Both if m.abs() <= tol => power::to_settle_equivalence(
+                            m,
+                            s,
+                            tol,
+                            project.tost_alpha,
+                            d.len(),
+                            POWER_CAP,
+                        ),
                         FlatDirection::Both => {
                             power::to_clear(m.abs(), s, tol, refute_confidence, d.len(), POWER_CAP)
                         }
-                        _ if m >= -tol => {
-                            power::to_clear(m, s, -tol, 1.0 - 2.0 * TOST_ALPHA, d.len(), POWER_CAP)
-                        }
+                        _ if m >= -tol => power::to_clear(
+                            m,
+                            s,
+                            -tol,
+                            1.0 - 2.0 * project.tost_alpha,
+                            d.len(),
+                            POWER_CAP,
+                        ),
                         _ => power::to_clear(m, s, -tol, refute_confidence, d.len(), POWER_CAP),
                     }
                 })
@@ -726,7 +808,7 @@ fn combine(verdicts: &[Verdict], require: Require) -> Verdict {
 /// cannot confirm alone, and no map's within-map variance of zero gives it infinite weight.
 /// Confirmed when the 95 % interval lies above 0, refuted when below; one testable map cannot be
 /// pooled (its own verdict stands).
-fn pooled(outcomes: &[MapOutcome]) -> (Verdict, String) {
+fn pooled(outcomes: &[MapOutcome], confidence: f64) -> (Verdict, String) {
     let r: Vec<f64> = outcomes
         .iter()
         .filter(|o| o.verdict != Verdict::Untestable && o.relative.is_finite())
@@ -739,123 +821,233 @@ fn pooled(outcomes: &[MapOutcome]) -> (Verdict, String) {
             format!("{} testable map(s): nothing to pool", r.len()),
         );
     }
-    let (lo, hi) = t_interval(&r, CONFIDENCE);
+    let (lo, hi) = t_interval(&r, confidence);
     let verdict = decide_range((lo, hi), (0.0, f64::INFINITY), true);
     (
         verdict,
         format!(
-            "random effects over {} maps: mean relative excess beyond δ {} [{}, {}] (95 % t interval over the maps)",
+            "random effects over {} maps: mean relative excess beyond δ {} [{}, {}] ({} t interval over the maps)",
             r.len(),
             sig(mean(&r), 2),
             sig(lo, 2),
-            sig(hi, 2)
+            sig(hi, 2),
+            percent(confidence)
         ),
     )
 }
 
-/// Judges every claim of a study.
+/// Judges every claim of a study at the fixed design's levels (a sequential study's claims are
+/// judged look by look, by [`super::sequential`]).
 pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
-    let spec = &data.resolved.spec;
-    let mut index_metrics: Vec<String> =
-        spec.claims.iter().filter(|c| c.index.is_some()).map(|c| c.metric.clone()).collect();
-    index_metrics.sort();
-    index_metrics.dedup();
-    let analyses = if index_metrics.is_empty() {
-        Vec::new()
-    } else {
-        super::sensitivity::analyse(data, &index_metrics)
-    };
-    let catalogue = data.resolved.catalogue();
-    spec.claims
+    let context = Context::of(data);
+    let look = (Levels::FIXED, Levels::FIXED);
+    data.resolved
+        .spec
+        .claims
         .iter()
-        .filter_map(|claim| {
-            if claim.judged_on.is_some() {
-                return None; // judged on the timing page, not in the report
-            }
-            let cells = data.resolved.claims.iter().find(|c| c.id == claim.id)?;
-            let claim_maps: Vec<&String> = if claim.maps.is_empty() { spec.maps.iter().collect() } else { claim.maps.iter().collect() };
-            let algorithm = claim.algorithm.as_ref().or(spec.algorithms.first())?.as_str();
-            // The units the verdicts range over: maps, or (map, cell) pairs.
-            let units: Vec<(String, ClaimCells)> = match claim.across {
-                Across::Maps => claim_maps.iter().map(|m| (m.to_string(), cells.clone())).collect(),
-                Across::Cells => claim_maps
-                    .iter()
-                    .flat_map(|m| data.resolved.points.iter().map(move |p| {
-                        let at = Some(p.label.clone());
-                        (format!("{m} @ {}", p.label), ClaimCells { id: claim.id.clone(), at: at.clone(), than: at, over: Vec::new() })
-                    }))
-                    .collect(),
-            };
-            let map_of = |unit: &str| unit.split(" @ ").next().unwrap_or(unit).to_string();
-            let outcomes: Vec<MapOutcome> = units.iter().map(|(u, c)| if claim.index.is_some() { index_on_map(&analyses, claim, &map_of(u), algorithm) } else { on_map(data, claim, c, &map_of(u), algorithm) }).collect();
-            let maps: Vec<&String> = units.iter().map(|(u, _)| u).collect();
-            let verdicts: Vec<Verdict> = outcomes.iter().map(|o| o.verdict).collect();
-            let comparative = matches!(claim.test, ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess);
-            let pooled = (claim.require == Require::Pooled && comparative).then(|| pooled(&outcomes));
-            let verdict = match &pooled {
-                Some((v, _)) => *v,
-                None => combine(&verdicts, claim.require),
-            };
-            let count = |v: Verdict| verdicts.iter().filter(|x| **x == v).count();
-            let unit = if claim.across == Across::Cells { "cell" } else { "map" };
-            let require = match claim.require {
-                Require::All => format!("every {unit}"),
-                Require::Most => format!("most {unit}s"),
-                Require::Any => format!("any {unit}"),
-                Require::Pooled if comparative => format!("the {unit}s on average (random effects)"),
-                Require::Pooled => format!("every {unit}"),
-            };
-            let mut summary = format!(
-                "Required on {require}; on their own, of {} {}: {} confirmed, {} refuted, {} inconclusive, {} untestable",
-                verdicts.len(),
-                if claim.across == Across::Cells { "cells (map, sweep point)" } else { "map(s)" },
-                count(Verdict::Confirmed),
-                count(Verdict::Refuted),
-                count(Verdict::Inconclusive),
-                count(Verdict::Untestable)
-            );
-            if let Some((_, text)) = &pooled {
-                summary.push_str(&format!(". {text}"));
-            }
-            let projection = if verdict != Verdict::Inconclusive {
-                String::new()
-            } else if claim.index.is_some() {
-                "An index's bootstrap interval narrows with more design rows (trajectories or base samples of the sweep), not with replicates".into()
-            } else {
-                claim_projection(&outcomes, claim.require, pooled.is_some(), unit)
-            };
-            if !projection.is_empty() {
-                summary.push_str(&format!(". {projection}"));
-            }
-            let evidence: Vec<String> = maps.iter().zip(&outcomes).map(|(m, o)| format!("{m}: {} — {}", o.verdict.as_str(), o.text)).collect();
-            let directions: Vec<bool> = outcomes.iter().filter_map(|o| o.direction).collect();
-            let direction_agrees = (!directions.is_empty()).then(|| 2 * directions.iter().filter(|d| **d).count() > directions.len());
-            let cause = if verdict == Verdict::Confirmed {
-                String::new()
-            } else if verdict == Verdict::Untestable && claim.cause.is_none() {
-                let reasons: Vec<&str> = outcomes.iter().filter(|o| o.verdict == Verdict::Untestable).map(|o| o.text.as_str()).collect();
-                format!("untestable: {}", reasons.first().copied().unwrap_or(""))
-            } else {
-                claim.cause.as_deref().map_or_else(|| "not yet investigated".into(), |c| render_cause(data, algorithm, c))
-            };
-            Some(ClaimResult {
-                study: spec.id.clone(),
-                id: claim.id.clone(),
-                source: claim.source.clone(),
-                seed: claim.seed_tag().unwrap_or("").to_string(),
-                kind: claim.kind.as_str().to_string(),
-                text: claim.text.clone(),
-                test: test_text(claim, cells, spec.report.sensitivity_log.contains(&claim.metric), &catalogue),
-                verdict,
-                summary,
-                evidence,
-                direction_agrees: if verdict == Verdict::Untestable { None } else { direction_agrees },
-                why: claim.why.clone(),
-                cause,
-                projection,
-            })
-        })
+        .filter_map(|claim| judge(data, &context, claim, look, &[]))
+        .map(|j| j.result)
         .collect()
+}
+
+/// What every claim of a study is judged with: its sensitivity analyses and its catalogue.
+pub(super) struct Context {
+    analyses: Vec<super::sensitivity::Analysis>,
+    catalogue: Catalogue,
+}
+
+impl Context {
+    pub(super) fn of(data: &StudyData) -> Context {
+        let spec = &data.resolved.spec;
+        let mut index_metrics: Vec<String> =
+            spec.claims.iter().filter(|c| c.index.is_some()).map(|c| c.metric.clone()).collect();
+        index_metrics.sort();
+        index_metrics.dedup();
+        let analyses = if index_metrics.is_empty() {
+            Vec::new()
+        } else {
+            super::sensitivity::analyse(data, &index_metrics)
+        };
+        Context { analyses, catalogue: data.resolved.catalogue() }
+    }
+}
+
+/// One claim judged at one look: its result, and per unit (map, or map @ cell) the unit's name,
+/// its cells and its outcome.
+pub(super) struct Judged {
+    pub result: ClaimResult,
+    pub units: Vec<(String, ClaimCells)>,
+    pub outcomes: Vec<MapOutcome>,
+    /// The algorithm the claim is about, and the one its `than` cell runs.
+    pub algorithms: (String, String),
+    /// Pooled over the maps (its maps are judged together at every look, never one by one).
+    pub pooled: bool,
+}
+
+/// Judges one claim at `look` (decision levels, projection levels); a unit with an outcome in
+/// `frozen` keeps it (a sequential look: decided at an earlier look). None when the claim is
+/// judged elsewhere (on the timing page) or has no cells.
+pub(super) fn judge(
+    data: &StudyData,
+    context: &Context,
+    claim: &ClaimSpec,
+    look: (Levels, Levels),
+    frozen: &[Option<MapOutcome>],
+) -> Option<Judged> {
+    let spec = &data.resolved.spec;
+    let (analyses, catalogue) = (&context.analyses, &context.catalogue);
+    if claim.judged_on.is_some() {
+        return None; // judged on the timing page, not in the report
+    }
+    let cells = data.resolved.claims.iter().find(|c| c.id == claim.id)?;
+    let claim_maps: Vec<&String> = if claim.maps.is_empty() {
+        spec.maps.iter().collect()
+    } else {
+        claim.maps.iter().collect()
+    };
+    let algorithm = claim.algorithm.as_ref().or(spec.algorithms.first())?.as_str();
+    // The units the verdicts range over: maps, or (map, cell) pairs.
+    let units: Vec<(String, ClaimCells)> = match claim.across {
+        Across::Maps => claim_maps.iter().map(|m| (m.to_string(), cells.clone())).collect(),
+        Across::Cells => claim_maps
+            .iter()
+            .flat_map(|m| {
+                data.resolved.points.iter().map(move |p| {
+                    let at = Some(p.label.clone());
+                    (
+                        format!("{m} @ {}", p.label),
+                        ClaimCells {
+                            id: claim.id.clone(),
+                            at: at.clone(),
+                            than: at,
+                            over: Vec::new(),
+                        },
+                    )
+                })
+            })
+            .collect(),
+    };
+    let map_of = |unit: &str| unit.split(" @ ").next().unwrap_or(unit).to_string();
+    let outcomes: Vec<MapOutcome> = units
+        .iter()
+        .enumerate()
+        .map(|(i, (u, c))| match frozen.get(i) {
+            Some(Some(o)) => o.clone(),
+            _ if claim.index.is_some() => index_on_map(analyses, claim, &map_of(u), algorithm),
+            _ => on_map(data, claim, c, &map_of(u), algorithm, look),
+        })
+        .collect();
+    let maps: Vec<&String> = units.iter().map(|(u, _)| u).collect();
+    let verdicts: Vec<Verdict> = outcomes.iter().map(|o| o.verdict).collect();
+    let comparative = matches!(
+        claim.test,
+        ClaimTest::Greater | ClaimTest::Less | ClaimTest::NotGreater | ClaimTest::NotLess
+    );
+    let pooled = (claim.require == Require::Pooled && comparative)
+        .then(|| pooled(&outcomes, look.0.confidence));
+    let verdict = match &pooled {
+        Some((v, _)) => *v,
+        None => combine(&verdicts, claim.require),
+    };
+    let count = |v: Verdict| verdicts.iter().filter(|x| **x == v).count();
+    let unit = if claim.across == Across::Cells { "cell" } else { "map" };
+    let require = match claim.require {
+        Require::All => format!("every {unit}"),
+        Require::Most => format!("most {unit}s"),
+        Require::Any => format!("any {unit}"),
+        Require::Pooled if comparative => format!("the {unit}s on average (random effects)"),
+        Require::Pooled => format!("every {unit}"),
+    };
+    let mut summary = format!(
+        "Required on {require}; on their own, of {} {}: {} confirmed, {} refuted, {} inconclusive, {} untestable",
+        verdicts.len(),
+        if claim.across == Across::Cells { "cells (map, sweep point)" } else { "map(s)" },
+        count(Verdict::Confirmed),
+        count(Verdict::Refuted),
+        count(Verdict::Inconclusive),
+        count(Verdict::Untestable)
+    );
+    if let Some((_, text)) = &pooled {
+        summary.push_str(&format!(". {text}"));
+    }
+    let projection = if verdict != Verdict::Inconclusive {
+        String::new()
+    } else if claim.index.is_some() {
+        "An index's bootstrap interval narrows with more design rows (trajectories or base samples of the sweep), not with replicates".into()
+    } else {
+        claim_projection(&outcomes, claim.require, pooled.is_some(), unit)
+    };
+    if !projection.is_empty() {
+        summary.push_str(&format!(". {projection}"));
+    }
+    let evidence: Vec<String> = maps
+        .iter()
+        .zip(&outcomes)
+        .map(|(m, o)| format!("{m}: {} — {}", o.verdict.as_str(), o.text))
+        .collect();
+    let directions: Vec<bool> = outcomes.iter().filter_map(|o| o.direction).collect();
+    let direction_agrees = (!directions.is_empty())
+        .then(|| 2 * directions.iter().filter(|d| **d).count() > directions.len());
+    let cause = if verdict == Verdict::Confirmed {
+        String::new()
+    } else if verdict == Verdict::Untestable && claim.cause.is_none() {
+        let reasons: Vec<&str> = outcomes
+            .iter()
+            .filter(|o| o.verdict == Verdict::Untestable)
+            .map(|o| o.text.as_str())
+            .collect();
+        format!("untestable: {}", reasons.first().copied().unwrap_or(""))
+    } else {
+        claim
+            .cause
+            .as_deref()
+            .map_or_else(|| "not yet investigated".into(), |c| render_cause(data, algorithm, c))
+    };
+    let than_algorithm = claim.than_algorithm.as_ref().map_or(algorithm, |a| a.as_str());
+    Some(Judged {
+        result: ClaimResult {
+            study: spec.id.clone(),
+            id: claim.id.clone(),
+            source: claim.source.clone(),
+            seed: claim.seed_tag().unwrap_or("").to_string(),
+            kind: claim.kind.as_str().to_string(),
+            text: claim.text.clone(),
+            test: test_text(
+                claim,
+                cells,
+                spec.report.sensitivity_log.contains(&claim.metric),
+                catalogue,
+            ),
+            verdict,
+            summary,
+            evidence,
+            direction_agrees: if verdict == Verdict::Untestable { None } else { direction_agrees },
+            why: claim.why.clone(),
+            cause,
+            projection,
+        },
+        units,
+        outcomes,
+        algorithms: (algorithm.to_string(), than_algorithm.to_string()),
+        pooled: pooled.is_some(),
+    })
+}
+
+/// The cells (map, algorithm, sweep point) one unit of a claim compares: what a sequential look
+/// adds replicates to while the unit is undecided.
+pub(super) fn unit_cells(
+    map: &str,
+    cells: &ClaimCells,
+    (algorithm, than_algorithm): (&str, &str),
+) -> Vec<(String, String, String)> {
+    let cell = |alg: &str, point: &str| (map.to_string(), alg.to_string(), point.to_string());
+    let mut out: Vec<(String, String, String)> = Vec::new();
+    out.extend(cells.at.as_deref().map(|p| cell(algorithm, p)));
+    out.extend(cells.than.as_deref().map(|p| cell(than_algorithm, p)));
+    out.extend(cells.over.iter().map(|(_, p)| cell(algorithm, p)));
+    out.sort();
+    out.dedup();
+    out
 }
 
 /// A cause with its placeholders filled from the study's runs (`spec::cause`) and its code spans'

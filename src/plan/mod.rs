@@ -145,7 +145,7 @@ pub fn build(spec: LoadedSpec, maps_dir: &Path) -> Result<ExperimentPlan, InputE
 /// Runs a spec would expand to, counted before expanding anything (saturating): sweep points
 /// (one-at-a-time: the sum of the lists; grid: their product; zip: the list length; duplicates
 /// counted; morris: trajectories × (d + 1); sobol: samples × (d + 2)) × maps × algorithms ×
-/// replicates.
+/// replicates (a sequential study's whole budget).
 pub fn planned_runs(spec: &LoadedSpec) -> u64 {
     let points = if spec.sweeps.is_empty() {
         1u64
@@ -167,7 +167,7 @@ pub fn planned_runs(spec: &LoadedSpec) -> u64 {
     [
         spec.spec.maps.len() as u64,
         spec.spec.algorithms.len() as u64,
-        u64::from(spec.spec.replicates),
+        u64::from(spec.spec.replicate_budget()),
     ]
     .into_iter()
     .fold(points, u64::saturating_mul)
@@ -1153,8 +1153,10 @@ fn runs(
     progress: &dyn Fn(Stage, usize, usize),
 ) -> Vec<RunSpec> {
     let s = &spec.spec;
-    let width = (s.replicates.saturating_sub(1)).to_string().len().max(2);
-    let total = maps.len() * s.algorithms.len() * points.len() * s.replicates as usize;
+    // a sequential study plans its whole budget; `run` takes the stages it needs
+    let replicates = s.replicate_budget();
+    let width = (replicates.saturating_sub(1)).to_string().len().max(2);
+    let total = maps.len() * s.algorithms.len() * points.len() * replicates as usize;
     let mut runs = Vec::with_capacity(total);
     // the base's text of each section (the sections no sweep sets)
     let base_texts: Vec<String> =
@@ -1162,7 +1164,7 @@ fn runs(
     let labels: Vec<String> = points.iter().map(|p| sanitize(&p.label)).collect();
     for (mi, map) in maps.iter().enumerate() {
         // (world, filter) seed of each replicate: from the study seed, map and replicate only
-        let seeds: Vec<(u64, u64)> = (0..s.replicates)
+        let seeds: Vec<(u64, u64)> = (0..replicates)
             .map(|replicate| {
                 let world = if s.fixed_world { 0 } else { replicate };
                 (
@@ -1213,8 +1215,8 @@ fn runs(
                     toml::to_string(&point.params.sections(&wanted))
                         .expect("parameters serialise to TOML")
                 });
-                let mut out = Vec::with_capacity(s.replicates as usize);
-                for replicate in 0..s.replicates {
+                let mut out = Vec::with_capacity(replicates as usize);
+                for replicate in 0..replicates {
                     let (world_seed, filter_seed) = seeds[replicate as usize];
                     let inputs = format!(
                         "map_blake3 = {:?}\nworld_seed = {world_seed}\nfilter_seed = {filter_seed}\n{params}",

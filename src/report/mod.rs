@@ -12,6 +12,7 @@ pub mod model;
 pub mod parameters;
 pub mod pgf;
 pub mod sensitivity;
+pub mod sequential;
 pub mod slurm;
 pub mod summary;
 pub mod timings;

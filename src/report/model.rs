@@ -69,6 +69,9 @@ pub struct StudyView {
     /// morris / sobol groups: global sensitivity.
     pub sensitivity: Vec<SensitivitySection>,
     pub claims: Vec<crate::judge::claims::ClaimResult>,
+    /// A sequential study (`max_replicates`): its looks, replicates per cell and the verdicts the
+    /// added replicates decided ([`super::sequential`]); empty for a fixed study.
+    pub sequential: Vec<NamedTable>,
     /// Cost claims stated in time (`judged_on = "time"`): "id (text)", judged on the timing page.
     pub timed_claims: Vec<String>,
     pub trajectories: Vec<FigureView>,

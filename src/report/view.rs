@@ -252,6 +252,14 @@ pub fn build(
     let landmark_tables = landmark_tables(&study, traces);
     let contrasts = contrast_tables(&study);
     let failed = data.runs.iter().filter(|r| r.status != RunStatus::Ok).count();
+    let (claims, sequential) = match crate::judge::sequential::Design::of(spec) {
+        None => (crate::judge::claims::evaluate(data), Vec::new()),
+        Some(design) => {
+            let replay = crate::judge::sequential::replay(data, &design);
+            let tables = super::sequential::tables(&replay, data.runs.len());
+            (replay.results, tables)
+        }
+    };
     let view = StudyView {
         id: spec.id.clone(),
         title: spec.title.clone(),
@@ -272,7 +280,8 @@ pub fn build(
         notes: spec.notes.clone(),
         groups,
         sensitivity,
-        claims: crate::judge::claims::evaluate(data),
+        claims,
+        sequential,
         timed_claims: spec
             .claims
             .iter()
@@ -329,7 +338,18 @@ fn facts(study: &Study<'_>, failed: usize) -> Vec<Kv> {
         kv("Algorithms", study.algorithms().map(|a| a.title()).collect::<Vec<_>>().join(", ")),
         kv("Sweep points", points),
         kv("Cells (map × algorithm × point)", cells),
-        kv("Replicates per cell (n)", spec.replicates),
+        match spec.looks() {
+            None => kv("Replicates per cell (n)", spec.replicates),
+            Some(looks) => kv(
+                "Replicates per cell (n)",
+                format!(
+                    "{} to {}, in stages where claims were undecided (sequential: looks at {})",
+                    spec.replicates,
+                    spec.replicate_budget(),
+                    looks.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(", ")
+                ),
+            ),
+        },
         kv("Runs", study.data.runs.len()),
         kv("Failed or diverged runs", format!("{failed}/{}", study.data.runs.len())),
     ]

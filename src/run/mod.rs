@@ -7,6 +7,7 @@ pub mod diagnostics;
 pub mod external;
 pub mod progress;
 pub mod provenance;
+pub mod stages;
 pub mod worlds;
 
 use crate::algo::RunInput;
@@ -139,17 +140,37 @@ pub enum RunError {
     Threads { threads: usize, message: String },
 }
 
-/// Runs (or takes from the cache) every run of `plan` and writes the study's results.
+/// Runs (or takes from the cache) every run of `plan` and writes the study's results. A
+/// sequential study (`max_replicates`) runs the stages its looks ask for ([`stages`]) and
+/// writes those runs.
 pub fn run_study(
     plan: &ExperimentPlan,
     opts: &RunOptions,
     provenance: &Provenance,
 ) -> Result<StudySummary, RunError> {
-    let cache = Cache::new(&opts.cache_dir);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()
         .map_err(|e| RunError::Threads { threads: opts.threads, message: e.to_string() })?;
+    let Some(design) = crate::judge::sequential::Design::of(&plan.spec.spec) else {
+        return write_runs(plan, opts, provenance, &pool);
+    };
+    let (staged, computed) = stages::run_stages(plan, &design, opts, &pool)?;
+    // every run of the stages is computed (or forced) by now: the rest only writes them
+    let opts = RunOptions { force: false, ..opts.clone() };
+    let mut summary = write_runs(&staged, &opts, provenance, &pool)?;
+    summary.computed += computed;
+    Ok(summary)
+}
+
+/// Runs (or takes from the cache) every run of `plan` and writes the study's results.
+fn write_runs(
+    plan: &ExperimentPlan,
+    opts: &RunOptions,
+    provenance: &Provenance,
+    pool: &rayon::ThreadPool,
+) -> Result<StudySummary, RunError> {
+    let cache = Cache::new(&opts.cache_dir);
     if opts.progress && plan.runs.len() >= LARGE_STUDY {
         eprintln!(
             "{}: looking up {} runs in the cache and scheduling them",
@@ -277,7 +298,7 @@ pub fn run_study(
         plan,
         &missing,
         &|i| planned_cost[plan.runs[i].hash.as_str()],
-        &pool,
+        pool,
         &started,
         |i, c| {
             let run = &plan.runs[i];
@@ -533,59 +554,94 @@ pub fn run_shard(
         .map_err(|e| RunError::Threads { threads: opts.threads, message: e.to_string() })?;
     let owner = shards(plans, shard.count);
     let mut summary = ShardSummary { runs: 0, computed: 0, cached: 0, failed: 0, expected_s: 0.0 };
-    let mut seen = std::collections::BTreeSet::new();
+    let mut seen: std::collections::BTreeSet<String> = std::collections::BTreeSet::new();
     for plan in plans.iter().filter(|p| !skipped(p)) {
-        let mine: Vec<usize> = (0..plan.runs.len())
-            .filter(|&i| {
-                owner.get(plan.runs[i].hash.as_str()) == Some(&shard.index)
-                    && seen.insert(plan.runs[i].hash.as_str())
-            })
-            .collect();
-        summary.runs += mine.len();
-        summary.expected_s +=
-            mine.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i])).sum::<f64>();
-        let todo: Vec<usize> = mine
-            .iter()
-            .copied()
-            .filter(|&i| opts.force || !cache.contains(&plan.runs[i].hash))
-            .collect();
-        summary.cached += mine.len() - todo.len();
-        if todo.is_empty() {
-            continue;
-        }
-        let cost: f64 =
-            todo.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i]) * 1e3).sum();
-        let mut progress = Progress::new(
-            &format!("{} (shard {shard})", plan.id()),
-            todo.len(),
-            todo.len(),
-            cost,
-            opts.progress,
-        );
-        compute(
-            plan,
-            &todo,
-            &|i| crate::plan::cost::expected_s(plan, &plan.runs[i]),
-            &pool,
-            &|| progress.computing(),
-            |i, c| {
-                let run = &plan.runs[i];
-                if let Err(e) = cache.put(&run.hash, &c, true) {
-                    progress.warn(&format!("cannot cache {}: {e}", run.run_id));
+        let design = crate::judge::sequential::Design::of(&plan.spec.spec);
+        // A sequential study: the shard's runs of the stage the cache stands at, stage after
+        // stage while it can tell the next one (the other shards' runs of a stage may still be
+        // missing: then the next array pass, or the gathering `run`, goes on from there).
+        let mut stage_plan = None;
+        loop {
+            let stage = match &design {
+                Some(d) => &*stage_plan.insert(stages::from_cache(plan, d, &cache).0),
+                None => plan,
+            };
+            let mine: Vec<usize> = (0..stage.runs.len())
+                .filter(|&i| {
+                    let hash = stage.runs[i].hash.as_str();
+                    owner.get(hash) == Some(&shard.index) && !seen.contains(hash)
+                })
+                .collect();
+            for &i in &mine {
+                seen.insert(stage.runs[i].hash.clone());
+            }
+            summary.runs += mine.len();
+            summary.expected_s += mine
+                .iter()
+                .map(|&i| crate::plan::cost::expected_s(stage, &stage.runs[i]))
+                .sum::<f64>();
+            let todo: Vec<usize> = mine
+                .iter()
+                .copied()
+                .filter(|&i| opts.force || !cache.contains(&stage.runs[i].hash))
+                .collect();
+            summary.cached += mine.len() - todo.len();
+            if todo.is_empty() {
+                if design.is_none() || mine.is_empty() {
+                    break;
                 }
-                summary.computed += 1;
-                summary.failed += usize::from(c.row.status != RunStatus::Ok);
-                progress.finished(
-                    c.row.status,
-                    false,
-                    1,
-                    crate::plan::cost::expected_s(plan, run) * 1e3,
-                );
-            },
-        );
-        progress.done();
+                continue; // this stage's runs of ours were cached: the next stage may have more
+            }
+            compute_shard(stage, &todo, shard, opts, &pool, &cache, &mut summary);
+            if design.is_none() {
+                break;
+            }
+        }
     }
     Ok(summary)
+}
+
+/// Computes the runs `todo` of one shard's study into the cache.
+fn compute_shard(
+    plan: &ExperimentPlan,
+    todo: &[usize],
+    shard: crate::plan::shard::Shard,
+    opts: &RunOptions,
+    pool: &rayon::ThreadPool,
+    cache: &Cache,
+    summary: &mut ShardSummary,
+) {
+    let cost: f64 =
+        todo.iter().map(|&i| crate::plan::cost::expected_s(plan, &plan.runs[i]) * 1e3).sum();
+    let mut progress = Progress::new(
+        &format!("{} (shard {shard})", plan.id()),
+        todo.len(),
+        todo.len(),
+        cost,
+        opts.progress,
+    );
+    compute(
+        plan,
+        todo,
+        &|i| crate::plan::cost::expected_s(plan, &plan.runs[i]),
+        pool,
+        &|| progress.computing(),
+        |i, c| {
+            let run = &plan.runs[i];
+            if let Err(e) = cache.put(&run.hash, &c, true) {
+                progress.warn(&format!("cannot cache {}: {e}", run.run_id));
+            }
+            summary.computed += 1;
+            summary.failed += usize::from(c.row.status != RunStatus::Ok);
+            progress.finished(
+                c.row.status,
+                false,
+                1,
+                crate::plan::cost::expected_s(plan, run) * 1e3,
+            );
+        },
+    );
+    progress.done();
 }
 
 /// Simulates one run; never panics outward: errors and panics become a failed row.

@@ -25,8 +25,15 @@ pub struct ExperimentSpec {
     pub description: String,
     /// Study seed: with (map, replicate) it determines every random number of every run.
     pub seed: u64,
-    /// Runs per (map, algorithm, sweep point).
+    /// Runs per (map, algorithm, sweep point); with `max_replicates`, the first stage's.
     pub replicates: u32,
+    /// The replication budget of a sequential study: replicates are added in stages (see
+    /// `[sequential]`) to the cells of claims still undecided, up to this many per cell.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_replicates: Option<u32>,
+    /// How a sequential study adds replicates (with `max_replicates`; defaults if absent).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sequential: Option<SequentialSpec>,
     /// `true`: every replicate sees the same world (odometry and sensor noise of replicate 0) and
     /// only the filters' random numbers differ — [PF]'s design ("the same odometry readings and
     /// the same map throughout all experiments"). Default `false`: each replicate draws a world.
@@ -48,6 +55,58 @@ pub struct ExperimentSpec {
     /// Testable claims of the reference work, evaluated from this study's runs in its report.
     #[serde(default)]
     pub claims: Vec<ClaimSpec>,
+}
+
+/// The group-sequential design of a study with `max_replicates`, fixed before its first look.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SequentialSpec {
+    /// The alpha-spending function: `obrien_fleming` (default) or `pocock`.
+    #[serde(default)]
+    pub spending: Spending,
+    /// Replicates added per stage (default: `replicates`). The looks are at `replicates`,
+    /// `replicates + stage_replicates`, … and `max_replicates`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stage_replicates: Option<u32>,
+}
+
+/// Lan–DeMets alpha-spending functions (see `stats::sequential`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Spending {
+    #[default]
+    ObrienFleming,
+    Pocock,
+}
+
+/// Most looks a sequential study may take.
+pub const MAX_LOOKS: usize = 20;
+
+impl ExperimentSpec {
+    /// The replicates each cell may get: `max_replicates`, else `replicates`.
+    pub fn replicate_budget(&self) -> u32 {
+        self.max_replicates.unwrap_or(self.replicates).max(self.replicates)
+    }
+
+    /// The replicate counts at which a sequential study looks at its verdicts (ascending, the
+    /// last `max_replicates`); `None` for a fixed study.
+    pub fn looks(&self) -> Option<Vec<u32>> {
+        let max = self.max_replicates?;
+        if max <= self.replicates {
+            return None;
+        }
+        let step = self
+            .sequential
+            .as_ref()
+            .and_then(|s| s.stage_replicates)
+            .unwrap_or(self.replicates)
+            .max(1);
+        let mut looks = vec![self.replicates];
+        while *looks.last().expect("one look") < max {
+            looks.push((looks.last().expect("one look") + step).min(max));
+        }
+        Some(looks)
+    }
 }
 
 /// A claim of a reference work and the test that checks it against the study's cells.
@@ -718,6 +777,57 @@ pub fn parse(path: &Path, text: &str, catalogue: &Arc<Catalogue>) -> Result<Load
     }
     if spec.replicates == 0 {
         err("replicates", "must be ≥ 1".into());
+    }
+    if let Some(max) = spec.max_replicates {
+        if max < spec.replicates {
+            err(
+                "max_replicates",
+                format!("must be at least `replicates` ({}), got {max}", spec.replicates),
+            );
+        }
+    } else if spec.sequential.is_some() {
+        err(
+            "sequential",
+            "a sequential design needs a budget: set `max_replicates` (the most replicates per cell)"
+                .into(),
+        );
+    }
+    if spec.sequential.as_ref().and_then(|s| s.stage_replicates) == Some(0) {
+        err("sequential.stage_replicates", "must be ≥ 1".into());
+    }
+    if let Some(looks) = spec.looks() {
+        if looks.len() > MAX_LOOKS {
+            err(
+                "max_replicates",
+                format!(
+                    "{} looks ({}…{} replicates in stages of {}); at most {MAX_LOOKS}: raise `sequential.stage_replicates`",
+                    looks.len(),
+                    looks[0],
+                    looks[looks.len() - 1],
+                    looks[1] - looks[0]
+                ),
+            );
+        }
+        for (i, c) in spec.claims.iter().enumerate() {
+            let why = if c.index.is_some() {
+                Some("a sensitivity index is decided by design rows, not by replicates")
+            } else if c.metric == crate::metrics::LANDMARK_ERROR_GROWTH {
+                Some(
+                    "this metric is derived from the stored maps after the runs, and the looks are taken while they run",
+                )
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                err(
+                    &format!("claims[{i}]"),
+                    format!(
+                        "claim `{}` cannot be judged sequentially ({why}); move it to a study without `max_replicates`",
+                        c.id
+                    ),
+                );
+            }
+        }
     }
     if spec.maps.is_empty() {
         err("maps", "list at least one map".into());

@@ -7,6 +7,7 @@ pub mod compare;
 pub mod hypothesis;
 pub mod power;
 pub mod sensitivity;
+pub mod sequential;
 
 use statrs::distribution::{ContinuousCDF, StudentsT};
 

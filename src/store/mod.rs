@@ -519,6 +519,34 @@ fn cell_key(map: &str, algorithm: &str, point: &str) -> String {
 }
 
 impl StudyData {
+    /// A study's data from its parts (what [`read_study`] read, or a study still running).
+    pub fn new(
+        dir: PathBuf,
+        resolved: ResolvedStudy,
+        manifest: Manifest,
+        runs: Vec<RunRow>,
+        maps: Vec<(String, String)>,
+        reference: Vec<reference::ReferenceRow>,
+    ) -> StudyData {
+        let mut cells: std::collections::HashMap<String, Vec<usize>> = Default::default();
+        for (k, r) in runs.iter().enumerate() {
+            cells.entry(cell_key(&r.map, &r.algorithm, &r.point)).or_default().push(k);
+        }
+        StudyData { dir, resolved, manifest, runs, maps, reference, cells }
+    }
+
+    /// The same study as it stood with replicates 0 … n − 1 only (a sequential study's look at n).
+    pub fn up_to(&self, n: u32) -> StudyData {
+        StudyData::new(
+            self.dir.clone(),
+            self.resolved.clone(),
+            self.manifest.clone(),
+            self.runs.iter().filter(|r| r.replicate < n).cloned().collect(),
+            self.maps.clone(),
+            self.reference.clone(),
+        )
+    }
+
     /// The runs of one cell (map, algorithm, sweep point), in run order.
     pub fn runs_in<'a>(
         &'a self,
@@ -589,11 +617,7 @@ pub fn read_study(dir: &Path) -> Result<StudyData, StoreError> {
     };
     let mut runs = runs;
     derive_metrics(dir, &resolved, &maps, &mut runs)?;
-    let mut cells: std::collections::HashMap<String, Vec<usize>> = Default::default();
-    for (k, r) in runs.iter().enumerate() {
-        cells.entry(cell_key(&r.map, &r.algorithm, &r.point)).or_default().push(k);
-    }
-    Ok(StudyData { dir: dir.to_path_buf(), resolved, manifest, runs, maps, reference, cells })
+    Ok(StudyData::new(dir.to_path_buf(), resolved, manifest, runs, maps, reference))
 }
 
 /// Adds the metrics derived from the stored final maps ([`crate::metrics::LANDMARK_ERROR_GROWTH`])
