@@ -684,15 +684,30 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
     let owner = shards.map(|n| run::shards(&plans, n));
     for plan in &plans {
         let reasons = run::reasons(plan, &opts);
-        println!(
-            "study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs",
-            plan.id(),
-            plan.points.len(),
-            plan.maps.len(),
-            plan.spec.spec.algorithms.len(),
-            plan.spec.spec.replicates,
-            plan.runs.len()
-        );
+        let spec = &plan.spec.spec;
+        match spec.looks() {
+            None => println!(
+                "study {}: {} points × {} maps × {} algorithms × {} replicates = {} runs",
+                plan.id(),
+                plan.points.len(),
+                plan.maps.len(),
+                spec.algorithms.len(),
+                spec.replicates,
+                plan.runs.len()
+            ),
+            Some(looks) => println!(
+                "study {}: {} points × {} maps × {} algorithms × {} to {} replicates = at most {} runs (sequential: looks at {}; `run` adds each stage only to the cells of undecided claims, so the runs below beyond the first {} replicates run only if a look asks for them)",
+                plan.id(),
+                plan.points.len(),
+                plan.maps.len(),
+                spec.algorithms.len(),
+                spec.replicates,
+                spec.replicate_budget(),
+                plan.runs.len(),
+                looks.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(", "),
+                spec.replicates
+            ),
+        }
         if run::skipped(plan) {
             println!(
                 "(its data is absent on this machine: `run` skips it{})",

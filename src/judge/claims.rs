@@ -1596,13 +1596,17 @@ mod tests {
     /// effect however strong or exact; opposite maps cancel.
     #[test]
     fn pooling_by_random_effects() {
-        let pool = |r: &[f64]| pooled(&r.iter().map(|x| map_with(*x)).collect::<Vec<_>>()).0;
+        let pool =
+            |r: &[f64]| pooled(&r.iter().map(|x| map_with(*x)).collect::<Vec<_>>(), CONFIDENCE).0;
         assert_eq!(pool(&[0.30, 0.25, 0.35, 0.28, 0.32]), Verdict::Confirmed);
         assert_eq!(pool(&[0.5, -0.5]), Verdict::Inconclusive);
         // one map with a constant, large difference and four without the effect: not confirmed
         // (Stouffer's z = 7.94 for that map confirmed this 96 % of the time)
         assert_eq!(pool(&[0.9, -0.01, 0.01, -0.02, 0.0]), Verdict::Inconclusive);
-        assert_eq!(pooled(&[MapOutcome::untestable("x".into())]).0, Verdict::Untestable);
+        assert_eq!(
+            pooled(&[MapOutcome::untestable("x".into())], CONFIDENCE).0,
+            Verdict::Untestable
+        );
         assert_eq!(pool(&[0.3]), Verdict::Inconclusive, "one map is not pooled");
     }
 
@@ -1628,7 +1632,7 @@ mod tests {
                     map_with((mean(&d) - 0.05) / 1.0)
                 })
                 .collect();
-            confirmed += (pooled(&maps).0 == Verdict::Confirmed) as usize;
+            confirmed += (pooled(&maps, CONFIDENCE).0 == Verdict::Confirmed) as usize;
         }
         let rate = confirmed as f64 / trials as f64;
         assert!(rate <= 0.05, "confirmed in {rate} of the trials");
@@ -1641,7 +1645,7 @@ mod tests {
                     map_with(mean(&d) - 0.05)
                 })
                 .collect();
-            power += (pooled(&maps).0 == Verdict::Confirmed) as usize;
+            power += (pooled(&maps, CONFIDENCE).0 == Verdict::Confirmed) as usize;
         }
         assert!(power > 380, "{power} of 400");
     }

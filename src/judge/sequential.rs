@@ -12,10 +12,11 @@
 //!   a claim whose units combine (`require`) to a verdict keeps it. A claim pooled over its maps
 //!   is judged as a whole at every look.
 //! - **Where replicates go.** Only to the cells of the undecided units of undecided claims, and
-//!   only where the unit's projection at the last look's levels ([`crate::stats::power`]) lies
-//!   within the budget: a unit that even `max_replicates` would not decide at its observed mean and
-//!   spread stops there (non-binding futility: it only withholds runs, so it cannot raise the
-//!   chance of a wrong verdict). Pooled claims, failure counts and untestable units get none.
+//!   only while the unit's observed trend leaves the budget's last look a chance of at least
+//!   [`FUTILITY_POWER`] to decide it ([`Design::futility_replicates`], from the unit's projection
+//!   at the last look's levels, [`crate::stats::power`]). The futility rule is non-binding: it
+//!   only withholds runs, so it cannot raise the chance of a wrong verdict. Pooled claims,
+//!   failure counts and untestable units get none.
 //! - **The end.** The looks stop when no cell is asked for, or at n_K.
 //!
 //! The same function ([`replay`]) decides the stages while `slamlab run` runs them and re-judges
@@ -28,6 +29,9 @@ use crate::stats::power::Replicates;
 use crate::stats::sequential as gs;
 use crate::store::StudyData;
 use std::collections::{BTreeMap, BTreeSet};
+
+/// Conditional power under the observed trend below which a unit gets no more replicates.
+pub const FUTILITY_POWER: f64 = 0.10;
 
 /// A cell: (map, algorithm, sweep point label).
 pub type Cell = (String, String, String);
@@ -67,6 +71,20 @@ impl Design {
             .collect();
         let spent = t.iter().map(|&t| (function.spent(side, t), function.spent(tost, t))).collect();
         Design { spending, looks, levels, spent }
+    }
+
+    /// The projection (replicates at which the observed trend reaches the last look's bound)
+    /// beyond which a unit gets no more replicates: N · (c / (c − z₀.₉))², with N the budget and
+    /// c the last look's boundary, is where the trend would give the last look a chance of
+    /// about 10 % to decide (conditional power under the trend, θ̂√N = c − z₀.₉, with
+    /// θ̂ = c / √n*). The 10 % is the usual futility bound of conditional power
+    /// (Lachin 2005, *Clin. Trials* 2:325; Jennison & Turnbull 2000, §10.6), chosen before the
+    /// first study ran.
+    pub fn futility_replicates(&self) -> f64 {
+        let budget = f64::from(*self.looks.last().expect("at least one look"));
+        let c = gs::z_quantile(1.0 - self.last().side());
+        let z = gs::z_quantile(1.0 - FUTILITY_POWER);
+        budget * (c / (c - z)).powi(2)
     }
 
     /// The last look's levels: what a decision at the full budget needs (the projections').
@@ -181,7 +199,7 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
                     // (decided already at the last look's level counts: the next look is
                     // stricter than the last, so it needs the replicates)
                     let reachable = match o.replicates {
-                        Some(Replicates::Needed(m)) => m <= budget as usize,
+                        Some(Replicates::Needed(m)) => m as f64 <= design.futility_replicates(),
                         Some(Replicates::Decided) => true,
                         _ => false,
                     };
@@ -240,4 +258,206 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
         })
         .collect();
     Replay { design: design.clone(), looks, results, decided_at, pending, replicates }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::ExperimentSpec;
+    use crate::store::{ClaimCells, Manifest, PointRecord, ResolvedStudy, RunRow, RunStatus};
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, StandardNormal};
+
+    fn normal(rng: &mut ChaCha8Rng) -> f64 {
+        StandardNormal.sample(rng)
+    }
+
+    /// δ of the simulated claim ("b exceeds a by more than 0.1"), and the spread of a paired
+    /// difference.
+    const DELTA: f64 = 0.1;
+    const SIGMA: f64 = 1.0;
+
+    fn spec(spending: &str) -> ExperimentSpec {
+        toml::from_str(&format!(
+            r#"id = "sim"
+title = "simulated"
+seed = 1
+replicates = 8
+max_replicates = 40
+maps = ["m"]
+algorithms = ["odometry"]
+[sequential]
+spending = "{spending}"
+[[claims]]
+id = "c"
+source = "s"
+kind = "extension"
+text = "b exceeds a"
+metric = "y"
+test = "greater"
+at = {{ k = 2 }}
+than = {{ k = 1 }}
+min_effect = {DELTA}
+why = "simulated"
+"#
+        ))
+        .unwrap()
+    }
+
+    /// A study whose cell b exceeds cell a by `effect` + N(0, SIGMA²) in each of 40 replicates.
+    fn study(spec: &ExperimentSpec, effect: f64, rng: &mut ChaCha8Rng) -> StudyData {
+        let point = |label: &str| PointRecord {
+            label: label.into(),
+            groups: Vec::new(),
+            assignments: Default::default(),
+        };
+        let resolved = ResolvedStudy {
+            spec: spec.clone(),
+            groups: Vec::new(),
+            points: vec![point("a"), point("b")],
+            claims: vec![ClaimCells {
+                id: "c".into(),
+                at: Some("b".into()),
+                than: Some("a".into()),
+                over: Vec::new(),
+            }],
+            landmark_points: Vec::new(),
+            externals: Vec::new(),
+        };
+        let row = |point: &str, replicate: u32, y: f64| RunRow {
+            study: "sim".into(),
+            run_id: format!("m--odometry--{point}--r{replicate:02}"),
+            map: "m".into(),
+            algorithm: "odometry".into(),
+            point: point.into(),
+            replicate,
+            world_seed: 0,
+            filter_seed: 0,
+            status: RunStatus::Ok,
+            error: None,
+            run_hash: String::new(),
+            params_hash: String::new(),
+            code_version: String::new(),
+            params: Vec::new(),
+            metrics: vec![("y".into(), y)],
+        };
+        let mut runs = Vec::new();
+        for r in 0..40 {
+            let a = 10.0 + normal(rng);
+            let d = normal(rng);
+            runs.push(row("a", r, a));
+            runs.push(row("b", r, a + effect + SIGMA * d));
+        }
+        let manifest = Manifest {
+            study: "sim".into(),
+            schema_version: String::new(),
+            crate_version: String::new(),
+            git_commit: String::new(),
+            git_dirty: false,
+            rustc: String::new(),
+            spec_path: String::new(),
+            spec_blake3: String::new(),
+            code_versions: Default::default(),
+            maps: Default::default(),
+            runs: runs.len(),
+            failed: 0,
+        };
+        StudyData::new(Default::default(), resolved, manifest, runs, Vec::new(), Vec::new())
+    }
+
+    /// Share of trials confirming and refuting, and the mean replicates at the stop.
+    fn simulate(spending: &str, effect: f64, trials: usize, seed: u64) -> (f64, f64, f64) {
+        let spec = spec(spending);
+        let design = Design::of(&spec).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (mut confirmed, mut refuted, mut replicates) = (0usize, 0usize, 0u64);
+        for _ in 0..trials {
+            let replay = replay(&study(&spec, effect, &mut rng), &design);
+            assert!(replay.pending.is_none());
+            match replay.results[0].verdict {
+                Verdict::Confirmed => confirmed += 1,
+                Verdict::Refuted => refuted += 1,
+                _ => {}
+            }
+            replicates += u64::from(replay.looks.last().unwrap().n);
+        }
+        let share = |k: usize| k as f64 / trials as f64;
+        (share(confirmed), share(refuted), replicates as f64 / trials as f64)
+    }
+
+    #[test]
+    fn the_design_states_its_looks_and_levels() {
+        let d = Design::of(&spec("obrien_fleming")).unwrap();
+        assert_eq!(d.looks, [8, 16, 24, 32, 40]);
+        // the 2.5 % side at five equal looks: 1 − Φ(c) of the published 4.877, …, 2.031
+        let published = [4.877, 3.357, 2.680, 2.290, 2.031];
+        for (l, c) in d.levels.iter().zip(published) {
+            let want = gs::upper_tail(c);
+            assert!((l.side() - want).abs() < 0.02 * want, "{} against {want}", l.side());
+        }
+        assert!((d.spent[4].0 - 0.025).abs() < 1e-9 && (d.spent[4].1 - 0.05).abs() < 1e-9);
+        assert!(Design::of(&toml::from_str("id = \"x\"\ntitle = \"x\"\nseed = 1\nreplicates = 8\nmaps = [\"m\"]\nalgorithms = [\"odometry\"]\n").unwrap()).is_none());
+    }
+
+    /// The issue's must-show, on the procedure `slamlab run` and the report use (`replay`):
+    /// with the effect exactly at δ — no effect beyond the claim's margin, the least favourable
+    /// case for both errors — the looks confirm at most 5 % of the time and refute at most 5 %
+    /// (each side spends 2.5 %), under either spending function.
+    #[test]
+    fn repeated_looks_keep_both_error_rates() {
+        for spending in ["obrien_fleming", "pocock"] {
+            let (confirmed, refuted, _) = simulate(spending, DELTA, 4000, 31);
+            assert!(confirmed <= 0.05, "{spending}: confirmed {confirmed} with no effect beyond δ");
+            assert!(refuted <= 0.05, "{spending}: refuted {refuted} an effect at δ");
+        }
+        // no effect at all: confirming is rarer still
+        let (confirmed, _, _) = simulate("obrien_fleming", 0.0, 2000, 32);
+        assert!(confirmed <= 0.05, "confirmed {confirmed} without any effect");
+    }
+
+    /// Without the spending the same five looks at the fixed 95 % interval confirm far more
+    /// often than 2.5 %: the rule is what keeps the rate down (the test above could fail).
+    #[test]
+    fn naive_repeated_looks_inflate_the_error() {
+        let mut rng = ChaCha8Rng::seed_from_u64(33);
+        let trials = 4000;
+        let mut confirmed = 0;
+        for _ in 0..trials {
+            let d: Vec<f64> = (0..40).map(|_| DELTA + SIGMA * normal(&mut rng)).collect();
+            confirmed += usize::from(
+                [8, 16, 24, 32, 40]
+                    .iter()
+                    .any(|&n| claims::decide_margin(&d[..n], DELTA, true) == Verdict::Confirmed),
+            );
+        }
+        let rate = confirmed as f64 / trials as f64;
+        assert!(rate > 0.04, "naive looks confirmed only {rate}");
+    }
+
+    /// Under a real effect the looks stop, on average, before the fixed design of the same power:
+    /// the fixed design's n is the fewest replicates whose power (simulated with the fixed
+    /// design's own test) reaches the sequential procedure's.
+    #[test]
+    fn a_real_effect_stops_earlier_than_the_fixed_design_of_the_same_power() {
+        let effect = DELTA + 0.55;
+        let (power, _, mean_n) = simulate("obrien_fleming", effect, 2000, 34);
+        assert!(power > 0.5, "power {power}");
+        let mut rng = ChaCha8Rng::seed_from_u64(35);
+        let fixed_power = |n: usize, rng: &mut ChaCha8Rng| {
+            let trials = 4000;
+            let hits = (0..trials)
+                .filter(|_| {
+                    let d: Vec<f64> = (0..n).map(|_| effect + SIGMA * normal(rng)).collect();
+                    claims::decide_margin(&d, DELTA, true) == Verdict::Confirmed
+                })
+                .count();
+            hits as f64 / trials as f64
+        };
+        let fixed_n = (3..200).find(|&n| fixed_power(n, &mut rng) >= power).unwrap();
+        assert!(
+            mean_n < fixed_n as f64,
+            "sequential: power {power} at {mean_n} replicates on average; fixed: {fixed_n}"
+        );
+    }
 }

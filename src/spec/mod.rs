@@ -1726,6 +1726,49 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         assert_eq!(e[0].key, "sweeps[0].values");
     }
 
+    /// A sequential budget (issue 31): looks at `replicates`, then every `stage_replicates`, up
+    /// to `max_replicates`; a budget below the first stage, a design without a budget, an empty
+    /// stage, too many looks and claims no replicate can decide are errors naming their key.
+    #[test]
+    fn a_sequential_budget_is_checked_and_expanded_into_looks() {
+        // a top-level key after `replicates`, and a `[sequential]` table at the end
+        let with = |extra: &str| {
+            let (top, table) = match extra.split_once('[') {
+                Some((top, rest)) => (top, format!("[{rest}")),
+                None => (extra, String::new()),
+            };
+            format!(
+                "{}{table}",
+                GOOD.replace("replicates = 2\n", &format!("replicates = 2\n{top}"))
+            )
+        };
+        let s =
+            parse(Path::new("x.toml"), &with("max_replicates = 7\n"), &Default::default()).unwrap();
+        assert_eq!(s.spec.looks(), Some(vec![2, 4, 6, 7]));
+        assert_eq!(s.spec.replicate_budget(), 7);
+        let staged =
+            with("max_replicates = 9\n[sequential]\nstage_replicates = 3\nspending = \"pocock\"\n");
+        let s = parse(Path::new("x.toml"), &staged, &Default::default()).unwrap();
+        assert_eq!(s.spec.looks(), Some(vec![2, 5, 8, 9]));
+        assert_eq!(s.spec.sequential.unwrap().spending, Spending::Pocock);
+        assert_eq!(
+            parse(Path::new("x.toml"), GOOD, &Default::default()).unwrap().spec.looks(),
+            None
+        );
+
+        let e = errs(&with("max_replicates = 1\n"));
+        assert_eq!((e[0].key.as_str(), e[0].line), ("max_replicates", 6));
+        assert!(e[0].message.contains("at least `replicates` (2)"), "{}", e[0].message);
+        let e = errs(&with("[sequential]\nspending = \"pocock\"\n"));
+        assert_eq!(e[0].key, "sequential");
+        let e = errs(&with("max_replicates = 8\n[sequential]\nstage_replicates = 0\n"));
+        assert_eq!(e[0].key, "sequential.stage_replicates");
+        let e = errs(&with("max_replicates = 100\n[sequential]\nstage_replicates = 1\n"));
+        assert!(e[0].key == "max_replicates" && e[0].message.contains("99 looks"), "{e:?}");
+        let e = errs(&with("[sequential]\nspending = \"lucky\"\n"));
+        assert!(e[0].key.starts_with("sequential"), "{e:?}");
+    }
+
     #[test]
     fn display_is_file_line_column_key_message() {
         let err = parse(

@@ -184,3 +184,63 @@ fn plan_shows_each_runs_shard_and_the_cost_per_shard() {
     );
     assert!(String::from_utf8_lossy(&bad.stderr).contains("I must be between 1 and N = 3"));
 }
+
+/// A sequential study (issue 31) takes the same stages, runs and verdicts whatever the thread
+/// count or shard: its stages are a function of the runs' results. An array pass computes the
+/// stage the cache stands at; passes repeat until one computes nothing, and `run` then finds
+/// every run cached. A second `run` computes nothing (the stages are cached).
+#[test]
+fn a_sequential_study_takes_the_same_stages_whatever_the_threads_or_shards() {
+    const SPEC: &str = "tests/specs/sequential.toml";
+    let single = |threads: &str| {
+        let work = tempfile::tempdir().unwrap();
+        let (results, cache) = (work.path().join("results"), work.path().join("cache"));
+        let args =
+            ["run", "--quiet", "-j", threads, "--results", s(&results), "--cache", s(&cache), SPEC];
+        ok(&args);
+        let again = ok(&args);
+        let said = String::from_utf8_lossy(&again.stderr);
+        assert!(said.contains("(0 computed"), "a second run computed runs:\n{said}");
+        ok(&["report", "--results", s(&results), "--out", s(&work.path().join("reports"))]);
+        work
+    };
+    let one = single("1");
+    let expected = outputs(one.path());
+    let runs = expected.iter().find(|(n, _)| n.ends_with("runs.parquet")).unwrap();
+    assert!(!runs.1.is_empty());
+    let report = String::from_utf8(
+        expected.iter().find(|(n, _)| n.ends_with("sequential/index.html")).unwrap().1.clone(),
+    )
+    .unwrap();
+    assert!(report.contains("Sequential replication: the looks"), "no looks in the report");
+    assert_eq!(outputs(single("2").path()), expected, "the thread count changed the results");
+
+    let work = tempfile::tempdir().unwrap();
+    let (cache, results) = (work.path().join("cache"), work.path().join("results"));
+    let mut passes = 0;
+    loop {
+        let mut computed = 0;
+        for shard in ["1/2", "2/2"] {
+            let out = ok(&["run", "--quiet", "--shard", shard, "--cache", s(&cache), SPEC]);
+            let said = String::from_utf8_lossy(&out.stderr);
+            computed += said
+                .lines()
+                .find(|l| l.starts_with(&format!("shard {shard}:")))
+                .and_then(|l| l.split(" computed").next())
+                .and_then(|x| x.rsplit(' ').next())
+                .and_then(|x| x.parse::<usize>().ok())
+                .unwrap_or_else(|| panic!("no summary from shard {shard}:\n{said}"));
+        }
+        passes += 1;
+        if computed == 0 {
+            break;
+        }
+        assert!(passes < 10, "the array passes never settle");
+    }
+    assert!(passes > 2, "one pass per stage, and the stages were more than one");
+    let out = ok(&["run", "--quiet", "--results", s(&results), "--cache", s(&cache), SPEC]);
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(said.contains("(0 computed"), "the shards left runs to compute:\n{said}");
+    ok(&["report", "--results", s(&results), "--out", s(&work.path().join("reports"))]);
+    assert_eq!(outputs(work.path()), expected, "the shards changed the results");
+}
