@@ -453,10 +453,11 @@ fn dispatch(command: Command) -> Result<()> {
                         absent.push(plan.id().to_string());
                     }
                     None => println!(
-                        "ok: {} ({}: {} points, {} runs)",
+                        "ok: {} ({}: {} points, {}{} runs)",
                         plan.spec.path.display(),
                         plan.id(),
                         plan.points.len(),
+                        if plan.spec.spec.looks().is_some() { "at most " } else { "" },
                         plan.runs.len()
                     ),
                 }

@@ -231,14 +231,17 @@ fn power_text(r: Replicates) -> String {
     }
 }
 
-/// A confidence level in words: "95 %", "90 %", "97.9 %".
+/// A confidence level in words: "95 %", "90 %", "97.9 %", "99.9985 %" (never rounded up to 100).
 pub fn percent(level: f64) -> String {
     let p = level * 100.0;
     if (p - p.round()).abs() < 1e-9 {
-        format!("{} %", p.round())
-    } else {
-        format!("{} %", sig(p, 3))
+        return format!("{} %", p.round());
     }
+    let text = (3..=8)
+        .map(|digits| sig(p, digits))
+        .find(|t| t.parse::<f64>().is_ok_and(|v| v < 100.0))
+        .unwrap_or_else(|| sig(p, 9));
+    format!("{text} %")
 }
 
 /// Sample standard deviation (NaN below 2 values).
@@ -1561,6 +1564,14 @@ mod tests {
         let mut decided = undecided(Replicates::Decided);
         decided.verdict = Verdict::Confirmed;
         assert_eq!(claim_projection(&[decided], Require::All, false, "map"), "");
+    }
+
+    #[test]
+    fn a_level_in_words_is_never_rounded_up_to_certainty() {
+        assert_eq!(percent(0.95), "95 %");
+        assert_eq!(percent(1.0 - 2.0 * TOST_ALPHA), "90 %");
+        assert_eq!(percent(0.9817), "98.2 %");
+        assert_eq!(percent(1.0 - 1.474e-5), "99.9985 %");
     }
 
     /// An inconclusive comparison projects the first count whose 95 % interval clears δ; a

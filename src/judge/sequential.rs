@@ -186,10 +186,10 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
                 decided_at.insert(claim.id.clone(), k);
                 decided.push((claim.id.clone(), result.verdict));
                 result.summary.push_str(&format!(
-                    ". Decided at look {} of {} ({n} replicates per cell; nominal two-sided level {})",
+                    ". Decided at look {} of {} ({n} replicates per cell; nominal α {} per side)",
                     k + 1,
                     design.looks.len(),
-                    claims::percent(design.levels[k].confidence)
+                    crate::stats::sig(design.levels[k].side(), 2)
                 ));
             } else if result.verdict == Verdict::Inconclusive
                 && !judged.pooled
