@@ -231,7 +231,7 @@ fn power_text(r: Replicates) -> String {
     }
 }
 
-/// A confidence level in words: "95 %", "90 %", "97.9 %", "99.9985 %" (never rounded up to 100).
+/// A confidence level in words: "95 %", "90 %", "97.9 %", "99.999 %" (never rounded up to 100).
 pub fn percent(level: f64) -> String {
     let p = level * 100.0;
     if (p - p.round()).abs() < 1e-9 {
@@ -1571,7 +1571,8 @@ mod tests {
         assert_eq!(percent(0.95), "95 %");
         assert_eq!(percent(1.0 - 2.0 * TOST_ALPHA), "90 %");
         assert_eq!(percent(0.9817), "98.2 %");
-        assert_eq!(percent(1.0 - 1.474e-5), "99.9985 %");
+        assert_eq!(percent(1.0 - 1.474e-5), "99.999 %");
+        assert_eq!(percent(1.0 - 1.474e-6), "99.9999 %");
     }
 
     /// An inconclusive comparison projects the first count whose 95 % interval clears δ; a
