@@ -222,7 +222,7 @@ pub fn build_observed(
             "this spec expands to {planned} runs (sweep points × {} maps × {} algorithms × {} replicates), more than the limit of {max_runs}; reduce it, or raise the limit with --max-runs",
             spec.spec.maps.len(),
             spec.spec.algorithms.len(),
-            spec.spec.replicates
+            spec.spec.replicate_budget()
         );
         return Err(SpecError::new(&spec.path, vec![spec.error_at(key, message)]).into());
     }

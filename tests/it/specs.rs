@@ -31,7 +31,9 @@ fn every_experiment_validates_and_plans() {
             plan.maps.len()
                 * plan.spec.spec.algorithms.len()
                 * plan.points.len()
-                * plan.spec.spec.replicates as usize
+                * plan.spec.spec.replicate_budget() as usize,
+            "{}: a sequential study plans its whole budget",
+            plan.id()
         );
         ids.push(plan.id().to_string());
     }
@@ -72,5 +74,5 @@ fn a_fixed_world_study_varies_only_the_filter_seeds() {
     )
     .unwrap();
     let worlds: std::collections::BTreeSet<u64> = other.runs.iter().map(|r| r.world_seed).collect();
-    assert_eq!(worlds.len(), other.spec.spec.replicates as usize);
+    assert_eq!(worlds.len(), other.spec.spec.replicate_budget() as usize);
 }
