@@ -390,7 +390,8 @@ pub fn render_all(
         let id = &p.view.id;
         files.push((
             format!("{id}/summary.md"),
-            summary::markdown(&p.index, &classified, &p.view.claims).into_bytes(),
+            summary::markdown(&p.index, &classified, &p.view.claims, &p.view.sequential)
+                .into_bytes(),
         ));
         let cells = crate::judge::scoreboard::cell_verdicts(&items, &classified, id);
         if !cells.is_empty() {
