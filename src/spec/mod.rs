@@ -1767,6 +1767,15 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
         assert!(e[0].key == "max_replicates" && e[0].message.contains("99 looks"), "{e:?}");
         let e = errs(&with("[sequential]\nspending = \"lucky\"\n"));
         assert!(e[0].key.starts_with("sequential"), "{e:?}");
+        // a sensitivity index is decided by design rows: no stage of replicates can decide it
+        let index = "[[claims]]\nid = \"c\"\nsource = \"s\"\nkind = \"extension\"\ntext = \"t\"\nmetric = \"ate_rmse_m\"\nindex = \"st\"\nparameter = \"odometry.k\"\ntest = \"below\"\nvalue = 0.05\n";
+        let e = errs(&format!("{}{index}", with("max_replicates = 8\n")));
+        assert!(
+            e.iter().any(
+                |e| e.key == "claims[0]" && e.message.contains("cannot be judged sequentially")
+            ),
+            "{e:?}"
+        );
     }
 
     #[test]

@@ -213,6 +213,10 @@ fn a_sequential_study_takes_the_same_stages_whatever_the_threads_or_shards() {
     )
     .unwrap();
     assert!(report.contains("Sequential replication: the looks"), "no looks in the report");
+    assert!(
+        !report.contains("runs of the next stage are missing"),
+        "the report's looks disagree with the stages `run` took"
+    );
     assert_eq!(outputs(single("2").path()), expected, "the thread count changed the results");
 
     let work = tempfile::tempdir().unwrap();
