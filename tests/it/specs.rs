@@ -66,7 +66,11 @@ fn a_fixed_world_study_varies_only_the_filter_seeds() {
     let world: std::collections::BTreeSet<u64> = plan.runs.iter().map(|r| r.world_seed).collect();
     let filter: std::collections::BTreeSet<u64> = plan.runs.iter().map(|r| r.filter_seed).collect();
     assert_eq!(world.len(), 1, "one world for every replicate");
-    assert_eq!(filter.len(), plan.spec.spec.replicates as usize, "a filter seed per replicate");
+    assert_eq!(
+        filter.len(),
+        plan.spec.spec.replicate_budget() as usize,
+        "a filter seed per replicate"
+    );
     // and a study without the flag draws a world per replicate
     let other = plan::build(
         spec::load(&repo().join("experiments/pf-neff-p0.toml"), &crate::util::catalogue()).unwrap(),
