@@ -566,15 +566,13 @@ pub fn run_shard(
                 Some(d) => &*stage_plan.insert(stages::from_cache(plan, d, &cache).0),
                 None => plan,
             };
+            // each distinct run once, also when runs of one plan share a content hash
             let mine: Vec<usize> = (0..stage.runs.len())
                 .filter(|&i| {
                     let hash = stage.runs[i].hash.as_str();
-                    owner.get(hash) == Some(&shard.index) && !seen.contains(hash)
+                    owner.get(hash) == Some(&shard.index) && seen.insert(hash.to_string())
                 })
                 .collect();
-            for &i in &mine {
-                seen.insert(stage.runs[i].hash.clone());
-            }
             summary.runs += mine.len();
             summary.expected_s += mine
                 .iter()

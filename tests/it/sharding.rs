@@ -124,6 +124,31 @@ fn shards_assemble_to_the_single_process_results_whatever_n() {
     }
 }
 
+/// Runs of one plan that share a content hash (a swept section one algorithm does not read)
+/// are one run: a shard computes it once, and the shards together compute each entry once.
+#[test]
+fn a_shard_computes_a_run_shared_within_a_study_once() {
+    const SPEC: &str = "tests/specs/shared-runs.toml";
+    let work = tempfile::tempdir().unwrap();
+    let cache = work.path().join("cache");
+    let mut computed = 0;
+    for shard in ["1/2", "2/2"] {
+        let out = ok(&["run", "--quiet", "--shard", shard, "--cache", s(&cache), SPEC]);
+        let said = String::from_utf8_lossy(&out.stderr);
+        computed += said
+            .lines()
+            .find(|l| l.starts_with(&format!("shard {shard}:")))
+            .and_then(|l| l.split(" computed").next())
+            .and_then(|x| x.rsplit(' ').next())
+            .and_then(|x| x.parse::<usize>().ok())
+            .unwrap_or_else(|| panic!("no summary from shard {shard}:\n{said}"));
+    }
+    let distinct = entries(&cache).len();
+    // 2 points × 2 replicates of odometry_map, and 2 replicates of odometry shared by the points
+    assert_eq!(distinct, 6, "the spec no longer shares runs between its points");
+    assert_eq!(computed, distinct, "a run shared within the study was computed twice");
+}
+
 #[test]
 fn a_shard_resumes_where_a_killed_one_stopped() {
     let work = tempfile::tempdir().unwrap();
