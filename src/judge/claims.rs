@@ -471,12 +471,13 @@ fn on_map(
                     POWER_CAP,
                 )
             };
+            // (an infinite end of the range, as above / below have, needs no clearing)
             let replicates = if s_at.mean < a {
                 clear(a)
             } else if s_at.mean > b {
                 clear(b)
             } else {
-                most([clear(a), clear(b)])
+                most([a, b].into_iter().filter(|x| x.is_finite()).map(clear))
             };
             let text = if levels == Levels::FIXED {
                 describe(&s_at)
@@ -542,12 +543,17 @@ fn on_map(
                 "shortfall"
             };
             let text = format!(
-                "{} vs {}; {word} {} [{}, {}] against δ = {}",
+                "{} vs {}; {word} {} [{}, {}]{} against δ = {}",
                 describe(&s_at),
                 describe(&s_than),
                 sig(m, 3),
                 sig(lo, 3),
                 sig(hi, 3),
+                if levels == Levels::FIXED {
+                    String::new()
+                } else {
+                    format!(" ({} interval)", percent(levels.confidence))
+                },
                 sig(delta, 3)
             );
             MapOutcome {

@@ -12,8 +12,8 @@
 //!   a claim whose units combine (`require`) to a verdict keeps it. A claim pooled over its maps
 //!   is judged as a whole at every look.
 //! - **Where replicates go.** Only to the cells of the undecided units of undecided claims, and
-//!   only while the unit's observed trend leaves the budget's last look a chance of at least
-//!   [`FUTILITY_POWER`] to decide it ([`Design::futility_replicates`], from the unit's projection
+//!   only while a study of the whole budget, with the unit's observed effect as the true one,
+//!   would decide it with a chance of at least [`FUTILITY_POWER`] ([`Design::futility_replicates`], from the unit's projection
 //!   at the last look's levels, [`crate::stats::power`]). The futility rule is non-binding: it
 //!   only withholds runs, so it cannot raise the chance of a wrong verdict. Pooled claims,
 //!   failure counts and untestable units get none.
@@ -30,7 +30,7 @@ use crate::stats::sequential as gs;
 use crate::store::StudyData;
 use std::collections::{BTreeMap, BTreeSet};
 
-/// Conditional power under the observed trend below which a unit gets no more replicates.
+/// Power under the observed trend below which a unit gets no more replicates.
 pub const FUTILITY_POWER: f64 = 0.10;
 
 /// A cell: (map, algorithm, sweep point label).
@@ -75,11 +75,12 @@ impl Design {
 
     /// The projection (replicates at which the observed trend reaches the last look's bound)
     /// beyond which a unit gets no more replicates: N · (c / (c − z₀.₉))², with N the budget and
-    /// c the last look's boundary, is where the trend would give the last look a chance of
-    /// about 10 % to decide (conditional power under the trend, θ̂√N = c − z₀.₉, with
-    /// θ̂ = c / √n*). The 10 % is the usual futility bound of conditional power
-    /// (Lachin 2005, *Clin. Trials* 2:325; Jennison & Turnbull 2000, §10.6), chosen before the
-    /// first study ran.
+    /// c the last look's boundary (of the 2.5 % side), is where a study of N replicates with the
+    /// observed effect as the true one would decide with a chance of about 10 % (θ̂√N = c − z₀.₉,
+    /// with θ̂ = c / √n*): the power under the observed trend, a simpler and slightly more
+    /// lenient reading than conditional power given the runs so far. The 10 % is the usual
+    /// futility bound (Lachin 2005, *Clin. Trials* 2:325; Jennison & Turnbull 2000, §10.6),
+    /// chosen before the first study ran.
     pub fn futility_replicates(&self) -> f64 {
         let budget = f64::from(*self.looks.last().expect("at least one look"));
         let c = gs::z_quantile(1.0 - self.last().side());
@@ -124,6 +125,10 @@ pub struct Replay {
     pub results: Vec<ClaimResult>,
     /// Claim id → the look (0-based) that decided it.
     pub decided_at: BTreeMap<String, usize>,
+    /// The claims decided at a later look whose cells then held replicates beyond the first
+    /// stage's: the verdicts the added replicates decided. (A claim decided later on the first
+    /// stage's runs alone — pooled, or with cells no undecided claim asked for — is not one.)
+    pub added: BTreeSet<String>,
     /// When the runs of the next stage are not all there yet: its replicate count and the cells
     /// that need it (what `slamlab run` computes next).
     pub pending: Option<(u32, Vec<Cell>)>,
@@ -151,6 +156,7 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
     let mut latest: Vec<Option<ClaimResult>> = vec![None; claims.len()];
     let mut done = vec![false; claims.len()];
     let mut decided_at = BTreeMap::new();
+    let mut added = BTreeSet::new();
     let mut looks = Vec::new();
     let mut pending = None;
     for (k, &n) in design.looks.iter().enumerate() {
@@ -167,6 +173,9 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
                 continue;
             };
             let mut result = judged.result;
+            result
+                .test
+                .push_str("; in this sequential study, at each look's nominal level instead");
             if !judged.pooled {
                 frozen[i].resize(judged.outcomes.len(), None);
                 for (slot, o) in frozen[i].iter_mut().zip(&judged.outcomes) {
@@ -185,11 +194,40 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
                 done[i] = true;
                 decided_at.insert(claim.id.clone(), k);
                 decided.push((claim.id.clone(), result.verdict));
+                // the most replicates a cell of the claim holds at this look: a claim no stage
+                // gave replicates (pooled, or cells no undecided claim asked for) is decided on
+                // the first stage's runs at a later, less strict look
+                let algorithms = (judged.algorithms.0.as_str(), judged.algorithms.1.as_str());
+                let used = judged
+                    .units
+                    .iter()
+                    .flat_map(|(unit, cells)| {
+                        claims::unit_cells(
+                            unit.split(" @ ").next().unwrap_or(unit),
+                            cells,
+                            algorithms,
+                        )
+                    })
+                    .flat_map(|c| {
+                        view.runs_in(&c.0, &c.1, &c.2).map(|r| r.replicate + 1).collect::<Vec<_>>()
+                    })
+                    .max()
+                    .unwrap_or(0);
+                if k > 0 && used > design.looks[0] {
+                    added.insert(claim.id.clone());
+                }
+                let levels = design.levels[k];
                 result.summary.push_str(&format!(
-                    ". Decided at look {} of {} ({n} replicates per cell; nominal α {} per side)",
+                    ". Decided at look {} of {}, with up to {used} replicates per cell{} (nominal α {} per side, {} for equivalence)",
                     k + 1,
                     design.looks.len(),
-                    crate::stats::sig(design.levels[k].side(), 2)
+                    if k > 0 && used <= design.looks[0] {
+                        ", the first stage's: its cells got no more, and the later look is less strict"
+                    } else {
+                        ""
+                    },
+                    crate::stats::sig(levels.side(), 2),
+                    crate::stats::sig(levels.tost_alpha, 2)
                 ));
             } else if result.verdict == Verdict::Inconclusive
                 && !judged.pooled
@@ -257,7 +295,7 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
             Some(r)
         })
         .collect();
-    Replay { design: design.clone(), looks, results, decided_at, pending, replicates }
+    Replay { design: design.clone(), looks, results, decided_at, added, pending, replicates }
 }
 
 #[cfg(test)]
@@ -402,18 +440,55 @@ why = "simulated"
 
     /// The issue's must-show, on the procedure `slamlab run` and the report use (`replay`):
     /// with the effect exactly at δ — no effect beyond the claim's margin, the least favourable
-    /// case for both errors — the looks confirm at most 5 % of the time and refute at most 5 %
-    /// (each side spends 2.5 %), under either spending function.
+    /// case for both errors — the looks confirm and refute each no more often than the 2.5 % each
+    /// side spends (within three standard errors of the simulation; the issue asks for 5 %),
+    /// under either spending function.
     #[test]
     fn repeated_looks_keep_both_error_rates() {
+        let trials = 4000;
+        let side = Levels::FIXED.side();
+        let bound = side + 3.0 * (side * (1.0 - side) / trials as f64).sqrt();
         for spending in ["obrien_fleming", "pocock"] {
-            let (confirmed, refuted, _) = simulate(spending, DELTA, 4000, 31);
-            assert!(confirmed <= 0.05, "{spending}: confirmed {confirmed} with no effect beyond δ");
-            assert!(refuted <= 0.05, "{spending}: refuted {refuted} an effect at δ");
+            let (confirmed, refuted, _) = simulate(spending, DELTA, trials, 31);
+            assert!(
+                confirmed <= bound,
+                "{spending}: confirmed {confirmed} with no effect beyond δ"
+            );
+            assert!(refuted <= bound, "{spending}: refuted {refuted} an effect at δ");
         }
         // no effect at all: confirming is rarer still
         let (confirmed, _, _) = simulate("obrien_fleming", 0.0, 2000, 32);
-        assert!(confirmed <= 0.05, "confirmed {confirmed} without any effect");
+        assert!(confirmed <= side, "confirmed {confirmed} without any effect");
+    }
+
+    /// A one-sided threshold claim ("above 9") whose mean lies above the threshold but whose
+    /// interval does not yet: the projection is the replicates that clear the threshold, not
+    /// "more than the cap" from the infinite upper end of its range — and a sequential look
+    /// therefore gives its cell the next stage.
+    #[test]
+    fn an_undecided_threshold_claim_projects_a_count_and_gets_the_next_stage() {
+        let text = toml::to_string(&spec("obrien_fleming")).unwrap();
+        let text = text
+            .replace("test = \"greater\"", "test = \"above\"\nvalue = 9.0")
+            .replace("min_effect = 0.1\n", "");
+        let mut above: ExperimentSpec = toml::from_str(&text).unwrap();
+        above.claims[0].than = Default::default();
+        let mut rng = ChaCha8Rng::seed_from_u64(36);
+        let mut data = study(&above, 0.0, &mut rng);
+        data.resolved.claims[0].than = None;
+        let first = data.up_to(8);
+        let fixed = claims::evaluate(&first);
+        assert_eq!(fixed[0].verdict, Verdict::Inconclusive, "{}", fixed[0].summary);
+        assert!(
+            fixed[0].projection.contains("replicates would decide")
+                && !fixed[0].projection.contains("more than"),
+            "{}",
+            fixed[0].projection
+        );
+        let replay = replay(&first, &Design::of(&above).unwrap());
+        let (next, cells) = replay.pending.expect("the first look asks for the next stage");
+        assert_eq!(next, 16);
+        assert_eq!(cells, [("m".to_string(), "odometry".to_string(), "b".to_string())]);
     }
 
     /// Without the spending the same five looks at the fixed 95 % interval confirm far more

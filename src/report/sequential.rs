@@ -29,7 +29,7 @@ pub fn tables(replay: &Replay, runs: usize) -> Vec<NamedTable> {
     out.push(NamedTable {
         title: "Sequential replication: the looks".into(),
         caption: format!(
-            "Group-sequential design, fixed by the spec before the first look: looks at {} replicates per cell; alpha spending {} at information fraction n / {budget}, for each side of every test (the one-sided 2.5 % of the 95 % intervals, and the 5 % of the TOST halves of flat claims); each look judges at the nominal levels of its boundaries (a two-sided interval at 1 − 2α per side) (Lan & DeMets 1983; Jennison & Turnbull 2000, §3.8, §7.2). A unit (map) decided at a look keeps its verdict; replicates are added only to the cells of undecided units of undecided claims, while the unit's observed trend leaves the last look a conditional power of at least 10 % (a projection within {} replicates; a non-binding futility rule: it withholds runs and cannot raise an error rate). {stop} Runs taken: {runs} of the budget's {} for these cells.",
+            "Group-sequential design, fixed by the spec before the first look: looks at {} replicates per cell; alpha spending {} at information fraction n / {budget}, for each side of every test (the one-sided 2.5 % of the 95 % intervals, and the 5 % of the TOST halves of flat claims); each look judges at the nominal levels of its boundaries (a two-sided interval at 1 − 2α per side) (Lan & DeMets 1983; Jennison & Turnbull 2000, §3.8, §7.2). A unit (map) decided at a look keeps its verdict; replicates are added only to the cells of undecided units of undecided claims, while a study of the whole budget, with the unit's observed effect as the true one, would decide it with a chance of at least 10 % (a projection within {} replicates; a non-binding futility rule: it withholds runs and cannot raise an error rate). {stop} Runs taken: {runs} of the budget's {} for these cells.",
             looks_planned.join(", "),
             design.spending_text(),
             design.futility_replicates().floor(),
@@ -84,7 +84,7 @@ pub fn tables(replay: &Replay, runs: usize) -> Vec<NamedTable> {
         .iter()
         .filter_map(|r| {
             let k = *replay.decided_at.get(&r.id)?;
-            (k > 0).then(|| {
+            replay.added.contains(&r.id).then(|| {
                 vec![
                     r.id.clone(),
                     r.verdict.as_str().into(),
@@ -102,8 +102,24 @@ pub fn tables(replay: &Replay, runs: usize) -> Vec<NamedTable> {
     out.push(NamedTable {
         title: "Sequential replication: verdicts the added replicates decided".into(),
         caption: format!(
-            "Claims undecided at the first look ({} replicates) and decided at a later one. {} still inconclusive after the last look.",
+            "Claims undecided at the first look ({} replicates) and decided at a later one, with replicates added to their cells.{} {} still inconclusive after the last look.",
             design.looks[0],
+            {
+                let unaided: Vec<&str> = replay
+                    .decided_at
+                    .iter()
+                    .filter(|(id, k)| **k > 0 && !replay.added.contains(*id))
+                    .map(|(id, _)| id.as_str())
+                    .collect();
+                if unaided.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        " Decided at a later look on the first stage's runs alone (their cells got no more replicates; a later look is less strict): {}.",
+                        unaided.join(", ")
+                    )
+                }
+            },
             match undecided {
                 0 => "None is".to_string(),
                 1 => "One claim is".to_string(),

@@ -81,6 +81,9 @@ pub enum Spending {
 
 /// Most looks a sequential study may take.
 pub const MAX_LOOKS: usize = 20;
+/// Fewest replicates of a sequential study's first stage: the fewest paired replicates a claim's
+/// test accepts (`judge::claims::MIN_REPLICATES`), so that the first look can judge and project.
+pub const SEQUENTIAL_MIN_REPLICATES: u32 = 3;
 
 impl ExperimentSpec {
     /// The replicates each cell may get: `max_replicates`, else `replicates`.
@@ -779,6 +782,15 @@ pub fn parse(path: &Path, text: &str, catalogue: &Arc<Catalogue>) -> Result<Load
         err("replicates", "must be ≥ 1".into());
     }
     if let Some(max) = spec.max_replicates {
+        if spec.replicates < SEQUENTIAL_MIN_REPLICATES {
+            err(
+                "replicates",
+                format!(
+                    "a sequential study's first stage needs at least {SEQUENTIAL_MIN_REPLICATES} replicates (the fewest a test accepts), got {}",
+                    spec.replicates
+                ),
+            );
+        }
         if max < spec.replicates {
             err(
                 "max_replicates",
@@ -811,7 +823,11 @@ pub fn parse(path: &Path, text: &str, catalogue: &Arc<Catalogue>) -> Result<Load
         for (i, c) in spec.claims.iter().enumerate() {
             let why = if c.index.is_some() {
                 Some("a sensitivity index is decided by design rows, not by replicates")
-            } else if c.metric == crate::metrics::LANDMARK_ERROR_GROWTH {
+            } else if c.metric == crate::metrics::LANDMARK_ERROR_GROWTH
+                || c.precondition
+                    .as_ref()
+                    .is_some_and(|p| p.metric == crate::metrics::LANDMARK_ERROR_GROWTH)
+            {
                 Some(
                     "this metric is derived from the stored maps after the runs, and the looks are taken while they run",
                 )
@@ -1739,17 +1755,17 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
             };
             format!(
                 "{}{table}",
-                GOOD.replace("replicates = 2\n", &format!("replicates = 2\n{top}"))
+                GOOD.replace("replicates = 2\n", &format!("replicates = 3\n{top}"))
             )
         };
         let s =
             parse(Path::new("x.toml"), &with("max_replicates = 7\n"), &Default::default()).unwrap();
-        assert_eq!(s.spec.looks(), Some(vec![2, 4, 6, 7]));
+        assert_eq!(s.spec.looks(), Some(vec![3, 6, 7]));
         assert_eq!(s.spec.replicate_budget(), 7);
         let staged =
             with("max_replicates = 9\n[sequential]\nstage_replicates = 3\nspending = \"pocock\"\n");
         let s = parse(Path::new("x.toml"), &staged, &Default::default()).unwrap();
-        assert_eq!(s.spec.looks(), Some(vec![2, 5, 8, 9]));
+        assert_eq!(s.spec.looks(), Some(vec![3, 6, 9]));
         assert_eq!(s.spec.sequential.unwrap().spending, Spending::Pocock);
         assert_eq!(
             parse(Path::new("x.toml"), GOOD, &Default::default()).unwrap().spec.looks(),
@@ -1758,13 +1774,17 @@ values = { "odometry.k" = [0.0, 0.1], sim = { dt_s = [0.05, 0.1] } }
 
         let e = errs(&with("max_replicates = 1\n"));
         assert_eq!((e[0].key.as_str(), e[0].line), ("max_replicates", 6));
-        assert!(e[0].message.contains("at least `replicates` (2)"), "{}", e[0].message);
+        assert!(e[0].message.contains("at least `replicates` (3)"), "{}", e[0].message);
+        // a first stage too small to judge could never ask for the next
+        let e = errs(&GOOD.replace("replicates = 2\n", "replicates = 2\nmax_replicates = 8\n"));
+        assert_eq!(e[0].key, "replicates");
+        assert!(e[0].message.contains("at least 3 replicates"), "{}", e[0].message);
         let e = errs(&with("[sequential]\nspending = \"pocock\"\n"));
         assert_eq!(e[0].key, "sequential");
         let e = errs(&with("max_replicates = 8\n[sequential]\nstage_replicates = 0\n"));
         assert_eq!(e[0].key, "sequential.stage_replicates");
         let e = errs(&with("max_replicates = 100\n[sequential]\nstage_replicates = 1\n"));
-        assert!(e[0].key == "max_replicates" && e[0].message.contains("99 looks"), "{e:?}");
+        assert!(e[0].key == "max_replicates" && e[0].message.contains("98 looks"), "{e:?}");
         let e = errs(&with("[sequential]\nspending = \"lucky\"\n"));
         assert!(e[0].key.starts_with("sequential"), "{e:?}");
         // a sensitivity index is decided by design rows: no stage of replicates can decide it
