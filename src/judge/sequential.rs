@@ -387,20 +387,7 @@ why = "simulated"
             runs.push(row("a", r, a));
             runs.push(row("b", r, a + effect + SIGMA * d));
         }
-        let manifest = Manifest {
-            study: "sim".into(),
-            schema_version: String::new(),
-            crate_version: String::new(),
-            git_commit: String::new(),
-            git_dirty: false,
-            rustc: String::new(),
-            spec_path: String::new(),
-            spec_blake3: String::new(),
-            code_versions: Default::default(),
-            maps: Default::default(),
-            runs: runs.len(),
-            failed: 0,
-        };
+        let manifest = Manifest::blank("sim", runs.len());
         StudyData::new(Default::default(), resolved, manifest, runs, Vec::new(), Vec::new())
     }
 

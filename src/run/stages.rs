@@ -43,7 +43,7 @@ pub fn staged<E>(
         let data = StudyData::new(
             std::path::PathBuf::new(),
             super::resolved(&stage),
-            blank_manifest(&stage),
+            Manifest::blank(stage.id(), stage.runs.len()),
             rows,
             stage.maps.iter().map(|m| (m.name.clone(), m.text.clone())).collect(),
             Vec::new(),
@@ -68,24 +68,6 @@ pub fn staged<E>(
         if active.len() == before {
             return Ok((stage, true));
         }
-    }
-}
-
-/// What a look reads of the manifest: nothing (claims are judged from runs and `resolved`).
-fn blank_manifest(plan: &ExperimentPlan) -> Manifest {
-    Manifest {
-        study: plan.id().to_string(),
-        schema_version: String::new(),
-        crate_version: String::new(),
-        git_commit: String::new(),
-        git_dirty: false,
-        rustc: String::new(),
-        spec_path: String::new(),
-        spec_blake3: String::new(),
-        code_versions: Default::default(),
-        maps: Default::default(),
-        runs: plan.runs.len(),
-        failed: 0,
     }
 }
 

@@ -518,6 +518,27 @@ fn cell_key(map: &str, algorithm: &str, point: &str) -> String {
     format!("{map}\u{0}{algorithm}\u{0}{point}")
 }
 
+impl Manifest {
+    /// A manifest that records nothing but the study and its run count: what judging a study
+    /// still running (a sequential look) or a test needs, since verdicts never read it.
+    pub fn blank(study: &str, runs: usize) -> Manifest {
+        Manifest {
+            study: study.to_string(),
+            schema_version: String::new(),
+            crate_version: String::new(),
+            git_commit: String::new(),
+            git_dirty: false,
+            rustc: String::new(),
+            spec_path: String::new(),
+            spec_blake3: String::new(),
+            code_versions: Default::default(),
+            maps: Default::default(),
+            runs,
+            failed: 0,
+        }
+    }
+}
+
 impl StudyData {
     /// A study's data from its parts (what [`read_study`] read, or a study still running).
     pub fn new(

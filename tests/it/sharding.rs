@@ -124,6 +124,18 @@ fn shards_assemble_to_the_single_process_results_whatever_n() {
     }
 }
 
+/// Runs shard `shard` of `spec` into `cache`: the runs it computed, from its summary line.
+fn computed_by_shard(spec: &str, cache: &Path, shard: &str) -> usize {
+    let out = ok(&["run", "--quiet", "--shard", shard, "--cache", s(cache), spec]);
+    let said = String::from_utf8_lossy(&out.stderr);
+    said.lines()
+        .find(|l| l.starts_with(&format!("shard {shard}:")))
+        .and_then(|l| l.split(" computed").next())
+        .and_then(|x| x.rsplit(' ').next())
+        .and_then(|x| x.parse::<usize>().ok())
+        .unwrap_or_else(|| panic!("no summary from shard {shard}:\n{said}"))
+}
+
 /// Runs of one plan that share a content hash (a swept section one algorithm does not read)
 /// are one run: a shard computes it once, and the shards together compute each entry once.
 #[test]
@@ -133,15 +145,7 @@ fn a_shard_computes_a_run_shared_within_a_study_once() {
     let cache = work.path().join("cache");
     let mut computed = 0;
     for shard in ["1/2", "2/2"] {
-        let out = ok(&["run", "--quiet", "--shard", shard, "--cache", s(&cache), SPEC]);
-        let said = String::from_utf8_lossy(&out.stderr);
-        computed += said
-            .lines()
-            .find(|l| l.starts_with(&format!("shard {shard}:")))
-            .and_then(|l| l.split(" computed").next())
-            .and_then(|x| x.rsplit(' ').next())
-            .and_then(|x| x.parse::<usize>().ok())
-            .unwrap_or_else(|| panic!("no summary from shard {shard}:\n{said}"));
+        computed += computed_by_shard(SPEC, &cache, shard);
     }
     let distinct = entries(&cache).len();
     // 2 points × 2 replicates of odometry_map, and 2 replicates of odometry shared by the points
@@ -250,15 +254,7 @@ fn a_sequential_study_takes_the_same_stages_whatever_the_threads_or_shards() {
     loop {
         let mut computed = 0;
         for shard in ["1/2", "2/2"] {
-            let out = ok(&["run", "--quiet", "--shard", shard, "--cache", s(&cache), SPEC]);
-            let said = String::from_utf8_lossy(&out.stderr);
-            computed += said
-                .lines()
-                .find(|l| l.starts_with(&format!("shard {shard}:")))
-                .and_then(|l| l.split(" computed").next())
-                .and_then(|x| x.rsplit(' ').next())
-                .and_then(|x| x.parse::<usize>().ok())
-                .unwrap_or_else(|| panic!("no summary from shard {shard}:\n{said}"));
+            computed += computed_by_shard(SPEC, &cache, shard);
         }
         passes += 1;
         if computed == 0 {
