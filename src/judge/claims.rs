@@ -340,9 +340,12 @@ pub fn decide_no_decrease_at(diffs: &[Vec<f64>], tol: f64, levels: Levels) -> Ve
 }
 
 /// Evaluates one claim on one map: decided at `levels`, and projected (the replicates that would
-/// decide it) at `project`.
+/// decide it) at `project`. Relative margins (`min_effect_rel`, `tolerance_rel`) are taken of
+/// the reference cell in `margins` (the data judged, or a sequential study's first look, so that
+/// the hypothesis does not move between looks).
 fn on_map(
     data: &StudyData,
+    margins: &StudyData,
     claim: &ClaimSpec,
     cells: &ClaimCells,
     map: &str,
@@ -527,11 +530,17 @@ fn on_map(
             // relative minimum effect near the metric's floor means nothing.
             let resolution =
                 margins::of(&claim.source).map_or(0.0, |w| w.resolution(&claim.metric));
+            // the compared cell's level, of the margins' data
+            let level = cells
+                .than
+                .as_deref()
+                .map(|p| {
+                    summarize(&margins.replicate_values(map, than_algorithm, p, &claim.metric))
+                })
+                .map_or(f64::NAN, |s| s.mean.abs());
             let delta = claim
                 .min_effect
-                .unwrap_or_else(|| {
-                    claim.min_effect_rel.unwrap_or(DEFAULT_MIN_EFFECT_REL) * s_than.mean.abs()
-                })
+                .unwrap_or_else(|| claim.min_effect_rel.unwrap_or(DEFAULT_MIN_EFFECT_REL) * level)
                 .max(resolution);
             let verdict = decide_margin_at(&d, delta, claimed_above, levels.confidence);
             let (lo, hi) = t_interval(&d, levels.confidence);
@@ -560,7 +569,7 @@ fn on_map(
                 verdict,
                 text,
                 direction,
-                relative: (if claimed_above { m - delta } else { delta - m }) / s_than.mean.abs(),
+                relative: (if claimed_above { m - delta } else { delta - m }) / level,
                 replicates: Some(power::to_clear(
                     m,
                     sd(&d),
@@ -587,7 +596,9 @@ fn on_map(
                 .join(", ");
             // A relative tolerance is taken of the reference cell (the first `over` value), never
             // of the cells being judged: their deviation must not widen it.
-            let level = means.first().map_or(f64::NAN, |(_, m)| m.abs());
+            let level = cells.over.first().map_or(f64::NAN, |(_, p)| {
+                summarize(&margins.replicate_values(map, algorithm, p, &claim.metric)).mean.abs()
+            });
             let tol =
                 claim.tolerance.unwrap_or_else(|| claim.tolerance_rel.unwrap_or(f64::NAN) * level);
             // The pairs the claim compares: all of them, or each cell against the first.
@@ -863,6 +874,8 @@ pub fn evaluate(data: &StudyData) -> Vec<ClaimResult> {
 pub(super) struct Context {
     analyses: Vec<super::sensitivity::Analysis>,
     catalogue: Catalogue,
+    /// Where relative margins are taken (None: the data judged).
+    margins: Option<StudyData>,
 }
 
 impl Context {
@@ -877,7 +890,12 @@ impl Context {
         } else {
             super::sensitivity::analyse(data, &index_metrics)
         };
-        Context { analyses, catalogue: data.resolved.catalogue() }
+        Context { analyses, catalogue: data.resolved.catalogue(), margins: None }
+    }
+
+    /// Relative margins taken of `first` (a sequential study's first look) at every look.
+    pub(super) fn with_margins_of(self, first: StudyData) -> Context {
+        Context { margins: Some(first), ..self }
     }
 }
 
@@ -943,7 +961,15 @@ pub(super) fn judge(
         .map(|(i, (u, c))| match frozen.get(i) {
             Some(Some(o)) => o.clone(),
             _ if claim.index.is_some() => index_on_map(analyses, claim, &map_of(u), algorithm),
-            _ => on_map(data, claim, c, &map_of(u), algorithm, look),
+            _ => on_map(
+                data,
+                context.margins.as_ref().unwrap_or(data),
+                claim,
+                c,
+                &map_of(u),
+                algorithm,
+                look,
+            ),
         })
         .collect();
     let maps: Vec<&String> = units.iter().map(|(u, _)| u).collect();

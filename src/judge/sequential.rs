@@ -8,6 +8,8 @@
 //!   spec's spending function at information fraction n_k / n_K ([`crate::stats::sequential`]);
 //!   look k judges every test at its nominal level, so the repeated looks do not inflate the
 //!   error rates.
+//! - **Margins.** A relative minimum effect or tolerance is taken of its reference cell at the
+//!   first look, so the hypothesis every look tests is the same.
 //! - **Stopping.** A unit (map, or map @ cell) confirmed or refuted at a look keeps that verdict;
 //!   a claim whose units combine (`require`) to a verdict keeps it. A claim pooled over its maps
 //!   is judged as a whole at every look.
@@ -143,7 +145,8 @@ fn decisive(v: Verdict) -> bool {
 /// Judges a sequential study's claims look by look on the runs `data` holds (see the module).
 pub fn replay(data: &StudyData, design: &Design) -> Replay {
     let spec = &data.resolved.spec;
-    let context = Context::of(data);
+    // relative margins (δ, tolerances) are the first look's: the hypothesis does not move
+    let context = Context::of(data).with_margins_of(data.up_to(design.looks[0]));
     let budget = *design.looks.last().expect("at least one look");
     let mut replicates: BTreeMap<Cell, u32> = BTreeMap::new();
     for r in &data.runs {
@@ -476,6 +479,31 @@ why = "simulated"
         let (next, cells) = replay.pending.expect("the first look asks for the next stage");
         assert_eq!(next, 16);
         assert_eq!(cells, [("m".to_string(), "odometry".to_string(), "b".to_string())]);
+    }
+
+    /// A relative minimum effect is taken of the compared cell at the first look: every look
+    /// tests the same hypothesis, not one that moves with the cell's mean as replicates arrive.
+    #[test]
+    fn a_relative_margin_is_the_first_looks() {
+        let text = toml::to_string(&spec("obrien_fleming")).unwrap();
+        let relative: ExperimentSpec =
+            toml::from_str(&text.replace("min_effect = 0.1\n", "min_effect_rel = 0.05\n")).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(37);
+        let data = study(&relative, 0.8, &mut rng);
+        let replay = replay(&data, &Design::of(&relative).unwrap());
+        let decided = replay.decided_at["c"];
+        assert!(decided > 0, "decided at the first look: nothing to test");
+        let level = |d: &StudyData| {
+            let a = d.replicate_values("m", "odometry", "a", "y");
+            0.05 * (a.values().sum::<f64>() / a.len() as f64).abs()
+        };
+        let (first, then) = (level(&data.up_to(8)), level(&data.up_to(replay.looks[decided].n)));
+        assert_ne!(crate::stats::sig(first, 3), crate::stats::sig(then, 3), "pick another seed");
+        let evidence = &replay.results[0].evidence[0];
+        assert!(
+            evidence.contains(&format!("against δ = {}", crate::stats::sig(first, 3))),
+            "{evidence} (first look's δ {first}, the deciding look's {then})"
+        );
     }
 
     /// Without the spending the same five looks at the fixed 95 % interval confirm far more
