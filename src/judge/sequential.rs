@@ -148,6 +148,7 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
     // relative margins (δ, tolerances) are the first look's: the hypothesis does not move
     let context = Context::of(data).with_margins_of(data.up_to(design.looks[0]));
     let budget = *design.looks.last().expect("at least one look");
+    let futility = design.futility_replicates();
     let mut replicates: BTreeMap<Cell, u32> = BTreeMap::new();
     for r in &data.runs {
         let n =
@@ -240,7 +241,7 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
                     // (decided already at the last look's level counts: the next look is
                     // stricter than the last, so it needs the replicates)
                     let reachable = match o.replicates {
-                        Some(Replicates::Needed(m)) => m as f64 <= design.futility_replicates(),
+                        Some(Replicates::Needed(m)) => m as f64 <= futility,
                         Some(Replicates::Decided) => true,
                         _ => false,
                     };
