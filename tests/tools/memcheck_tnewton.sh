@@ -11,14 +11,20 @@ command -v valgrind >/dev/null || apt_install "valgrind (make memcheck)" valgrin
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 spec=experiments/ep-simultaneous.toml
-# The study up to its claims, with TNEWTON alone, one replicate, 20 matches and the scan20 cell.
+# The study up to its claims, fixed (no sequential stages), with TNEWTON alone, one replicate, 20
+# matches and the scan20 cell.
 sed '/^\[\[claims\]\]/,$d' "$spec" \
+  | sed '/^max_replicates = /d; /^\[sequential\]/,/^$/d' \
   | sed -E 's/^algorithms = .*/algorithms = ["tnewton"]/; s/^replicates = .*/replicates = 1/; s/^max_matches = .*/max_matches = 20/' \
   | sed -E 's/^labels = .*/labels = ["scan20"]/; s/^values = .*/values = { "odometry.k" = [0.0], "laser.range_sigma_m" = [0.02] }/' \
   | sed '/^\[report\]/,/^$/d' > "$tmp/ep-simultaneous.toml"
 for want in 'algorithms = \["tnewton"\]' 'replicates = 1' 'max_matches = 20' 'labels = \["scan20"\]'; do
   grep -q "^$want" "$tmp/ep-simultaneous.toml" \
     || { echo "memcheck: $spec changed shape ($want not set): update $0" >&2; exit 1; }
+done
+for unwanted in 'max_replicates' '\[sequential\]'; do
+  ! grep -q "^$unwanted" "$tmp/ep-simultaneous.toml" \
+    || { echo "memcheck: $spec changed shape ($unwanted still set): update $0" >&2; exit 1; }
 done
 
 echo "memcheck: one TNEWTON run (20 matches) under valgrind --track-origins=yes; takes about 10 s"
