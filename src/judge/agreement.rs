@@ -25,6 +25,10 @@
 //! - ∞ published (nothing detected): equivalent when every one of ours is ∞, else different; ∞ or
 //!   NaN in ours against a finite published value is different.
 //! - Fewer than 2 of our replicates: not judged.
+//!
+//! Every level above is [`ALPHA`] per side; a sequential study's look judges at its own nominal
+//! level instead ([`judge_at`], [`super::sequential`]): a t quantile, a median interval's
+//! coverage and a prediction interval's ranks at that α.
 
 use crate::stats::hypothesis::{mean, sample_variance};
 use statrs::distribution::{Binomial, ContinuousCDF, DiscreteCDF, StudentsT};
@@ -35,6 +39,30 @@ pub const ALPHA: f64 = 0.05;
 pub const MEDIAN_MIN_N: usize = 5;
 /// Fewest replicates whose 90 % prediction interval for one run is bounded (j = ⌊0.05 (n + 1)⌋ ≥ 1).
 pub const PREDICTION_MIN_N: usize = 19;
+
+/// The lower rank j = ⌊α (n + 1)⌋ of the distribution-free prediction interval [x₍ⱼ₎, x₍ₙ₊₁₋ⱼ₎]
+/// for one run at level 1 − 2α (0 when n is too small to bound it).
+fn prediction_rank(n: usize, alpha: f64) -> usize {
+    ((n + 1) as f64 * alpha).floor() as usize
+}
+
+/// Fewest replicates whose prediction interval at level 1 − 2α is bounded ([`PREDICTION_MIN_N`]
+/// at [`ALPHA`]).
+pub fn prediction_min_n(alpha: f64) -> usize {
+    (1..=MAX_SUGGESTED).find(|&n| prediction_rank(n, alpha) >= 1).unwrap_or(MAX_SUGGESTED + 1)
+}
+
+/// Fewest replicates whose median interval reaches coverage 1 − 2α ([`MEDIAN_MIN_N`] at
+/// [`ALPHA`]).
+pub fn median_min_n(alpha: f64) -> usize {
+    (1..=MAX_SUGGESTED).find(|&n| median_ranks(n, alpha).is_some()).unwrap_or(MAX_SUGGESTED + 1)
+}
+
+/// The one-sided normal quantile z₁₋α to three decimals, as the single-run projection has always
+/// used it (1.645 at [`ALPHA`]).
+fn z_three_decimals(alpha: f64) -> f64 {
+    (crate::stats::sequential::z_quantile(1.0 - alpha) * 1000.0).round() / 1000.0
+}
 /// The most replicates a suggestion names (beyond it: "no practical number").
 pub const MAX_SUGGESTED: usize = 10_000;
 
@@ -107,6 +135,12 @@ fn decide((lo, hi): (f64, f64), eps: f64) -> Outcome {
 
 /// Judges our replicates `ours` against `published` within margin `eps`.
 pub fn judge(published: Published, ours: &[f64], eps: f64) -> Agreement {
+    judge_at(published, ours, eps, ALPHA)
+}
+
+/// [`judge`] with each one-sided test at level `alpha` instead of [`ALPHA`] (a sequential look's
+/// nominal level); the replicates that would resolve an unresolved cell are those at `alpha`.
+pub fn judge_at(published: Published, ours: &[f64], eps: f64, alpha: f64) -> Agreement {
     if ours.len() < 2 || published.mean.is_nan() {
         return Agreement::not_judged(eps);
     }
@@ -123,14 +157,14 @@ pub fn judge(published: Published, ours: &[f64], eps: f64) -> Agreement {
         return Agreement { interval: Some((d, d)), ..Agreement::exact(outcome, eps) };
     }
     if published.runs >= 2 {
-        of_means(published, ours, eps)
+        of_means(published, ours, eps, alpha)
     } else {
-        of_single_run(published.mean, ours, eps)
+        of_single_run(published.mean, ours, eps, alpha)
     }
 }
 
 /// A published mean of m ≥ 2 runs.
-fn of_means(p: Published, ours: &[f64], eps: f64) -> Agreement {
+fn of_means(p: Published, ours: &[f64], eps: f64, alpha: f64) -> Agreement {
     let (n, m) = (ours.len() as f64, p.runs as f64);
     let s2 = sample_variance(ours);
     let (theirs, their_df) = match p.var {
@@ -148,7 +182,7 @@ fn of_means(p: Published, ours: &[f64], eps: f64) -> Agreement {
         Some(_) => (a + b).powi(2) / (a * a / (n - 1.0) + b * b / their_df),
         None => n - 1.0,
     };
-    let half = student_quantile(df, 1.0 - ALPHA) * se;
+    let half = student_quantile(df, 1.0 - alpha) * se;
     let interval = (d - half, d + half);
     let outcome = decide(interval, eps);
     let needed = (outcome == Outcome::Unresolved).then(|| {
@@ -158,7 +192,7 @@ fn of_means(p: Published, ours: &[f64], eps: f64) -> Agreement {
         let mut k = ours.len() + 1;
         // iterate t's degrees of freedom with the count
         for _ in 0..4 {
-            let t = student_quantile(k as f64 - 1.0, 1.0 - ALPHA);
+            let t = student_quantile(k as f64 - 1.0, 1.0 - alpha);
             let room = (gap / t).powi(2) - fixed;
             if gap == 0.0 || room <= 0.0 || (p.var.is_none() && (gap / t).powi(2) <= s2 / m) {
                 return Needed::Never;
@@ -172,15 +206,15 @@ fn of_means(p: Published, ours: &[f64], eps: f64) -> Agreement {
 
 /// The order-statistic interval of the median of `n` sorted values with coverage ≥ 1 − 2α:
 /// 1-based ranks (k, n + 1 − k) with the largest k such that 2 P(Bin(n, ½) ≤ k − 1) ≤ 2α.
-fn median_ranks(n: usize) -> Option<(usize, usize)> {
+fn median_ranks(n: usize, alpha: f64) -> Option<(usize, usize)> {
     let bin = Binomial::new(0.5, n as u64).ok()?;
     let k =
-        (1..=n.div_ceil(2)).take_while(|k| 2.0 * bin.cdf(*k as u64 - 1) <= 2.0 * ALPHA).last()?;
+        (1..=n.div_ceil(2)).take_while(|k| 2.0 * bin.cdf(*k as u64 - 1) <= 2.0 * alpha).last()?;
     Some((k, n + 1 - k))
 }
 
 /// One published run.
-fn of_single_run(published: f64, ours: &[f64], eps: f64) -> Agreement {
+fn of_single_run(published: f64, ours: &[f64], eps: f64, alpha: f64) -> Agreement {
     let mut x = ours.to_vec();
     x.sort_by(f64::total_cmp);
     let n = x.len();
@@ -188,8 +222,8 @@ fn of_single_run(published: f64, ours: &[f64], eps: f64) -> Agreement {
     let ties = x.iter().filter(|v| **v == published).count() as f64;
     let rank = (below + 0.5 * ties) / n as f64;
     let band = (published - eps, published + eps);
-    let median_ci = median_ranks(n).map(|(lo, hi)| (x[lo - 1], x[hi - 1]));
-    let j = ((n + 1) as f64 * ALPHA).floor() as usize;
+    let median_ci = median_ranks(n, alpha).map(|(lo, hi)| (x[lo - 1], x[hi - 1]));
+    let j = prediction_rank(n, alpha);
     let outside_prediction = j >= 1 && (published < x[j - 1] || published > x[n - j]);
     let outcome = match median_ci {
         Some((lo, hi)) if lo >= band.0 && hi <= band.1 => Outcome::Equivalent,
@@ -208,8 +242,8 @@ fn of_single_run(published: f64, ours: &[f64], eps: f64) -> Agreement {
             return Needed::Never;
         }
         // the median's standard error is ≈ 1.2533 σ / √n; z(0.95) = 1.645
-        let k = ((1.645 * 1.2533 * sigma / gap).powi(2)).ceil() as usize;
-        let floor = if beyond { PREDICTION_MIN_N } else { MEDIAN_MIN_N };
+        let k = ((z_three_decimals(alpha) * 1.2533 * sigma / gap).powi(2)).ceil() as usize;
+        let floor = if beyond { prediction_min_n(alpha) } else { median_min_n(alpha) };
         let k = k.max(floor).max(n + 1);
         if k > MAX_SUGGESTED { Needed::Never } else { Needed::Replicates(k) }
     });
@@ -324,9 +358,9 @@ mod tests {
         assert_eq!(a.outcome, Some(Outcome::Unresolved));
         assert_eq!(a.needed, Some(Needed::Replicates(PREDICTION_MIN_N)));
         // four replicates cannot locate the median at 90 %
-        assert_eq!(median_ranks(4), None);
-        assert_eq!(median_ranks(5), Some((1, 5)));
-        assert_eq!(median_ranks(10), Some((2, 9)));
+        assert_eq!(median_ranks(4, ALPHA), None);
+        assert_eq!(median_ranks(5, ALPHA), Some((1, 5)));
+        assert_eq!(median_ranks(10, ALPHA), Some((2, 9)));
     }
 
     #[test]
@@ -339,5 +373,33 @@ mod tests {
         assert_eq!(judge(one, &[1.0, f64::INFINITY], 0.2).outcome, Some(Outcome::Different));
         assert_eq!(judge(one, &[1.0], 0.2).outcome, None);
         assert_eq!(judge(one, &[1.05, 1.05, 1.05], 0.2).outcome, Some(Outcome::Equivalent));
+    }
+
+    /// The fixed level's constants follow from the rules at [`ALPHA`]; a stricter look needs more
+    /// replicates to bound either interval, and decides less.
+    #[test]
+    fn levels_other_than_the_fixed_one() {
+        assert_eq!(prediction_min_n(ALPHA), PREDICTION_MIN_N);
+        assert_eq!(median_min_n(ALPHA), MEDIAN_MIN_N);
+        assert_eq!(z_three_decimals(ALPHA), 1.645);
+        assert_eq!(prediction_min_n(0.04), 24);
+        assert!(median_min_n(0.01) > MEDIAN_MIN_N);
+        // at ALPHA, judge_at is judge
+        let noisy = [1.0, 1.5, 0.9, 1.4, 1.1, 1.3, 1.2, 1.0];
+        let p = mean_of_5(1.0, 0.0004);
+        assert_eq!(judge_at(p, &noisy, 0.25, ALPHA), judge(p, &noisy, 0.25));
+        // a cell equivalent at 5 % per side is not at 0.1 %: the interval widens
+        let ours = [1.01, 1.03, 1.02, 1.02, 1.01, 1.03, 1.02, 1.02];
+        let loose = judge_at(p, &ours, 0.05, ALPHA);
+        let strict = judge_at(p, &ours, 0.05, 0.001);
+        assert_eq!(loose.outcome, Some(Outcome::Equivalent), "{loose:?}");
+        assert_eq!(strict.outcome, Some(Outcome::Unresolved), "{strict:?}");
+        // one published run far outside 20 replicates: different at 5 %, not at 4 % (24 needed)
+        let far: Vec<f64> = (0..20).map(|i| 1.0 + 0.01 * i as f64).collect();
+        let one = Published { mean: 3.0, var: None, runs: 1 };
+        assert_eq!(judge_at(one, &far, 0.6, ALPHA).outcome, Some(Outcome::Different));
+        let a = judge_at(one, &far, 0.6, 0.04);
+        assert_eq!(a.outcome, Some(Outcome::Unresolved));
+        assert_eq!(a.needed, Some(Needed::Replicates(24)));
     }
 }

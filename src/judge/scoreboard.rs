@@ -35,130 +35,13 @@ use crate::store::{ParamValue, StudyData};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+pub use crate::spec::items::{Axis, CellSelector, Item, ItemsFile, parse_items};
+
 /// Share of cells shown equivalent from which an item MATCHes.
 pub const MATCH_SHARE: f64 = 0.5;
 /// Mean trend score (Spearman ρ; 1 or 0 for series that do not move) from which an item follows
 /// the published trend.
 pub const TREND_RHO: f64 = 0.5;
-
-/// `published-results.toml`.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ItemsFile {
-    pub item: Vec<Item>,
-}
-
-/// One published result item.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Item {
-    pub id: String,
-    pub seed: String,
-    pub source: String,
-    pub result: String,
-    #[serde(default)]
-    pub study: Option<String>,
-    #[serde(default)]
-    pub cells: Option<CellSelector>,
-    #[serde(default)]
-    pub claims: Vec<String>,
-    /// Claims about the item's shape (an effect's direction), beside `claims` about its levels:
-    /// shape confirmed but levels not is TREND, as for published cells.
-    #[serde(default)]
-    pub shape: Vec<String>,
-    #[serde(default)]
-    pub missing: Option<String>,
-}
-
-/// Which published numbers answer an item (rows of the study's reference file).
-#[derive(Debug, Clone, PartialEq, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CellSelector {
-    pub file: String,
-    /// Wide layout: the experiment(s).
-    #[serde(default)]
-    pub experiment: Option<String>,
-    #[serde(default)]
-    pub experiments: Vec<String>,
-    #[serde(default)]
-    pub values: Vec<f64>,
-    /// Long layout: the table, stat (`mean` or `max`; both when absent), algorithms and named cells.
-    #[serde(default)]
-    pub table: Option<String>,
-    #[serde(default)]
-    pub stat: Option<String>,
-    #[serde(default)]
-    pub algorithms: Vec<String>,
-    #[serde(default)]
-    pub cells: Vec<String>,
-    #[serde(default)]
-    pub maps: Vec<String>,
-    pub metrics: Vec<String>,
-    /// What the item's effect runs along: `value` (the swept parameter; the wide layout's
-    /// default), `cell`, `algorithm` or `map` (series over the others), or `none` (an item about
-    /// levels; the long layout's default).
-    #[serde(default)]
-    pub axis: Option<Axis>,
-}
-
-/// The axis a published item's trend runs along.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Axis {
-    Value,
-    Cell,
-    Algorithm,
-    Map,
-    None,
-}
-
-impl Axis {
-    /// Fewest cells a series along this axis needs: an ordering needs 3, a comparison 2.
-    fn min_series(self) -> usize {
-        match self {
-            Axis::Value | Axis::Cell => 3,
-            Axis::Algorithm | Axis::Map => 2,
-            Axis::None => usize::MAX,
-        }
-    }
-    fn as_str(self) -> &'static str {
-        match self {
-            Axis::Value => "the swept parameter",
-            Axis::Cell => "the cells",
-            Axis::Algorithm => "the algorithms",
-            Axis::Map => "the maps",
-            Axis::None => "none",
-        }
-    }
-}
-
-/// Parses the items file; errors name the item and key.
-pub fn parse_items(text: &str) -> Result<Vec<Item>, String> {
-    let f: ItemsFile = toml::from_str(text).map_err(|e| e.to_string())?;
-    for (i, it) in f.item.iter().enumerate() {
-        let answers = it.cells.is_some() as usize
-            + (!it.claims.is_empty() || !it.shape.is_empty()) as usize
-            + it.missing.is_some() as usize;
-        if answers != 1 {
-            return Err(format!(
-                "item[{i}] ({}): needs exactly one of `cells`, `claims` or `missing`",
-                it.id
-            ));
-        }
-        if (it.cells.is_some() || !it.claims.is_empty() || !it.shape.is_empty())
-            && it.study.is_none()
-        {
-            return Err(format!(
-                "item[{i}] ({}): `cells` and `claims` need the `study` that answers them",
-                it.id
-            ));
-        }
-        if f.item[..i].iter().any(|o| o.id == it.id) {
-            return Err(format!("item[{i}]: id `{}` is used twice", it.id));
-        }
-    }
-    Ok(f.item)
-}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "UPPERCASE")]
@@ -284,11 +167,15 @@ pub fn published(data: &StudyData, row: &ReferenceRow, metric: &str) -> Option<P
     Some(Published { mean, var: row.metric(&format!("{metric}_var")), runs })
 }
 
-fn selected<'a>(data: &'a StudyData, sel: &CellSelector) -> Vec<(&'a ReferenceRow, String)> {
+/// One published cell of an item: (index of its row in the study's reference rows, metric).
+pub type ItemCell = (usize, String);
+
+/// The rows (with their indices) and metrics an item's selector picks.
+fn selected<'a>(data: &'a StudyData, sel: &CellSelector) -> Vec<(usize, &'a ReferenceRow, String)> {
     let mut experiments = sel.experiments.clone();
     experiments.extend(sel.experiment.clone());
     let mut out = Vec::new();
-    for row in &data.reference {
+    for (index, row) in data.reference.iter().enumerate() {
         let long = !row.cell.is_empty();
         let ok = if long {
             sel.table.as_deref().is_none_or(|t| t == row.table)
@@ -315,7 +202,7 @@ fn selected<'a>(data: &'a StudyData, sel: &CellSelector) -> Vec<(&'a ReferenceRo
             };
             for name in names {
                 if row.metric(&name).is_some() {
-                    out.push((row, name));
+                    out.push((index, row, name));
                 }
             }
         }
@@ -343,22 +230,75 @@ pub fn trend_score(published: &[f64], ours: &[f64], relative: f64) -> f64 {
     }
 }
 
+/// One published cell of an item with our replicates in its counterpart.
+#[derive(Debug, Clone)]
+pub struct CellData {
+    pub key: ItemCell,
+    pub published: Published,
+    pub ours: Vec<f64>,
+    /// The margin ε of its work for this metric and published value.
+    pub eps: f64,
+    /// Our cell it is compared with: (map, algorithm, sweep point).
+    pub run_cell: (String, String, String),
+}
+
+/// The published cells an item's selector picks that have a counterpart among our runs.
+pub fn item_cells(data: &StudyData, sel: &CellSelector, work: &WorkMargins) -> Vec<CellData> {
+    selected(data, sel)
+        .into_iter()
+        .filter_map(|(index, row, metric)| {
+            let p = published(data, row, &metric)?;
+            let ours = our_values(data, row, &metric)?;
+            let point = point_of(data, row)?;
+            let algorithm = if row.algorithm.is_empty() {
+                data.resolved.spec.algorithms.first()?.to_string()
+            } else {
+                row.algorithm.clone()
+            };
+            Some(CellData {
+                eps: work.margin(&metric, p.mean),
+                key: (index, metric),
+                published: p,
+                ours,
+                run_cell: (row.map.clone(), algorithm, point),
+            })
+        })
+        .collect()
+}
+
+/// How each cell of an item is judged: the fixed design's [`agreement::judge`], or a sequential
+/// study's look ([`super::sequential`]).
+pub type CellJudge<'a> = dyn Fn(&CellData) -> agreement::Agreement + 'a;
+
 /// Classifies an item answered by published cells, within the margins of its work.
 fn classify_cells(data: &StudyData, sel: &CellSelector, work: &WorkMargins) -> (Class, String) {
+    classify_cells_with(data, sel, work, &|c| agreement::judge(c.published, &c.ours, c.eps))
+}
+
+/// [`classify_cells`] with each cell judged by `judge`.
+pub fn classify_cells_with(
+    data: &StudyData,
+    sel: &CellSelector,
+    work: &WorkMargins,
+    judge: &CellJudge,
+) -> (Class, String) {
     let rows = selected(data, sel);
-    let long = rows.first().is_some_and(|(r, _)| !r.cell.is_empty());
+    let long = rows.first().is_some_and(|(_, r, _)| !r.cell.is_empty());
     let axis = sel.axis.unwrap_or(if long { Axis::None } else { Axis::Value });
     // series key (the cell's coordinates off the axis, metric) → (published, ours mean)
     let mut series: BTreeMap<(String, String, String), Vec<(f64, f64)>> = BTreeMap::new();
     let (mut equivalent, mut different, mut unresolved) = (0usize, 0usize, 0usize);
     let mut needed: Vec<Needed> = Vec::new();
     let mut replicates = BTreeMap::<usize, usize>::new();
-    for (row, metric) in &rows {
-        let (Some(p), Some(ours)) = (published(data, row, metric), our_values(data, row, metric))
-        else {
+    let cells = item_cells(data, sel, work);
+    let mut cells = cells.iter().peekable();
+    for (index, row, metric) in &rows {
+        // (item_cells keeps the selector's order, dropping the cells without a counterpart)
+        let Some(cell) = cells.next_if(|c| c.key.0 == *index && &c.key.1 == metric) else {
             continue;
         };
-        let a = agreement::judge(p, &ours, work.margin(metric, p.mean));
+        let (p, ours) = (cell.published, &cell.ours);
+        let a = judge(cell);
         match a.outcome {
             Some(Outcome::Equivalent) => equivalent += 1,
             Some(Outcome::Different) => different += 1,
@@ -540,6 +480,15 @@ pub fn classify(
     claims: &[ClaimResult],
     kept: &[CellVerdict],
 ) -> Vec<ItemResult> {
+    // a sequential study that staged items: its looks, replayed once
+    let replays: BTreeMap<&str, super::sequential::Replay> = studies
+        .iter()
+        .filter(|(_, d)| !d.resolved.items.is_empty())
+        .filter_map(|(id, d)| {
+            let design = super::sequential::Design::of(&d.resolved.spec)?;
+            Some((id.as_str(), super::sequential::replay(d, &design)))
+        })
+        .collect();
     items
         .iter()
         .map(|it| {
@@ -548,7 +497,13 @@ pub fn classify(
                 (Class::Missing, format!("no counterpart: {why}"))
             } else if let Some(sel) = &it.cells {
                 match (studies.get(&study), kept.iter().find(|k| k.id == it.id)) {
-                    (Some(data), _) => classify_cells(data, sel, margins::for_label(&it.seed)),
+                    (Some(data), _) => match replays
+                        .get(study.as_str())
+                        .and_then(|r| r.item(&it.id))
+                    {
+                        Some(staged) => staged.classify(data, sel, margins::for_label(&it.seed)),
+                        None => classify_cells(data, sel, margins::for_label(&it.seed)),
+                    },
                     (None, Some(k)) => (k.class, k.basis.clone()),
                     (None, None) => (Class::Missing, format!("study {study} has no results here")),
                 }
@@ -675,16 +630,5 @@ mod tests {
         assert_eq!(trend_score(&[0.84, 0.5, 0.3, 0.26], &[1.0, 1.2, 1.5, 2.0], 0.2), -1.0);
         // ours moving where the publication is flat: no agreement
         assert_eq!(trend_score(&[0.13, 0.14, 0.15], &[0.2, 0.4, 0.6], 0.2), 0.0);
-    }
-
-    #[test]
-    fn items_need_one_answer() {
-        let ok = "[[item]]\nid = \"A\"\nseed = \"FT\"\nsource = \"L1\"\nresult = \"r\"\nmissing = \"not run\"\n";
-        assert_eq!(parse_items(ok).unwrap().len(), 1);
-        let two = format!("{ok}claims = [\"x\"]\nstudy = \"s\"\n");
-        assert!(parse_items(&two).unwrap_err().contains("exactly one"));
-        let no_study = "[[item]]\nid = \"A\"\nseed = \"FT\"\nsource = \"L1\"\nresult = \"r\"\nclaims = [\"x\"]\n";
-        assert!(parse_items(no_study).unwrap_err().contains("study"));
-        assert!(parse_items(&format!("{ok}{ok}")).unwrap_err().contains("twice"));
     }
 }

@@ -25,7 +25,10 @@
 //! the stored runs in the report, so both always agree: the stages are a function of the runs'
 //! results, which are a function of the spec.
 
+use super::agreement::{self, Agreement, Needed, Outcome};
 use super::claims::{self, ClaimResult, Context, Levels, MapOutcome, Verdict};
+use super::margins::{self, WorkMargins};
+use super::scoreboard::{self, CellSelector, Class, ItemCell};
 use crate::spec::{ClaimTest, ExperimentSpec, Spending};
 use crate::stats::power::Replicates;
 use crate::stats::sequential as gs;
@@ -84,8 +87,14 @@ impl Design {
     /// futility bound (Lachin 2005, *Clin. Trials* 2:325; Jennison & Turnbull 2000, §10.6),
     /// chosen before the first study ran.
     pub fn futility_replicates(&self) -> f64 {
+        self.futility_replicates_at(self.last().side())
+    }
+
+    /// [`Design::futility_replicates`] for a test whose last look is at one-sided level
+    /// `last_alpha` (a published cell's, at the 5 % side's last level).
+    pub fn futility_replicates_at(&self, last_alpha: f64) -> f64 {
         let budget = f64::from(*self.looks.last().expect("at least one look"));
-        let c = gs::z_quantile(1.0 - self.last().side());
+        let c = gs::z_quantile(1.0 - last_alpha);
         let z = gs::z_quantile(1.0 - FUTILITY_POWER);
         budget * (c / (c - z)).powi(2)
     }
@@ -116,6 +125,50 @@ pub struct Look {
     pub decided: Vec<(String, Verdict)>,
     /// Cells given the next stage's replicates after this look.
     pub extended: Vec<Cell>,
+    /// Published cells of staged items shown equivalent or different at this look.
+    pub cells_decided: usize,
+}
+
+/// A published result item the study staged (`[sequential] items`), as its looks judged it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StagedItem {
+    pub id: String,
+    /// Each published cell's judgement, with the look (0-based) it is from: the look that showed
+    /// it equivalent or different, else the last look taken.
+    pub cells: BTreeMap<ItemCell, (Agreement, usize)>,
+    /// The item's class at each look taken.
+    pub classes: Vec<Class>,
+    /// The nominal one-sided level of the last look taken (a cell it did not reach is judged so).
+    last_alpha: f64,
+}
+
+impl StagedItem {
+    /// The item's class and basis from its cells as the looks judged them
+    /// ([`scoreboard::classify_cells_with`]).
+    pub fn classify(
+        &self,
+        data: &StudyData,
+        sel: &CellSelector,
+        work: &WorkMargins,
+    ) -> (Class, String) {
+        let (class, mut basis) = scoreboard::classify_cells_with(data, sel, work, &|c| {
+            self.cells.get(&c.key).map_or_else(
+                || agreement::judge_at(c.published, &c.ours, c.eps, self.last_alpha),
+                |(a, _)| *a,
+            )
+        });
+        let taken = self.classes.len();
+        let early = self.cells.values().filter(|(a, k)| decisive_cell(a) && *k + 1 < taken).count();
+        basis.push_str(&format!(
+            "; judged look by look in this sequential study: {early} cells decided before look {taken}, each at the nominal level of the look that decided it, the rest at look {taken}'s (α {} per side)",
+            crate::stats::sig(self.last_alpha, 2)
+        ));
+        (class, basis)
+    }
+}
+
+fn decisive_cell(a: &Agreement) -> bool {
+    matches!(a.outcome, Some(Outcome::Equivalent | Outcome::Different))
 }
 
 /// What a sequential study did, or is doing.
@@ -136,6 +189,15 @@ pub struct Replay {
     pub pending: Option<(u32, Vec<Cell>)>,
     /// Replicates present per cell (runs of any status).
     pub replicates: BTreeMap<Cell, u32>,
+    /// The staged published items, in the order the study's items file lists them.
+    pub items: Vec<StagedItem>,
+}
+
+impl Replay {
+    /// The staged item `id`, if the study staged it.
+    pub fn item(&self, id: &str) -> Option<&StagedItem> {
+        self.items.iter().find(|i| i.id == id)
+    }
 }
 
 fn decisive(v: Verdict) -> bool {
@@ -163,6 +225,17 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
     let mut added = BTreeSet::new();
     let mut looks = Vec::new();
     let mut pending = None;
+    let staged = &data.resolved.items;
+    let mut items: Vec<StagedItem> = staged
+        .iter()
+        .map(|it| StagedItem {
+            id: it.id.clone(),
+            cells: BTreeMap::new(),
+            classes: Vec::new(),
+            last_alpha: design.levels[0].tost_alpha,
+        })
+        .collect();
+    let cell_futility = design.futility_replicates_at(design.last().tost_alpha);
     for (k, &n) in design.looks.iter().enumerate() {
         let view = data.up_to(n);
         let look = (design.levels[k], design.last());
@@ -255,6 +328,52 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
             }
             latest[i] = Some(result);
         }
+        // the staged published items: each cell is judged at this look's level (the 5 % side's:
+        // the cells' intervals are 90 %) until shown equivalent or different; an item still
+        // UNRESOLVED asks for its undecided cells' replicates, as an undecided claim does
+        let alpha = design.levels[k].tost_alpha;
+        let mut cells_decided = 0;
+        for (it, item) in staged.iter().zip(items.iter_mut()) {
+            let Some(sel) = &it.cells else { continue };
+            let work = margins::for_label(&it.seed);
+            item.last_alpha = alpha;
+            let cells = scoreboard::item_cells(&view, sel, work);
+            for c in &cells {
+                if item.cells.get(&c.key).is_some_and(|(a, _)| decisive_cell(a)) {
+                    continue;
+                }
+                let a = agreement::judge_at(c.published, &c.ours, c.eps, alpha);
+                cells_decided += usize::from(decisive_cell(&a));
+                item.cells.insert(c.key.clone(), (a, k));
+            }
+            let (class, _) = item.classify(&view, sel, work);
+            item.classes.push(class);
+            if class != Class::Unresolved {
+                continue;
+            }
+            for c in &cells {
+                if item
+                    .cells
+                    .get(&c.key)
+                    .is_none_or(|(a, _)| a.outcome != Some(Outcome::Unresolved))
+                {
+                    continue;
+                }
+                // the replicates that would resolve it at the last look's level, within the
+                // futility bound (the claims' rule, at the 5 % side)
+                let at_last =
+                    agreement::judge_at(c.published, &c.ours, c.eps, design.last().tost_alpha);
+                let reachable = match at_last.needed {
+                    Some(Needed::Replicates(m)) => m as f64 <= cell_futility,
+                    Some(Needed::Never) => false,
+                    // decided already at the last look's level: the next look is stricter
+                    None => decisive_cell(&at_last),
+                };
+                if reachable {
+                    asked.insert(c.run_cell.clone());
+                }
+            }
+        }
         let last = k + 1 == design.looks.len();
         let extended: Vec<Cell> = if last { Vec::new() } else { asked.into_iter().collect() };
         let stop = extended.is_empty();
@@ -264,6 +383,7 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
             spent: design.spent[k],
             decided,
             extended: extended.clone(),
+            cells_decided,
         });
         if stop {
             break;
@@ -299,7 +419,7 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
             Some(r)
         })
         .collect();
-    Replay { design: design.clone(), looks, results, decided_at, added, pending, replicates }
+    Replay { design: design.clone(), looks, results, decided_at, added, pending, replicates, items }
 }
 
 #[cfg(test)]
@@ -366,6 +486,7 @@ why = "simulated"
             }],
             landmark_points: Vec::new(),
             externals: Vec::new(),
+            items: Vec::new(),
         };
         let row = |point: &str, replicate: u32, y: f64| RunRow {
             study: "sim".into(),

@@ -104,6 +104,9 @@ pub struct ExperimentPlan {
     pub reference: Option<String>,
     /// The sweep point label of each `[[report.landmark_reference]]`, in order.
     pub landmark_points: Vec<String>,
+    /// The published result items a sequential study stages (`[sequential] items`): those this
+    /// study answers by published cells.
+    pub items: Vec<crate::spec::items::Item>,
 }
 
 impl ExperimentPlan {
@@ -283,6 +286,10 @@ pub fn build_observed(
         Ok(r) => r,
         Err(e) => return Err(e.into()),
     };
+    let items = match staged_items(&spec) {
+        Ok(i) => i,
+        Err(e) => return Err(e.into()),
+    };
     let mut landmark_points = Vec::new();
     for (i, r) in spec.spec.report.landmark_reference.iter().enumerate() {
         match find_point(&spec, &points, &r.at, &format!("report.landmark_reference[{i}].at")) {
@@ -319,7 +326,17 @@ pub fn build_observed(
         )
         .into());
     }
-    Ok(ExperimentPlan { spec, maps, groups, points, runs, claims, reference, landmark_points })
+    Ok(ExperimentPlan {
+        spec,
+        maps,
+        groups,
+        points,
+        runs,
+        claims,
+        reference,
+        landmark_points,
+        items,
+    })
 }
 
 fn load_maps(spec: &LoadedSpec, maps_dir: &Path, errors: &mut Vec<SpecError>) -> Vec<MapEntry> {
@@ -1093,6 +1110,35 @@ fn reference(spec: &LoadedSpec) -> Result<Option<String>, SpecError> {
         }
     }
     Ok(Some(reference_file::select(&text, &r.experiments)))
+}
+
+/// Reads `[sequential] items`: the published result items this study answers by published
+/// cells (rows of its `[report] reference`), which its looks stage beside its claims.
+fn staged_items(spec: &LoadedSpec) -> Result<Vec<crate::spec::items::Item>, SpecError> {
+    let Some(file) = spec.spec.sequential.as_ref().and_then(|s| s.items.as_ref()) else {
+        return Ok(Vec::new());
+    };
+    let fail =
+        |msg: String| SpecError::new(&spec.path, vec![spec.error_at("sequential.items", msg)]);
+    if spec.spec.report.reference.is_none() {
+        return Err(fail(
+            "items answered by published cells need the study's `[report] reference` rows".into(),
+        ));
+    }
+    let text =
+        std::fs::read_to_string(file).map_err(|e| fail(format!("cannot read {file}: {e}")))?;
+    let items = crate::spec::items::parse_items(&text).map_err(|e| fail(format!("{file}: {e}")))?;
+    let id = &spec.spec.id;
+    let mine: Vec<_> = items
+        .into_iter()
+        .filter(|it| it.study.as_ref() == Some(id) && it.cells.is_some() && it.missing.is_none())
+        .collect();
+    if mine.is_empty() {
+        return Err(fail(format!(
+            "{file} has no item this study answers by published cells (`study = \"{id}\"` with `cells`)"
+        )));
+    }
+    Ok(mine)
 }
 
 /// Sets `a.b.c = value`, creating intermediate tables.

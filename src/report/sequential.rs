@@ -19,9 +19,14 @@ pub fn tables(replay: &Replay, runs: usize) -> Vec<NamedTable> {
         )
     } else if taken == design.looks.len() {
         format!("The looks ended at the budget, look {taken} of {}.", design.looks.len())
-    } else {
+    } else if replay.items.is_empty() {
         format!(
             "The looks ended at look {taken} of {}: no undecided claim had a cell worth more replicates (every claim decided, or its trend too weak for the budget).",
+            design.looks.len()
+        )
+    } else {
+        format!(
+            "The looks ended at look {taken} of {}: no undecided claim and no unresolved published item had a cell worth more replicates.",
             design.looks.len()
         )
     };
@@ -66,6 +71,15 @@ pub fn tables(replay: &Replay, runs: usize) -> Vec<NamedTable> {
             align: "rrrrrp{0.35\\linewidth}r".into(),
         },
     });
+    if !replay.items.is_empty() {
+        let looks = &mut out.last_mut().expect("the looks table").table;
+        looks.columns.push("Published cells decided".into());
+        for (row, l) in looks.rows.iter_mut().zip(&replay.looks) {
+            row.push(l.cells_decided.to_string());
+        }
+        looks.align.push('r');
+        out.push(items_table(replay));
+    }
     let mut by_count: BTreeMap<u32, usize> = BTreeMap::new();
     for n in replay.replicates.values() {
         *by_count.entry(*n).or_default() += 1;
@@ -137,4 +151,57 @@ pub fn tables(replay: &Replay, runs: usize) -> Vec<NamedTable> {
         },
     });
     out
+}
+
+/// The published result items the study staged (`[sequential] items`): their class at each look
+/// and their cells' outcomes, with the look each was decided at.
+fn items_table(replay: &Replay) -> NamedTable {
+    use crate::judge::agreement::Outcome;
+    let rows = replay
+        .items
+        .iter()
+        .map(|item| {
+            let count =
+                |o: Outcome| item.cells.values().filter(|(a, _)| a.outcome == Some(o)).count();
+            let mut at: BTreeMap<usize, usize> = BTreeMap::new();
+            for (a, k) in item.cells.values() {
+                if matches!(a.outcome, Some(Outcome::Equivalent | Outcome::Different)) {
+                    *at.entry(k + 1).or_default() += 1;
+                }
+            }
+            vec![
+                item.id.clone(),
+                item.classes.iter().map(|c| c.as_str()).collect::<Vec<_>>().join(" → "),
+                item.cells.len().to_string(),
+                count(Outcome::Equivalent).to_string(),
+                count(Outcome::Different).to_string(),
+                count(Outcome::Unresolved).to_string(),
+                if at.is_empty() {
+                    "—".into()
+                } else {
+                    at.iter()
+                        .map(|(k, n)| format!("{n} at look {k}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                },
+            ]
+        })
+        .collect();
+    NamedTable {
+        title: "Sequential replication: published items staged".into(),
+        caption: "The fidelity items this study answers by published cells (`[sequential] items`). Each cell is judged at each look's nominal level for the 5 % side (its 90 % interval) until shown equivalent to the published number or different from it, and keeps that outcome; an item still UNRESOLVED at a look asks for the next stage's replicates in its undecided cells (within the futility bound), as an undecided claim does. The class shown per look is the item's from its cells alone; the scoreboard's is the last one.".into(),
+        table: TableView {
+            columns: vec![
+                "Item".into(),
+                "Class at each look".into(),
+                "Cells".into(),
+                "Equivalent".into(),
+                "Different".into(),
+                "Unresolved".into(),
+                "Decided".into(),
+            ],
+            rows,
+            align: "lp{0.3\\linewidth}rrrrl".into(),
+        },
+    }
 }

@@ -993,6 +993,7 @@ fn resolved(plan: &ExperimentPlan) -> ResolvedStudy {
             .filter(|e| plan.spec.spec.algorithms.iter().any(|a| a.as_str() == e.name))
             .cloned()
             .collect(),
+        items: plan.items.clone(),
     }
 }
 

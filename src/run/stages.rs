@@ -35,6 +35,12 @@ pub fn staged<E>(
     mut rows_of: impl FnMut(&ExperimentPlan) -> Result<Option<Vec<RunRow>>, E>,
 ) -> Result<(ExperimentPlan, bool), E> {
     let first = design.looks[0];
+    // the published rows the staged items' cells are judged against (checked when planned)
+    let reference = plan
+        .reference
+        .as_deref()
+        .and_then(|text| store::reference::parse(text).ok())
+        .unwrap_or_default();
     let mut active: BTreeSet<usize> =
         (0..plan.runs.len()).filter(|&i| plan.runs[i].replicate < first).collect();
     loop {
@@ -46,7 +52,7 @@ pub fn staged<E>(
             Manifest::blank(stage.id(), stage.runs.len()),
             rows,
             stage.maps.iter().map(|m| (m.name.clone(), m.text.clone())).collect(),
-            Vec::new(),
+            reference.clone(),
         );
         let replay = sequential::replay(&data, design);
         let Some((next, cells)) = replay.pending else { return Ok((stage, true)) };

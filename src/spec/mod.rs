@@ -13,6 +13,7 @@ use std::sync::Arc;
 
 pub mod algorithms;
 pub mod cause;
+pub mod items;
 
 /// A study as written in its TOML file.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
@@ -68,6 +69,12 @@ pub struct SequentialSpec {
     /// `replicates + stage_replicates`, … and `max_replicates`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stage_replicates: Option<u32>,
+    /// The published result items file (`data/reference/published-results.toml`) whose items
+    /// answered by this study's published cells are staged too: their unresolved cells get
+    /// replicates as undecided claims' cells do. Read when the study is planned; the items are
+    /// kept with the results, so the report replays the looks the run took.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub items: Option<String>,
 }
 
 /// Lan–DeMets alpha-spending functions (see `stats::sequential`).

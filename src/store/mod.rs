@@ -303,6 +303,10 @@ pub struct ResolvedStudy {
     /// the report knows them from here, never from `data/algorithms/`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub externals: Vec<crate::algo::external::ExternalSpec>,
+    /// The published result items a sequential study staged (`[sequential] items`), as read when
+    /// it ran (written only when any): the report replays the looks with these.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub items: Vec<crate::spec::items::Item>,
 }
 
 impl ResolvedStudy {
