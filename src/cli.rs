@@ -697,7 +697,7 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
                 plan.runs.len()
             ),
             Some(looks) => println!(
-                "study {}: {} points × {} maps × {} algorithms × {} to {} replicates = at most {} runs (sequential: looks at {}; `run` adds each stage only to the cells of undecided claims, so the runs below beyond the first {} replicates run only if a look asks for them)",
+                "study {}: {} points × {} maps × {} algorithms × {} to {} replicates = at most {} runs (sequential: looks at {}; `run` adds each stage only to the cells of undecided claims{}, so the runs below beyond the first {} replicates run only if a look asks for them)",
                 plan.id(),
                 plan.points.len(),
                 plan.maps.len(),
@@ -706,6 +706,14 @@ fn cmd_plan(spec_paths: &[PathBuf], dirs: &Dirs, force: bool, shards: Option<usi
                 spec.replicate_budget(),
                 plan.runs.len(),
                 looks.iter().map(|n| n.to_string()).collect::<Vec<_>>().join(", "),
+                if plan.items.is_empty() {
+                    String::new()
+                } else {
+                    format!(
+                        " and of unresolved published items ({})",
+                        plan.items.iter().map(|i| i.id.as_str()).collect::<Vec<_>>().join(", ")
+                    )
+                },
                 spec.replicates
             ),
         }

@@ -536,6 +536,133 @@ why = "simulated"
         (share(confirmed), share(refuted), replicates as f64 / trials as f64)
     }
 
+    /// A study of one published cell (a mean of 5 runs, printed spread 0) and our cell of
+    /// N(`mean`, `sd`²) replicates, with the item that compares them staged.
+    fn item_study(mean: f64, sd: f64, rng: &mut ChaCha8Rng) -> StudyData {
+        let spec: ExperimentSpec = toml::from_str(
+            r#"id = "sim"
+title = "simulated"
+seed = 1
+replicates = 8
+max_replicates = 40
+maps = ["m"]
+algorithms = ["odometry"]
+[sequential]
+items = "items.toml"
+[report]
+reference = { file = "published.csv", experiments = ["e"], label = "[EP]", runs = 5 }
+"#,
+        )
+        .unwrap();
+        let item = crate::spec::items::Item {
+            id: "I".into(),
+            seed: "EP".into(),
+            source: "s".into(),
+            result: "r".into(),
+            study: Some("sim".into()),
+            cells: Some(CellSelector {
+                file: "published.csv".into(),
+                experiment: Some("e".into()),
+                metrics: vec!["y".into()],
+                axis: Some(scoreboard::Axis::None),
+                ..Default::default()
+            }),
+            claims: Vec::new(),
+            shape: Vec::new(),
+            missing: None,
+        };
+        let resolved = ResolvedStudy {
+            spec,
+            groups: Vec::new(),
+            points: vec![PointRecord {
+                label: "a".into(),
+                groups: Vec::new(),
+                assignments: [("k".to_string(), toml::Value::Float(1.0))].into_iter().collect(),
+            }],
+            claims: Vec::new(),
+            landmark_points: Vec::new(),
+            externals: Vec::new(),
+            items: vec![item],
+        };
+        let reference = vec![crate::store::reference::ReferenceRow {
+            experiment: "e".into(),
+            table: "t".into(),
+            map: "m".into(),
+            parameter: "k".into(),
+            value: 1.0,
+            metrics: vec![("y".into(), 10.0), ("y_var".into(), 0.0)],
+            algorithm: String::new(),
+            cell: String::new(),
+        }];
+        let runs: Vec<RunRow> = (0..40)
+            .map(|r| RunRow {
+                study: "sim".into(),
+                run_id: format!("m--odometry--a--r{r:02}"),
+                map: "m".into(),
+                algorithm: "odometry".into(),
+                point: "a".into(),
+                replicate: r,
+                world_seed: 0,
+                filter_seed: 0,
+                status: RunStatus::Ok,
+                error: None,
+                run_hash: String::new(),
+                params_hash: String::new(),
+                code_version: String::new(),
+                params: Vec::new(),
+                metrics: vec![("y".into(), mean + sd * normal(rng))],
+            })
+            .collect();
+        let manifest = Manifest::blank("sim", runs.len());
+        StudyData::new(Default::default(), resolved, manifest, runs, Vec::new(), reference)
+    }
+
+    /// Shares of trials whose cell ends shown equivalent and shown different, and the mean
+    /// replicates at the stop, under `design`.
+    fn simulate_item(design: &Design, mean: f64, trials: usize, seed: u64) -> (f64, f64, f64) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let (mut equivalent, mut different, mut replicates) = (0usize, 0usize, 0u64);
+        for _ in 0..trials {
+            let replay = replay(&item_study(mean, 3.0, &mut rng), design);
+            assert!(replay.pending.is_none());
+            let item = replay.item("I").expect("the item is staged");
+            assert_eq!(item.classes.len(), replay.looks.len());
+            match item.cells.values().next().and_then(|(a, _)| a.outcome) {
+                Some(Outcome::Equivalent) => equivalent += 1,
+                Some(Outcome::Different) => different += 1,
+                _ => {}
+            }
+            replicates += u64::from(replay.looks.last().unwrap().n);
+        }
+        let share = |k: usize| k as f64 / trials as f64;
+        (share(equivalent), share(different), replicates as f64 / trials as f64)
+    }
+
+    /// A published item's cells under the looks keep the fixed design's errors: with our mean
+    /// exactly at the margin's edge (10 + 20 %: neither equivalent nor different is true), the
+    /// looks show the cell equivalent, and different, each no more often than the 5 % each side
+    /// spends (within three standard errors of the simulation); the same looks each at the fixed
+    /// 5 % (no spending) exceed it. A cell well inside the margin is shown equivalent, and the
+    /// item stops asking once it is.
+    #[test]
+    fn staged_items_keep_the_cells_error_rates() {
+        let spec = item_study(10.0, 1.0, &mut ChaCha8Rng::seed_from_u64(0)).resolved.spec;
+        let design = Design::of(&spec).unwrap();
+        let trials = 2000;
+        let bound = 0.05 + 3.0 * (0.05 * 0.95 / trials as f64).sqrt();
+        let (equivalent, different, n) = simulate_item(&design, 12.0, trials, 5);
+        assert!(equivalent <= bound, "shown equivalent {equivalent} > {bound}");
+        assert!(different <= bound, "shown different {different} > {bound}");
+        assert!(n > 8.0, "the looks went on: {n}");
+        let naive = Design { levels: vec![Levels::FIXED; design.looks.len()], ..design.clone() };
+        let (equivalent_naive, _, _) = simulate_item(&naive, 12.0, trials, 5);
+        assert!(equivalent_naive > 0.06, "repeated looks at 5 % stay at {equivalent_naive}");
+        // a real agreement (our mean 1 % off, the margin 20 %): shown equivalent, then no more runs
+        let (equivalent, _, n) = simulate_item(&design, 10.1, 200, 6);
+        assert!(equivalent > 0.9, "{equivalent}");
+        assert!(n < 40.0, "stopped before the budget on average: {n}");
+    }
+
     #[test]
     fn the_design_states_its_looks_and_levels() {
         let d = Design::of(&spec("obrien_fleming")).unwrap();

@@ -1120,14 +1120,14 @@ fn staged_items(spec: &LoadedSpec) -> Result<Vec<crate::spec::items::Item>, Spec
     };
     let fail =
         |msg: String| SpecError::new(&spec.path, vec![spec.error_at("sequential.items", msg)]);
+    let text =
+        std::fs::read_to_string(file).map_err(|e| fail(format!("cannot read {file}: {e}")))?;
+    let items = crate::spec::items::parse_items(&text).map_err(|e| fail(format!("{file}: {e}")))?;
     if spec.spec.report.reference.is_none() {
         return Err(fail(
             "items answered by published cells need the study's `[report] reference` rows".into(),
         ));
     }
-    let text =
-        std::fs::read_to_string(file).map_err(|e| fail(format!("cannot read {file}: {e}")))?;
-    let items = crate::spec::items::parse_items(&text).map_err(|e| fail(format!("{file}: {e}")))?;
     let id = &spec.spec.id;
     let mine: Vec<_> = items
         .into_iter()

@@ -34,11 +34,16 @@ pub fn tables(replay: &Replay, runs: usize) -> Vec<NamedTable> {
     out.push(NamedTable {
         title: "Sequential replication: the looks".into(),
         caption: format!(
-            "Group-sequential design, fixed by the spec before the first look: looks at {} replicates per cell; alpha spending {} at information fraction n / {budget}, for each side of every test (the one-sided 2.5 % of the 95 % intervals, and the 5 % of the TOST halves of flat claims); each look judges at the nominal levels of its boundaries (a two-sided interval at 1 − 2α per side) (Lan & DeMets 1983; Jennison & Turnbull 2000, §3.8, §7.2). A unit (map) decided at a look keeps its verdict; replicates are added only to the cells of undecided units of undecided claims, while a study of the whole budget, with the unit's observed effect as the true one, would decide it with a chance of at least 10 % (a projection within {} replicates; a non-binding futility rule: it withholds runs and cannot raise an error rate). {stop} Runs taken: {runs} of the budget's {} for these cells.",
+            "Group-sequential design, fixed by the spec before the first look: looks at {} replicates per cell; alpha spending {} at information fraction n / {budget}, for each side of every test (the one-sided 2.5 % of the 95 % intervals, and the 5 % of the TOST halves of flat claims); each look judges at the nominal levels of its boundaries (a two-sided interval at 1 − 2α per side) (Lan & DeMets 1983; Jennison & Turnbull 2000, §3.8, §7.2). A unit (map) decided at a look keeps its verdict; replicates are added only to the cells of undecided units of undecided claims{items}, while a study of the whole budget, with the unit's observed effect as the true one, would decide it with a chance of at least 10 % (a projection within {} replicates; a non-binding futility rule: it withholds runs and cannot raise an error rate). {stop} Runs taken: {runs} of the budget's {} for these cells.",
             looks_planned.join(", "),
             design.spending_text(),
             design.futility_replicates().floor(),
             replay.replicates.len() * budget as usize,
+            items = if replay.items.is_empty() {
+                ""
+            } else {
+                " and of the undecided published cells of items still UNRESOLVED (*published items staged*, below)"
+            },
         ),
         table: TableView {
             columns: vec![

@@ -10,8 +10,6 @@
 //! e.g. Julious 2004, *Stat. Med.* 23:1921, for the equivalence case), searched over n rather than
 //! solved with a normal approximation, so that it matches the test the verdict used exactly.
 
-use statrs::distribution::{ContinuousCDF, StudentsT};
-
 /// Replicates that would decide a test.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Replicates {
@@ -30,9 +28,7 @@ pub enum Replicates {
 /// Half-width of the two-sided `confidence` t interval of a mean of `n` values with sample
 /// standard deviation `sd`.
 fn half_width(sd: f64, n: usize, confidence: f64) -> f64 {
-    let t = StudentsT::new(0.0, 1.0, (n - 1) as f64)
-        .map(|t| t.inverse_cdf(0.5 + confidence / 2.0))
-        .unwrap_or(f64::NAN);
+    let t = super::student_t_inverse((n - 1) as f64, 0.5 + confidence / 2.0);
     t * sd / (n as f64).sqrt()
 }
 

@@ -344,3 +344,16 @@ fn a_bad_design_bound_is_reported_once_at_the_bound() {
     assert_eq!(lines.len(), 2, "{err}");
     assert!(lines.iter().all(|l| l.contains("lower bound")), "{err}");
 }
+
+/// `[sequential] items` (published items staged beside the claims) is checked when the study is
+/// planned: the items need the study's reference rows, the file must be readable, and it must hold
+/// an item this study answers by published cells.
+#[test]
+fn staged_items_are_checked_when_planned() {
+    let sequential = GOOD.replace("replicates = 1", "replicates = 3\nmax_replicates = 6");
+    let with = |extra: &str| format!("{sequential}\n[sequential]\n{extra}\n");
+    let err = rejected(&with("items = \"data/reference/published-results.toml\""));
+    assert!(err.contains("sequential.items") && err.contains("[report] reference"), "{err}");
+    let err = rejected(&with("items = \"no/such/items.toml\""));
+    assert!(err.contains("sequential.items") && err.contains("cannot read"), "{err}");
+}
