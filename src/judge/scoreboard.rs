@@ -497,11 +497,16 @@ pub fn classify(
                 (Class::Missing, format!("no counterpart: {why}"))
             } else if let Some(sel) = &it.cells {
                 match (studies.get(&study), kept.iter().find(|k| k.id == it.id)) {
-                    (Some(data), _) => match replays
-                        .get(study.as_str())
-                        .and_then(|r| r.item(&it.id))
-                    {
-                        Some(staged) => staged.classify(data, sel, margins::for_label(&it.seed)),
+                    // a staged item is classified as it was staged: by the selector and work
+                    // the study ran with (`resolved.items`), which its looks judged
+                    (Some(data), _) => match replays.get(study.as_str()).and_then(|r| {
+                        r.item(&it.id).zip(data.resolved.items.iter().find(|s| s.id == it.id))
+                    }) {
+                        Some((staged, stored)) => staged.classify(
+                            data,
+                            stored.cells.as_ref().unwrap_or(sel),
+                            margins::for_label(&stored.seed),
+                        ),
                         None => classify_cells(data, sel, margins::for_label(&it.seed)),
                     },
                     (None, Some(k)) => (k.class, k.basis.clone()),

@@ -332,7 +332,8 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
         // the cells' intervals are 90 %) until shown equivalent or different; an item still
         // UNRESOLVED asks for its undecided cells' replicates, as an undecided claim does
         let alpha = design.levels[k].tost_alpha;
-        let mut cells_decided = 0;
+        // (a published cell two items share is counted once)
+        let mut cells_decided: BTreeSet<ItemCell> = BTreeSet::new();
         for (it, item) in staged.iter().zip(items.iter_mut()) {
             let Some(sel) = &it.cells else { continue };
             let work = margins::for_label(&it.seed);
@@ -343,7 +344,9 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
                     continue;
                 }
                 let a = agreement::judge_at(c.published, &c.ours, c.eps, alpha);
-                cells_decided += usize::from(decisive_cell(&a));
+                if decisive_cell(&a) {
+                    cells_decided.insert(c.key.clone());
+                }
                 item.cells.insert(c.key.clone(), (a, k));
             }
             let (class, _) = item.classify(&view, sel, work);
@@ -383,7 +386,7 @@ pub fn replay(data: &StudyData, design: &Design) -> Replay {
             spent: design.spent[k],
             decided,
             extended: extended.clone(),
-            cells_decided,
+            cells_decided: cells_decided.len(),
         });
         if stop {
             break;

@@ -1123,6 +1123,9 @@ fn staged_items(spec: &LoadedSpec) -> Result<Vec<crate::spec::items::Item>, Spec
     let text =
         std::fs::read_to_string(file).map_err(|e| fail(format!("cannot read {file}: {e}")))?;
     let items = crate::spec::items::parse_items(&text).map_err(|e| fail(format!("{file}: {e}")))?;
+    if spec.spec.looks().is_none() {
+        return Err(fail("staged items need looks: a `max_replicates` above `replicates`".into()));
+    }
     if spec.spec.report.reference.is_none() {
         return Err(fail(
             "items answered by published cells need the study's `[report] reference` rows".into(),
@@ -1133,6 +1136,17 @@ fn staged_items(spec: &LoadedSpec) -> Result<Vec<crate::spec::items::Item>, Spec
         .into_iter()
         .filter(|it| it.study.as_ref() == Some(id) && it.cells.is_some() && it.missing.is_none())
         .collect();
+    if let Some(it) = mine.iter().find(|it| {
+        it.cells.as_ref().is_some_and(|c| {
+            c.metrics.iter().any(|m| m.as_str() == crate::metrics::LANDMARK_ERROR_GROWTH)
+        })
+    }) {
+        return Err(fail(format!(
+            "item {} compares `{}`, which is derived from the stored maps after the runs, and the looks are taken while they run",
+            it.id,
+            crate::metrics::LANDMARK_ERROR_GROWTH
+        )));
+    }
     if mine.is_empty() {
         return Err(fail(format!(
             "{file} has no item this study answers by published cells (`study = \"{id}\"` with `cells`)"

@@ -40,6 +40,10 @@ struct Study<'a> {
     metrics: Vec<&'static MetricDef>,
     /// Base parameters, flattened.
     base: Vec<(String, toml::Value)>,
+    /// A sequential study that staged published items: each published cell's outcome as its
+    /// looks left it, (reference row index, metric) → outcome, and the last look's one-sided α
+    /// (for a cell no staged item judged).
+    staged: Option<(BTreeMap<(usize, String), Option<Outcome>>, f64)>,
 }
 
 impl Study<'_> {
@@ -87,18 +91,27 @@ impl Study<'_> {
     fn work(&self) -> &'static margins::WorkMargins {
         margins::for_label(self.spec().report.reference.as_ref().map_or("", |r| r.label.as_str()))
     }
-    /// Whether a published value of `metric` (with its variance, if printed) is shown equivalent
-    /// to our cell, shown different, or unresolved (`judge::agreement`); None when it cannot be
-    /// judged.
+    /// Whether a published value of `metric` (with its variance, if printed; from reference row
+    /// `row`) is shown equivalent to our cell, shown different, or unresolved
+    /// (`judge::agreement`); None when it cannot be judged. In a sequential study that staged
+    /// published items, the outcome its looks left (the scoreboard's), else the last look's.
     fn agreement(
         &self,
+        row: usize,
         metric: &str,
         mean: f64,
         var: Option<f64>,
         ours: &[f64],
     ) -> Option<Outcome> {
         let p = Published { mean, var, runs: self.published_runs() };
-        agreement::judge(p, ours, self.work().margin(metric, mean)).outcome
+        let eps = self.work().margin(metric, mean);
+        match &self.staged {
+            None => agreement::judge(p, ours, eps).outcome,
+            Some((cells, last_alpha)) => match cells.get(&(row, metric.to_string())) {
+                Some(outcome) => *outcome,
+                None => agreement::judge_at(p, ours, eps, *last_alpha).outcome,
+            },
+        }
     }
     /// The published dispersion drawn on the dashed series: the 95 % CI of the published mean
     /// when its variance over its runs is printed ([FT]), else none.
@@ -128,8 +141,8 @@ impl Study<'_> {
         }
     }
     /// The published row for (map, parameter = value), if the study shows a reference.
-    fn published(&self, map: &str, param: &str, value: f64) -> Option<&ReferenceRow> {
-        self.data.reference.iter().find(|r| {
+    fn published(&self, map: &str, param: &str, value: f64) -> Option<(usize, &ReferenceRow)> {
+        self.data.reference.iter().enumerate().find(|(_, r)| {
             r.map == map
                 && r.parameter == param
                 && (r.value - value).abs() <= 1e-9 * value.abs().max(1.0)
@@ -144,12 +157,13 @@ impl Study<'_> {
         algorithm: &str,
         cell: &str,
         metric: &str,
-    ) -> Option<(f64, &str)> {
+    ) -> Option<(usize, f64, &str)> {
         self.data
             .reference
             .iter()
-            .filter(|r| r.map == map && r.algorithm == algorithm && r.cell == cell)
-            .find_map(|r| r.metric(metric).map(|v| (v, r.table.as_str())))
+            .enumerate()
+            .filter(|(_, r)| r.map == map && r.algorithm == algorithm && r.cell == cell)
+            .find_map(|(i, r)| r.metric(metric).map(|v| (i, v, r.table.as_str())))
     }
 
     fn reference_label(&self) -> &str {
@@ -210,7 +224,19 @@ pub fn build(
     // Only the sections the study's algorithms read (what entered the run hashes).
     let catalogue = data.resolved.catalogue();
     let base = crate::store::select::read_base(spec, &catalogue, &world_kinds(&maps));
-    let study = Study { data, catalogue, maps, metrics, base };
+    // a sequential study's looks: its claims, and the published cells of the items it staged
+    let replay = crate::judge::sequential::Design::of(spec)
+        .map(|design| crate::judge::sequential::replay(data, &design));
+    let staged = replay.as_ref().filter(|r| !r.items.is_empty()).map(|r| {
+        let mut cells = BTreeMap::new();
+        for item in &r.items {
+            for (key, (a, _)) in &item.cells {
+                cells.entry(key.clone()).or_insert(a.outcome);
+            }
+        }
+        (cells, r.looks.last().map_or(agreement::ALPHA, |l| l.levels.tost_alpha))
+    });
+    let study = Study { data, catalogue, maps, metrics, base, staged };
 
     // morris / sobol groups get the sensitivity section instead of error-vs-parameter plots
     let mut groups: Vec<GroupView> = data
@@ -252,10 +278,9 @@ pub fn build(
     let landmark_tables = landmark_tables(&study, traces);
     let contrasts = contrast_tables(&study);
     let failed = data.runs.iter().filter(|r| r.status != RunStatus::Ok).count();
-    let (claims, sequential) = match crate::judge::sequential::Design::of(spec) {
+    let (claims, sequential) = match replay {
         None => (crate::judge::claims::evaluate(data), Vec::new()),
-        Some(design) => {
-            let replay = crate::judge::sequential::replay(data, &design);
+        Some(replay) => {
             let tables = super::sequential::tables(&replay, data.runs.len());
             (replay.results, tables)
         }
@@ -663,22 +688,25 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                     })
                     .and_then(|(x, k)| study.published(map, k, x));
                 for (mi, m) in ref_metrics.iter().enumerate() {
-                    row.push(match published.and_then(|r| r.metric(m.name)) {
-                        None => String::new(),
-                        Some(v) => {
-                            let var = published.and_then(|r| r.metric(&format!("{}_var", m.name)));
-                            let outcome = study.agreement(
-                                m.name,
-                                v,
-                                var,
-                                &study.values(map, algorithm.name(), &p.label, m.name),
-                            );
-                            agreement[mi].add(outcome);
-                            let var =
-                                var.map(|w| format!(" (σ² {})", sig(w, 2))).unwrap_or_default();
-                            format!("{}{var}{}", sig(v, TABLE_DIGITS), Tally::mark(outcome))
-                        }
-                    });
+                    row.push(
+                        match published.and_then(|(i, r)| r.metric(m.name).map(|v| (i, r, v))) {
+                            None => String::new(),
+                            Some((index, r, v)) => {
+                                let var = r.metric(&format!("{}_var", m.name));
+                                let outcome = study.agreement(
+                                    index,
+                                    m.name,
+                                    v,
+                                    var,
+                                    &study.values(map, algorithm.name(), &p.label, m.name),
+                                );
+                                agreement[mi].add(outcome);
+                                let var =
+                                    var.map(|w| format!(" (σ² {})", sig(w, 2))).unwrap_or_default();
+                                format!("{}{var}{}", sig(v, TABLE_DIGITS), Tally::mark(outcome))
+                            }
+                        },
+                    );
                 }
                 rows.push(row);
             }
@@ -785,7 +813,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                                 .filter_map(|(p, &x)| {
                                     study
                                         .published_cell(map, algorithm.name(), &p.label, m.name)
-                                        .map(|(v, _)| SeriesPoint {
+                                        .map(|(_, v, _)| SeriesPoint {
                                             x,
                                             mean: v,
                                             lo: f64::NAN,
@@ -832,7 +860,7 @@ fn group_view(study: &Study<'_>, gi: usize) -> GroupView {
                                 let v = study
                                     .value_at(p, x_param)
                                     .and_then(|v| ParamValue::from_toml(&v).as_f64())?;
-                                let row = study.published(map, x_param, v)?;
+                                let (_, row) = study.published(map, x_param, v)?;
                                 let published = row.metric(m.name)?;
                                 let (lo, hi) = study.published_bars(
                                     published,
@@ -1013,8 +1041,9 @@ fn cell_matrices(study: &Study<'_>, points: &[&crate::store::PointRecord]) -> Ve
                         sig(s.mean, TABLE_DIGITS)
                     });
                     match study.published_cell(map, algorithm.name(), &p.label, m.name) {
-                        Some((v, table)) => {
+                        Some((index, v, table)) => {
                             let outcome = study.agreement(
+                                index,
                                 m.name,
                                 v,
                                 None,

@@ -356,4 +356,10 @@ fn staged_items_are_checked_when_planned() {
     assert!(err.contains("sequential.items") && err.contains("[report] reference"), "{err}");
     let err = rejected(&with("items = \"no/such/items.toml\""));
     assert!(err.contains("sequential.items") && err.contains("cannot read"), "{err}");
+    // a budget no larger than the first stage takes one look: nothing could be staged
+    let one_look = GOOD.replace("replicates = 1", "replicates = 3\nmax_replicates = 3");
+    let err = rejected(&format!(
+        "{one_look}\n[sequential]\nitems = \"data/reference/published-results.toml\"\n"
+    ));
+    assert!(err.contains("sequential.items") && err.contains("need looks"), "{err}");
 }
