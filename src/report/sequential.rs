@@ -42,7 +42,7 @@ pub fn tables(replay: &Replay, runs: usize) -> Vec<NamedTable> {
             items = if replay.items.is_empty() {
                 ""
             } else {
-                " and of the undecided published cells of items still UNRESOLVED (*published items staged*, below)"
+                " and of the undecided published cells of items still UNRESOLVED (see “published items staged”)"
             },
         ),
         table: TableView {

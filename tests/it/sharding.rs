@@ -242,6 +242,7 @@ fn a_sequential_study_takes_the_same_stages_whatever_the_threads_or_shards() {
     )
     .unwrap();
     assert!(report.contains("Sequential replication: the looks"), "no looks in the report");
+    assert!(report.contains("published items staged"), "the staged item is not in the report");
     assert!(
         !report.contains("runs of the next stage are missing"),
         "the report's looks disagree with the stages `run` took"
