@@ -473,22 +473,16 @@ fn classify_claims(ids: &[String], claims: &[&ClaimResult]) -> (Class, String) {
 }
 
 /// Classifies every item: on the studies' results, their claims, and — for a study without
-/// results here whose report is kept — the cell verdicts that report kept (`kept`).
+/// results here whose report is kept — the cell verdicts that report kept (`kept`). A sequential
+/// study's staged items (`staged`, by study: [`super::sequential::replay`]'s) are classified from
+/// their cells as its looks judged them.
 pub fn classify(
     items: &[Item],
     studies: &BTreeMap<String, &StudyData>,
     claims: &[ClaimResult],
     kept: &[CellVerdict],
+    staged: &BTreeMap<&str, &[super::sequential::StagedItem]>,
 ) -> Vec<ItemResult> {
-    // a sequential study that staged items: its looks, replayed once
-    let replays: BTreeMap<&str, super::sequential::Replay> = studies
-        .iter()
-        .filter(|(_, d)| !d.resolved.items.is_empty())
-        .filter_map(|(id, d)| {
-            let design = super::sequential::Design::of(&d.resolved.spec)?;
-            Some((id.as_str(), super::sequential::replay(d, &design)))
-        })
-        .collect();
     items
         .iter()
         .map(|it| {
@@ -499,9 +493,11 @@ pub fn classify(
                 match (studies.get(&study), kept.iter().find(|k| k.id == it.id)) {
                     // a staged item is classified as it was staged: by the selector and work
                     // the study ran with (`resolved.items`), which its looks judged
-                    (Some(data), _) => match replays.get(study.as_str()).and_then(|r| {
-                        r.item(&it.id).zip(data.resolved.items.iter().find(|s| s.id == it.id))
-                    }) {
+                    (Some(data), _) => match staged
+                        .get(study.as_str())
+                        .and_then(|items| items.iter().find(|s| s.id == it.id))
+                        .zip(data.resolved.items.iter().find(|s| s.id == it.id))
+                    {
                         Some((staged, stored)) => staged.classify(
                             data,
                             stored.cells.as_ref().unwrap_or(sel),

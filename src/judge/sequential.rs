@@ -438,6 +438,27 @@ mod tests {
         StandardNormal.sample(rng)
     }
 
+    /// A successful odometry run of the simulated study on map `m` with metric `y`.
+    fn row(point: &str, replicate: u32, y: f64) -> RunRow {
+        RunRow {
+            study: "sim".into(),
+            run_id: format!("m--odometry--{point}--r{replicate:02}"),
+            map: "m".into(),
+            algorithm: "odometry".into(),
+            point: point.into(),
+            replicate,
+            world_seed: 0,
+            filter_seed: 0,
+            status: RunStatus::Ok,
+            error: None,
+            run_hash: String::new(),
+            params_hash: String::new(),
+            code_version: String::new(),
+            params: Vec::new(),
+            metrics: vec![("y".into(), y)],
+        }
+    }
+
     /// δ of the simulated claim ("b exceeds a by more than 0.1"), and the spread of a paired
     /// difference.
     const DELTA: f64 = 0.1;
@@ -490,23 +511,6 @@ why = "simulated"
             landmark_points: Vec::new(),
             externals: Vec::new(),
             items: Vec::new(),
-        };
-        let row = |point: &str, replicate: u32, y: f64| RunRow {
-            study: "sim".into(),
-            run_id: format!("m--odometry--{point}--r{replicate:02}"),
-            map: "m".into(),
-            algorithm: "odometry".into(),
-            point: point.into(),
-            replicate,
-            world_seed: 0,
-            filter_seed: 0,
-            status: RunStatus::Ok,
-            error: None,
-            run_hash: String::new(),
-            params_hash: String::new(),
-            code_version: String::new(),
-            params: Vec::new(),
-            metrics: vec![("y".into(), y)],
         };
         let mut runs = Vec::new();
         for r in 0..40 {
@@ -597,25 +601,7 @@ reference = { file = "published.csv", experiments = ["e"], label = "[EP]", runs 
             algorithm: String::new(),
             cell: String::new(),
         }];
-        let runs: Vec<RunRow> = (0..40)
-            .map(|r| RunRow {
-                study: "sim".into(),
-                run_id: format!("m--odometry--a--r{r:02}"),
-                map: "m".into(),
-                algorithm: "odometry".into(),
-                point: "a".into(),
-                replicate: r,
-                world_seed: 0,
-                filter_seed: 0,
-                status: RunStatus::Ok,
-                error: None,
-                run_hash: String::new(),
-                params_hash: String::new(),
-                code_version: String::new(),
-                params: Vec::new(),
-                metrics: vec![("y".into(), mean + sd * normal(rng))],
-            })
-            .collect();
+        let runs: Vec<RunRow> = (0..40).map(|r| row("a", r, mean + sd * normal(rng))).collect();
         let manifest = Manifest::blank("sim", runs.len());
         StudyData::new(Default::default(), resolved, manifest, runs, Vec::new(), reference)
     }

@@ -385,7 +385,13 @@ pub fn render_all(
     // The fidelity scoreboard.
     let by_id: std::collections::BTreeMap<String, &store::StudyData> =
         studies.iter().map(|d| (d.resolved.spec.id.clone(), d)).collect();
-    let classified = crate::judge::scoreboard::classify(&items, &by_id, &claims, &kept_cells);
+    let staged: std::collections::BTreeMap<&str, &[crate::judge::sequential::StagedItem]> = pages
+        .iter()
+        .filter(|p| !p.staged.is_empty())
+        .map(|p| (p.view.id.as_str(), p.staged.as_slice()))
+        .collect();
+    let classified =
+        crate::judge::scoreboard::classify(&items, &by_id, &claims, &kept_cells, &staged);
     for p in &pages {
         let id = &p.view.id;
         files.push((

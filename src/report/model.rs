@@ -109,6 +109,9 @@ pub struct StudyPages {
     pub csv: String,
     /// morris / sobol groups: every design row's outputs (`sensitivity.csv`; empty: none).
     pub sensitivity_csv: String,
+    /// A sequential study's staged published items, as its looks judged them (the scoreboard
+    /// classifies them from these).
+    pub staged: Vec<crate::judge::sequential::StagedItem>,
 }
 
 #[derive(Debug, Clone, Serialize)]

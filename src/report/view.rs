@@ -278,11 +278,11 @@ pub fn build(
     let landmark_tables = landmark_tables(&study, traces);
     let contrasts = contrast_tables(&study);
     let failed = data.runs.iter().filter(|r| r.status != RunStatus::Ok).count();
-    let (claims, sequential) = match replay {
-        None => (crate::judge::claims::evaluate(data), Vec::new()),
+    let (claims, sequential, staged) = match replay {
+        None => (crate::judge::claims::evaluate(data), Vec::new(), Vec::new()),
         Some(replay) => {
             let tables = super::sequential::tables(&replay, data.runs.len());
-            (replay.results, tables)
+            (replay.results, tables, replay.items)
         }
     };
     let view = StudyView {
@@ -342,7 +342,7 @@ pub fn build(
     };
     let csv = summary_csv(&study);
     let sensitivity_csv = super::sensitivity::csv(data, &analyses);
-    StudyPages { view, index, csv, sensitivity_csv }
+    StudyPages { view, index, csv, sensitivity_csv, staged }
 }
 
 fn paragraphs(text: &str) -> Vec<String> {
